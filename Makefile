@@ -1,0 +1,40 @@
+# IceImpact: two commands for a fresh machine.
+#   make demo   set up .venv, build dist/IceImpact.fmu, simulate the reference scene through FMPy
+#   make test   set up .venv and run the test suite
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed
+
+.PHONY: setup demo test test-all fmu bench lint clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@bash scripts/system-deps.sh
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev]'
+	@touch $(STAMP)
+
+fmu: $(STAMP)
+	$(PY) build_fmu.py
+
+demo: $(STAMP)
+	$(PY) build_fmu.py
+	$(PY) examples/demo.py
+
+test: $(STAMP)
+	$(PY) -m pytest -q -m "not slow"
+
+test-all: $(STAMP)
+	$(PY) -m pytest -q
+
+bench: $(STAMP)
+	$(PY) benchmarks/core_speed.py
+
+lint: $(STAMP)
+	$(PY) -m ruff check fmu_src tests benchmarks examples build_fmu.py
+
+clean:
+	rm -rf dist out build .pytest_cache

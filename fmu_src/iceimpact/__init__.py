@@ -1,0 +1,18 @@
+"""IceImpact: vibrations of a flexible structure struck repeatedly by flow-driven ice.
+
+The model of "Vibrations due to Flow-Driven Repeated Impacts": a free ice mass pushed by a current
+(Morison drag, linearised or quadratic) onto a damped single-degree-of-freedom structure; impacts
+conserve momentum with a coefficient of restitution.
+
+    >>> from iceimpact import Scene, run
+    >>> result = run(Scene(), t_end=10.0)          # the article's Figure 2 scene
+    >>> result.impacts["t"][:3]                    # impact times, s
+"""
+
+from .scene import PARAMETERS, ParameterError, Scene, load_scene
+from .simulator import Result, Simulator, StepReport, run
+from .solvers.base import Impact
+
+__all__ = ["PARAMETERS", "Impact", "ParameterError", "Result", "Scene", "Simulator",
+           "StepReport", "load_scene", "run"]
+__version__ = "0.1.0"

@@ -1,0 +1,132 @@
+"""The structure: a damped single-degree-of-freedom oscillator in closed form (eq. 8-10, 24).
+
+``mass * y'' + damping * y' + stiffness * y = 0`` with ``y = x - offset``. The same class serves the
+free structure (offset 0) and the linear-drag sticking phase, where structure and ice move together
+(mass m + M, damping c + b, offset b u / k: eq. 27-29 of the article, without its thresholds).
+
+All damping regimes are covered: undamped (c = 0), under-damped (eq. 9-10), critically damped and
+over-damped. The response is written on two basis functions, with sigma = damping / (2 mass):
+
+    y(t) = y0 C(t) + (v0 + sigma y0) S(t)
+    v(t) = v0 C(t) - (omega_n^2 y0 + sigma v0) S(t)
+
+    under-damped:  C = e^{-sigma t} cos(wd t),  S = e^{-sigma t} sin(wd t) / wd
+    critical:      C = e^{-sigma t},            S = t e^{-sigma t}
+    over-damped:   C = e^{-sigma t} cosh(wo t), S = e^{-sigma t} sinh(wo t) / wo
+
+Evaluation works on floats (``math``, fast, used by the event solver) and on numpy arrays.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+UNDER, CRITICAL, OVER = "under-damped", "critically damped", "over-damped"
+
+
+class Oscillator:
+    """Linear damped oscillator ``mass y'' + damping y' + stiffness (x - offset) = 0``."""
+
+    __slots__ = ("mass", "damping", "stiffness", "offset", "sigma", "omega2", "regime", "omega",
+                 "_s_fast", "_s_slow")
+
+    def __init__(self, mass: float, damping: float, stiffness: float, offset: float = 0.0):
+        self.mass = mass
+        self.damping = damping
+        self.stiffness = stiffness
+        self.offset = offset
+        self.sigma = damping / (2.0 * mass)
+        self.omega2 = stiffness / mass  # omega_n^2
+        disc = 4.0 * stiffness * mass - damping * damping  # sign decides the regime exactly
+        if disc > 0.0:
+            self.regime = UNDER
+            self.omega = math.sqrt(disc) / (2.0 * mass)  # damped frequency wd
+        elif disc == 0.0:
+            self.regime = CRITICAL
+            self.omega = 0.0
+        else:
+            self.regime = OVER
+            self.omega = math.sqrt(-disc) / (2.0 * mass)  # wo = sqrt(sigma^2 - wn^2)
+        # over-damped exponents: slow root -wn^2/(sigma+wo) (no cancellation) and fast root
+        self._s_slow = -self.omega2 / (self.sigma + self.omega) if self.regime == OVER else 0.0
+        self._s_fast = -(self.sigma + self.omega)
+
+    # basis -----------------------------------------------------------------------------------
+    def basis(self, t: float) -> tuple[float, float]:
+        """(C(t), S(t)) for a float t >= 0."""
+        if self.regime == UNDER:
+            decay = math.exp(-self.sigma * t)
+            wt = self.omega * t
+            return decay * math.cos(wt), decay * math.sin(wt) / self.omega
+        if self.regime == CRITICAL:
+            decay = math.exp(-self.sigma * t)
+            return decay, t * decay
+        wt = self.omega * t
+        if wt < 1.0:  # small wo t: sinh/wo without cancellation
+            decay = math.exp(-self.sigma * t)
+            return decay * math.cosh(wt), decay * math.sinh(wt) / self.omega
+        slow, fast = math.exp(self._s_slow * t), math.exp(self._s_fast * t)
+        return 0.5 * (slow + fast), 0.5 * (slow - fast) / self.omega
+
+    def basis_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(C(t), S(t)) for an array of t >= 0."""
+        t = np.asarray(t, dtype=float)
+        if self.regime == UNDER:
+            decay = np.exp(-self.sigma * t)
+            return decay * np.cos(self.omega * t), decay * np.sin(self.omega * t) / self.omega
+        if self.regime == CRITICAL:
+            decay = np.exp(-self.sigma * t)
+            return decay, t * decay
+        wt = self.omega * t
+        small = wt < 1.0
+        with np.errstate(over="ignore", invalid="ignore"):
+            decay = np.exp(-self.sigma * t)
+            c_small = decay * np.cosh(np.where(small, wt, 0.0))
+            s_small = decay * np.sinh(np.where(small, wt, 0.0)) / self.omega
+            slow, fast = np.exp(self._s_slow * t), np.exp(self._s_fast * t)
+        return (np.where(small, c_small, 0.5 * (slow + fast)),
+                np.where(small, s_small, 0.5 * (slow - fast) / self.omega))
+
+    # response --------------------------------------------------------------------------------
+    def response(self, x0: float, v0: float, t: float) -> tuple[float, float]:
+        """Displacement and velocity at time t after starting from (x0, v0) (eq. 24, all regimes)."""
+        y0 = x0 - self.offset
+        c, s = self.basis(t)
+        return (self.offset + y0 * c + (v0 + self.sigma * y0) * s,
+                v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
+
+    def response_array(self, x0: float, v0: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorised :meth:`response`."""
+        y0 = x0 - self.offset
+        c, s = self.basis_array(t)
+        return (self.offset + y0 * c + (v0 + self.sigma * y0) * s,
+                v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
+
+    def acceleration(self, x: float, v: float) -> float:
+        """y'' from the equation of motion."""
+        return -(self.damping * v + self.stiffness * (x - self.offset)) / self.mass
+
+    def derivatives(self, x: float, v: float) -> tuple[float, float, float]:
+        """Acceleration, jerk and snap (2nd, 3rd, 4th derivatives of x) at state (x, v)."""
+        a = self.acceleration(x, v)
+        j = -(self.damping * a + self.stiffness * v) / self.mass
+        s = -(self.damping * j + self.stiffness * a) / self.mass
+        return a, j, s
+
+    def derivative_chain(self, x: float, v: float, order: int) -> list[float]:
+        """[y, y', y'', ..., y^(order)] at state (x, v), from the equation of motion."""
+        chain = [x - self.offset, v]
+        while len(chain) <= order:
+            chain.append(-(self.damping * chain[-1] + self.stiffness * chain[-2]) / self.mass)
+        return chain
+
+    def amplitude_bound(self, y: float, ydot: float) -> float:
+        """Bound on |y(t')| for all t' >= t, for any solution y with value y, rate ydot at t.
+
+        Every derivative of a free response is itself a free response, and its energy
+        ``mass ydot^2/2 + stiffness y^2/2`` never grows (damping >= 0), so
+        ``|y(t')| <= sqrt(y^2 + (mass/stiffness) ydot^2)``.
+        """
+        return math.sqrt(y * y + ydot * ydot / self.omega2)
