@@ -24,6 +24,9 @@ METHOD_EXACT = 1
 METHOD_FIXED_STEP = 2
 METHOD_ODE = 3
 
+DETECTION_WINDOW = 1
+DETECTION_SIGN = 2
+
 
 class ParameterError(ValueError):
     """A parameter is outside its allowed range; the message names it, its value and the range."""
@@ -76,6 +79,12 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
                   minimum=0.0),
     ParameterSpec("solver.rtol", "solver_rtol", "1", "relative tolerance of method 3",
                   "0 < rtol < 1", minimum=0.0, maximum=1.0),
+    ParameterSpec("solver.detection", "solver_detection", "", "impact test of method 2: "
+                  "1 = tolerance window (eq. 26), 2 = sign change of the gap", "1 or 2",
+                  kind=int, minimum=1, maximum=2),
+    ParameterSpec("solver.ode_method", "solver_ode_method", "", "integrator of method 3: "
+                  "1 = RK45, 2 = DOP853, 3 = LSODA, 4 = Radau", "1, 2, 3 or 4",
+                  kind=int, minimum=1, maximum=4),
 )
 
 FLOW_INPUT = ParameterSpec("flow.u", "flow_u", "m/s",
@@ -107,6 +116,8 @@ class Scene:
     solver_method: int = METHOD_EXACT
     solver_dt: float = 1.0e-4
     solver_rtol: float = 1.0e-8
+    solver_detection: int = DETECTION_WINDOW
+    solver_ode_method: int = 2
 
     def __post_init__(self) -> None:
         validate(self)

@@ -61,7 +61,8 @@ class Simulator:
     def __init__(self, scene: Scene):
         self.scene = scene
         self.solver = make_solver(scene)
-        self.report = self._report(0.0, 0.0, 0)
+        self._n_reported = 0  # impacts already reported (an impact at t = 0 goes to step 1)
+        self.report = self._report(0.0, 0.0)
 
     @property
     def t(self) -> float:
@@ -81,13 +82,13 @@ class Simulator:
                                                                           and h > 0.0):
             raise ParameterError("communication step", h, "a finite number > 0 (s)")
         u = self.scene.flow_u if u is None else validate_flow(u)
-        n_before = len(self.solver.impacts)
         t_end = self.solver.t + h
         impulse = self.solver.advance_to(t_end, u)
-        self.report = self._report(impulse, h, len(self.solver.impacts) - n_before)
+        self.report = self._report(impulse, h)
+        self._n_reported = len(self.solver.impacts)
         return self.report
 
-    def _report(self, impulse: float, h: float, n_step: int) -> StepReport:
+    def _report(self, impulse: float, h: float) -> StepReport:
         s = self.solver.state
         gap = s.x - s.z
         if -GAP_ROUNDING < gap < 0.0:
@@ -95,7 +96,8 @@ class Simulator:
         impacts = self.solver.impacts
         return StepReport(
             t=s.t, x=s.x, v=s.v, z=s.z, w=s.w, gap=gap, impulse=impulse,
-            force=impulse / h if h > 0.0 else 0.0, impacts=n_step, impact_count=len(impacts),
+            force=impulse / h if h > 0.0 else 0.0, impacts=len(impacts) - self._n_reported,
+            impact_count=len(impacts),
             t_last=impacts[-1].t if impacts else -1.0, sticking=self.solver.sticking)
 
     def set_restitution(self, e: float) -> None:

@@ -1,0 +1,207 @@
+"""Method 2, fixed-step: the article's own time-stepping scheme (Sections 4.1-4.2), for comparison.
+
+On a fixed grid of step dt = ``solver.dt`` (s), anchored at the last impact:
+
+- **Flight.** Both bodies follow their closed forms from the last impact, evaluated at the local
+  time n dt (eq. 24: eq. 6-7 for the ice, eq. 9-10 for the structure, and the other damping
+  regimes of :mod:`iceimpact.physics.structure`). With quadratic drag the ice is marched by
+  explicit Euler instead (eq. 34-36: ``z_i = z_{i-1} + w_{i-1} dt``,
+  ``w_i = w_{i-1} - (B/M) |w_{i-1} - u| (w_{i-1} - u) dt``); the structure keeps its closed form.
+- **Impact test** at every grid point, when the bodies approach (``w > v``: eq. 13 presumes it;
+  applying eq. 16-17 to separating bodies would throw them back together):
+
+  * detection 1, the article's tolerance window (eq. 25-26):
+    ``|x - z| <= Delta = 0.1 min(|v dt|, |w dt|)``. The window is narrower than the distance the
+    gap closes in one step whenever the bodies move at different speeds, and of zero width while
+    one of them is at rest, so it can be jumped over: the ice then passes through the structure.
+  * detection 2, the sign change of the gap: ``x - z <= 0``.
+
+  The impact applies eq. 16-17 to the velocities at that grid point; both closed forms restart
+  there from the structure's position (eq. 18-24: ``z = x_k``), the local time resets to 0 and the
+  global grid goes on.
+- **Steady state** (eq. 27-29): when (i) ``max(|z|, |x|) < 1e-4 m``, (ii) ``max(|w|, |v|) <
+  1e-4 m/s`` and (iii) ``max(|z''|, |x''|) < 1e-4 m/s^2`` hold at a grid point, the bodies are
+  pinned at ``x = z = F / k``, ``v = w = 0``, with ``F = b u`` (linear drag, eq. 28-29) or
+  ``F = B u |u|`` (quadratic drag, the same balance), and stay there while u is unchanged; the
+  structure then receives the constant contact force F. The accelerations of (iii) are backward
+  differences of the marched velocities over the last step: they include the impacts, as the
+  grid responses do. (The drag-law acceleration of a free floe, ``(b/M)(u - w)``, is about
+  3e-3 m/s^2 in the Figure 2 scene whenever (ii) holds, so (iii) could never be met with it.)
+
+The communication step need not be a multiple of dt: impacts are tested on grid points only, and
+the state at an off-grid time is the closed form there (a partial Euler step for the quadratic
+ice), which does not touch the grid. Results therefore do not depend on the communication step.
+A new flow speed (zero-order hold) starts a new grid at the time of the change; a pinned state is
+then released and the scheme marches on from it.
+
+The grid is evaluated in vectorised chunks (numpy) between impacts; the quadratic-drag Euler
+recursion is a scalar loop. Each grid point holds at most one impact, so the work is bounded by
+the number of grid points.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..physics.contact import impact, impact_impulse
+from ..physics.ice import make_drag
+from ..physics.structure import Oscillator
+from ..scene import DETECTION_WINDOW, Scene
+from .base import Impact, Solver, State
+
+#: Tolerance window of eq. 26: Delta = WINDOW_FRACTION * min(|v dt|, |w dt|).
+WINDOW_FRACTION = 0.1
+
+#: Steady-state thresholds (i)-(iii) of Section 4.1, in m, m/s and m/s^2 ("chosen through trial
+#: and error" by the article's authors).
+STEADY_THRESHOLD = 1e-4
+
+#: Grid points evaluated per vectorised chunk: small right after an event (the next one may be
+#: close), doubling while none occurs.
+CHUNK_MIN = 8
+CHUNK_MAX = 16384
+
+#: A time within this fraction of dt of a grid point is that grid point (rounding of t / dt).
+GRID_SLACK = 1e-9
+
+
+class FixedStepSolver(Solver):
+    """The article's fixed-step scheme (method 2)."""
+
+    name = "fixed-step"
+
+    def __init__(self, scene: Scene):
+        super().__init__(scene)
+        self.dt = scene.solver_dt
+        self.window = scene.solver_detection == DETECTION_WINDOW
+        self.osc = Oscillator(self.m, self.c, self.k)
+        self.drag = make_drag(scene)
+        self.u = scene.flow_u
+        self.pinned = False
+        self.pin_x = 0.0
+        self._chunk = CHUNK_MIN
+        s = self.state
+        self._anchor(0.0, s.x, s.v, s.z, s.w)
+
+    # grid bookkeeping ----------------------------------------------------------------------------
+    def _anchor(self, t: float, x: float, v: float, z: float, w: float) -> None:
+        """Restart the closed forms (and the Euler recursion) at time t: local time 0."""
+        self.t_a = t
+        self.anchor = (x, v, z, w)
+        self.n = 0                      # last grid point processed, counted from the anchor
+        self.grid = (x, v, z, w)        # state at that grid point (post-impact)
+
+    def _pin(self, t: float) -> None:
+        """Steady state of eq. 27-29: k x = F_drag(0)."""
+        self.pinned = True
+        self.pin_x = self.drag.force(0.0, self.u) / self.k
+        self.sticking, self.sticking_since = True, t
+
+    def _release(self, t: float) -> None:
+        self.pinned = False
+        self.sticking, self.sticking_since = False, None
+        self._anchor(t, self.pin_x, 0.0, self.pin_x, 0.0)
+
+    # marching ------------------------------------------------------------------------------------
+    def _euler(self, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """Ice at the next ``count`` grid points by explicit Euler (eq. 34 and 36)."""
+        _, _, z, w = self.grid
+        u, dt, q = self.u, self.dt, self.drag.beta * self.dt
+        zs, ws = [], []
+        for _ in range(count):
+            r = w - u
+            z = z + w * dt             # eq. 34
+            w = w - q * abs(r) * r     # eq. 36
+            zs.append(z)
+            ws.append(w)
+        return np.array(zs), np.array(ws)
+
+    def _steady(self, x, v, z, w, v_prev, w_prev):
+        """Conditions (i)-(iii) of Section 4.1 (scalars or arrays)."""
+        lim = STEADY_THRESHOLD
+        return ((np.maximum(np.abs(x), np.abs(z)) < lim)
+                & (np.maximum(np.abs(v), np.abs(w)) < lim)
+                & (np.maximum(np.abs(v - v_prev), np.abs(w - w_prev)) < lim * self.dt))
+
+    def _march(self, n_hi: int) -> float:
+        """Process grid points n+1 .. n_hi; stop at the first impact or steady state.
+
+        Returns the impulse of that impact on the structure (0 if none).
+        """
+        dt = self.dt
+        x_a, v_a, z_a, w_a = self.anchor
+        ns = np.arange(self.n + 1, n_hi + 1)
+        tau = ns * dt
+        x, v = self.osc.response_array(x_a, v_a, tau)
+        if self.drag.quadratic:
+            z, w = self._euler(ns.size)
+        else:
+            z, w = self.drag.motion_array(z_a, w_a, self.u, tau)
+        gap = x - z
+        if self.window:  # eq. 26
+            delta = WINDOW_FRACTION * dt * np.minimum(np.abs(v), np.abs(w))
+            hit = (np.abs(gap) <= delta) & (w > v)
+        else:
+            hit = (gap <= 0.0) & (w > v)
+        _, v_last, _, w_last = self.grid
+        v_prev = np.concatenate(([v_last], v[:-1]))
+        w_prev = np.concatenate(([w_last], w[:-1]))
+        flags = hit | self._steady(x, v, z, w, v_prev, w_prev)
+        if not flags.any():
+            self.n = n_hi
+            self.grid = (x[-1], v[-1], z[-1], w[-1])
+            self._chunk = min(2 * self._chunk, CHUNK_MAX)
+            return 0.0
+        self._chunk = CHUNK_MIN
+        j = int(np.argmax(flags))
+        t_j = self.t_a + ns[j] * dt
+        xj, vj, zj, wj = float(x[j]), float(v[j]), float(z[j]), float(w[j])
+        impulse = 0.0
+        if hit[j]:  # eq. 16-17 at the grid point, both bodies restart from x_k (eq. 24)
+            v_plus, w_plus = impact(vj, wj, self.m, self.M, self.e)
+            impulse = impact_impulse(vj, v_plus, self.m)
+            self.impacts.append(Impact(t_j, xj, vj, wj, v_plus, w_plus, impulse, self.e))
+            vj, zj, wj = v_plus, xj, w_plus
+        self._anchor(t_j, xj, vj, zj, wj)
+        if self._steady(xj, vj, zj, wj, float(v_prev[j]), float(w_prev[j])):
+            self._pin(t_j)
+        return impulse
+
+    def _state_at(self, t: float) -> State:
+        """State at time t >= the last grid point, without touching the grid."""
+        if self.pinned:
+            return State(t, self.pin_x, 0.0, self.pin_x, 0.0)
+        h = t - (self.t_a + self.n * self.dt)
+        if h <= GRID_SLACK * self.dt:
+            return State(t, *self.grid)
+        x_a, v_a, z_a, w_a = self.anchor
+        tau = t - self.t_a
+        x, v = self.osc.response(x_a, v_a, tau)
+        if self.drag.quadratic:  # a partial Euler step from the last grid point
+            _, _, z, w = self.grid
+            z, w = z + w * h, w + self.drag.force(w, self.u) / self.M * h
+        else:
+            z, w = self.drag.motion(z_a, w_a, self.u, tau)
+        return State(t, x, v, z, w)
+
+    def advance_to(self, t_end: float, u: float) -> float:
+        t_now = self.state.t
+        if u != self.u:  # zero-order hold: a new grid starts at the change
+            s = self.state
+            self.u = u
+            if self.pinned:
+                self._release(t_now)
+            else:
+                self._anchor(t_now, s.x, s.v, s.z, s.w)
+        impulse = 0.0
+        n_end = math.floor((t_end - self.t_a) / self.dt + GRID_SLACK)
+        while not self.pinned and self.n < n_end:
+            impulse += self._march(min(n_end, self.n + self._chunk))
+            if not self.pinned:
+                n_end = math.floor((t_end - self.t_a) / self.dt + GRID_SLACK)
+        if self.pinned:  # constant contact force k x = F since the pin (eq. 28)
+            impulse += self.k * self.pin_x * (t_end - max(t_now, self.sticking_since))
+        self.state = self._state_at(t_end)
+        return impulse

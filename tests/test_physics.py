@@ -1,0 +1,148 @@
+"""Closed forms of the free flights and the impact law, each against an independent check."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from iceimpact.physics.contact import contact_force, impact, impact_energy_loss, impact_impulse
+from iceimpact.physics.ice import LinearDrag, QuadraticDrag
+from iceimpact.physics.structure import CRITICAL, OVER, UNDER, Oscillator
+
+TIMES = [1e-6, 0.01, 0.3, 1.0, 7.0, 40.0]
+
+
+def _ode_oscillator(osc, x0, v0, t):
+    def rhs(_, y):
+        return [y[1], -(osc.damping * y[1] + osc.stiffness * (y[0] - osc.offset)) / osc.mass]
+
+    sol = solve_ivp(rhs, (0, max(t)), [x0, v0], method="DOP853", rtol=1e-13, atol=1e-16,
+                    dense_output=True)
+    return sol.sol(np.asarray(t))
+
+
+# (mass, damping, stiffness, offset): undamped, under-damped (the article's), zeta just below 1,
+# critical exactly, over-damped zeta = 5, a shifted equilibrium (the sticking phase's form)
+OSCILLATORS = [
+    (1600.0, 0.0, 1e6, 0.0),
+    (1600.0, 200.0, 1e6, 0.0),
+    (1.0, 2.0 * (1 - 1e-9), 1.0, 0.0),
+    (4.0, 8.0, 4.0, 0.0),
+    (1.0, 10.0, 1.0, 0.0),
+    (3200.0, 250.0, 1e6, 5e-6),
+]
+
+
+@pytest.mark.parametrize("params", OSCILLATORS)
+def test_oscillator_matches_ode(params):
+    osc = Oscillator(*params)
+    x0, v0 = 1e-3, -0.02
+    ref = _ode_oscillator(osc, x0, v0, TIMES)
+    scale = abs(x0) + abs(v0) / math.sqrt(osc.omega2)
+    for i, t in enumerate(TIMES):
+        x, v = osc.response(x0, v0, t)
+        assert x == pytest.approx(ref[0, i], abs=1e-10 * scale)
+        assert v == pytest.approx(ref[1, i], abs=1e-10 * scale * math.sqrt(osc.omega2) + 1e-14)
+    xa, va = osc.response_array(x0, v0, np.array(TIMES))
+    assert np.allclose(xa, ref[0], atol=1e-10 * scale, rtol=0)
+
+
+def test_oscillator_regimes_are_decided_exactly():
+    assert Oscillator(1.0, 0.0, 1.0).regime == UNDER
+    assert Oscillator(4.0, 8.0, 4.0).regime == CRITICAL  # c = 2 sqrt(k m) exactly
+    assert Oscillator(1.0, 10.0, 1.0).regime == OVER
+    # continuity across critical damping
+    below = Oscillator(1.0, 2.0 - 1e-7, 1.0).response(1.0, 0.5, 2.0)
+    at = Oscillator(1.0, 2.0, 1.0).response(1.0, 0.5, 2.0)
+    above = Oscillator(1.0, 2.0 + 1e-7, 1.0).response(1.0, 0.5, 2.0)
+    assert below == pytest.approx(at, rel=1e-6)
+    assert above == pytest.approx(at, rel=1e-6)
+
+
+def test_overdamped_long_times_do_not_overflow():
+    osc = Oscillator(1.0, 1e4, 1.0)  # zeta = 5000
+    x, v = osc.response(1.0, 0.0, 1e5)
+    assert math.isfinite(x) and math.isfinite(v)
+    # slow mode e^{-t wn^2 / (2 sigma)} approximately
+    assert x == pytest.approx(math.exp(-1e5 * 1e-4), rel=1e-3)
+
+
+@pytest.mark.parametrize("params", OSCILLATORS)
+def test_amplitude_bound_holds_for_acceleration(params):
+    osc = Oscillator(*params)
+    x0, v0 = 1e-3, -0.02
+    a0, j0, _ = osc.derivatives(x0, v0)
+    bound = osc.amplitude_bound(a0, j0)
+    t = np.linspace(0, 50, 20001)
+    x, v = osc.response_array(x0, v0, t)
+    acc = -(osc.damping * v + osc.stiffness * (x - osc.offset)) / osc.mass
+    assert np.all(np.abs(acc) <= bound * (1 + 1e-12))
+
+
+def _ode_ice(drag, z0, w0, u, t):
+    def rhs(_, y):
+        return [y[1], drag.force(y[1], u) / drag.mass]
+
+    sol = solve_ivp(rhs, (0, max(t)), [z0, w0], method="DOP853", rtol=1e-13, atol=1e-16,
+                    dense_output=True)
+    return sol.sol(np.asarray(t))
+
+
+@pytest.mark.parametrize("drag", [LinearDrag(1600.0, 49.95), QuadraticDrag(1600.0, 499.5),
+                                  QuadraticDrag(400.0, 999.0)], ids=["linear", "quad", "quad2"])
+@pytest.mark.parametrize("w0,u", [(0.01, 0.1), (0.3, 0.1), (-0.05, 0.1), (0.02, 0.0),
+                                  (0.1, 0.1), (0.0, -0.2)])
+def test_ice_matches_ode(drag, w0, u):
+    z0 = -0.01
+    ref = _ode_ice(drag, z0, w0, u, TIMES)
+    for i, t in enumerate(TIMES):
+        z, w = drag.motion(z0, w0, u, t)
+        assert z == pytest.approx(ref[0, i], abs=1e-11)
+        assert w == pytest.approx(ref[1, i], abs=1e-12)
+    za, wa = drag.motion_array(z0, w0, u, np.array(TIMES))
+    assert np.allclose(za, ref[0], atol=1e-11, rtol=0)
+    assert np.allclose(wa, ref[1], atol=1e-12, rtol=0)
+
+
+@pytest.mark.parametrize("drag", [LinearDrag(10.0, 0.0), QuadraticDrag(10.0, 0.0)])
+def test_no_drag_ice_coasts(drag):
+    assert drag.motion(1.0, 0.5, 0.3, 4.0) == (3.0, 0.5)
+
+
+@pytest.mark.parametrize("drag", [LinearDrag(1600.0, 49.95), QuadraticDrag(1600.0, 499.5)])
+def test_ice_acceleration_bounds_hold(drag):
+    u = 0.1
+    t = np.linspace(0, 30, 3001)
+    for w0 in (-0.3, 0.05, 0.4):
+        _, wa = drag.motion_array(0.0, w0, u, t)
+        acc = np.array([drag.force(w, u) for w in wa]) / drag.mass
+        _, acc_max, jerk_max = drag.accel_bounds(w0, u)
+        assert np.all(np.abs(acc) <= acc_max * (1 + 1e-12))
+        jerk = np.gradient(acc, t)
+        assert np.all(np.abs(jerk[1:-1]) <= jerk_max * (1 + 1e-3))
+
+
+@pytest.mark.parametrize("e", [0.0, 0.1, 0.5, 1.0])
+@pytest.mark.parametrize("masses", [(1600.0, 1600.0), (1600.0, 1.6), (1600.0, 1.6e6)])
+def test_impact_law(e, masses):
+    m, M = masses
+    v, w = -0.003, 0.012
+    v_plus, w_plus = impact(v, w, m, M, e)
+    # eq. 12: momentum
+    assert m * v_plus + M * w_plus == pytest.approx(m * v + M * w, rel=1e-14, abs=1e-18)
+    # eq. 13: restitution
+    assert v_plus - w_plus == pytest.approx(e * (w - v), rel=1e-12, abs=1e-16)
+    ke_before = 0.5 * m * v * v + 0.5 * M * w * w
+    ke_after = 0.5 * m * v_plus ** 2 + 0.5 * M * w_plus ** 2
+    loss = impact_energy_loss(v, w, m, M, e)
+    assert ke_before - ke_after == pytest.approx(loss, rel=1e-9, abs=1e-14 * ke_before)
+    if e == 1.0:
+        assert ke_after == pytest.approx(ke_before, rel=1e-13)
+    assert impact_impulse(v, v_plus, m) == pytest.approx(-M * (w_plus - w), rel=1e-12)
+
+
+def test_contact_force_sign():
+    # ice pushed towards the structure (a_z > a_x): compressive, positive
+    assert contact_force(-1.0, 0.5, 2.0, 2.0) == pytest.approx(1.5)
+    assert contact_force(1.0, -0.5, 2.0, 2.0) < 0.0
