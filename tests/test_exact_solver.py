@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 import pytest
-from ode_reference import simulate as ode_simulate
 
 from iceimpact import Scene, Simulator, run
 from iceimpact.physics.contact import impact_energy_loss
+from ode_reference import simulate as ode_simulate
 
 FIG2 = Scene()
 QUAD = Scene(drag_model=2)

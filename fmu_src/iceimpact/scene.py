@@ -163,14 +163,15 @@ class Scene:
             elif name in _BY_NAME:
                 fields[_BY_NAME[name].field] = value
             else:
-                raise KeyError(f"unknown parameter {name!r}; known: "
-                               f"{', '.join(sorted(_BY_NAME) + [FLOW_INPUT.name])}")
+                raise ParameterError(name, value, "no such parameter; known: "
+                                     + ", ".join(sorted(_BY_NAME) + [FLOW_INPUT.name]))
         return cls(**fields)
 
 
 def _check_number(spec: ParameterSpec, value: Any) -> None:
     if spec.kind is int:
-        if isinstance(value, bool) or not isinstance(value, int | float) or value != int(value):
+        if (isinstance(value, bool) or not isinstance(value, int | float)
+                or not math.isfinite(value) or value != int(value)):
             raise ParameterError(spec.name, value, f"an integer, {spec.allowed}")
         if not spec.minimum <= value <= spec.maximum:
             raise ParameterError(spec.name, value, spec.allowed)
@@ -233,7 +234,4 @@ def load_scene(path: str | Path) -> Scene:
                 flat[name] = value
 
     walk("", data)
-    try:
-        return Scene.from_fmi(flat)
-    except KeyError as exc:
-        raise ParameterError(str(exc), None, f"a known parameter name (in {path})") from None
+    return Scene.from_fmi(flat)

@@ -16,11 +16,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import METHOD_EXACT, ParameterError, Scene, validate_flow
+from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, ParameterError, Scene, validate_flow
 from .solvers.base import Impact, Solver
 from .solvers.event import EventSolver
+from .solvers.fixed_step import FixedStepSolver
+from .solvers.ode import OdeSolver
 
-_SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver}
+_SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STEP: FixedStepSolver,
+                                     METHOD_ODE: OdeSolver}
 
 #: Gaps between -GAP_ROUNDING and 0 are rounding of x - z at contact and reported as 0.
 GAP_ROUNDING = 1e-12
@@ -32,8 +35,7 @@ def make_solver(scene: Scene) -> Solver:
         cls = _SOLVERS[scene.solver_method]
     except KeyError:
         raise ParameterError("solver.method", scene.solver_method,
-                             "1 (exact); methods 2 (fixed-step) and 3 (ODE) are not yet available"
-                             ) from None
+                             "1 (exact), 2 (fixed-step) or 3 (ODE)") from None
     return cls(scene)
 
 

@@ -1,7 +1,7 @@
 """Contact between ice and structure: the impact law and the sticking phase.
 
 Impact (eq. 12-17): momentum is conserved and Newton's restitution law holds; positions do not jump
-(eq. 18). Sticking (this project's replacement for the article's steady-state thresholds, eq. 27-29):
+(eq. 18). Sticking (our replacement for the article's steady-state thresholds, eq. 27-29):
 both bodies move together, ``(m + M) x'' + c x' + k x = F_drag(x')``, and the contact force on the
 structure, ``lam = F_drag(x') - M x''``, must stay compressive (>= 0).
 """

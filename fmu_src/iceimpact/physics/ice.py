@@ -18,6 +18,32 @@ import math
 import numpy as np
 
 
+def _decay_ratio(x: float) -> float:
+    """(1 - e^{-x}) / x, accurate for tiny (even subnormal) x: the ice's drift factor."""
+    if x < 1e-5:
+        return 1.0 - x * (0.5 - x / 6.0)
+    return -math.expm1(-x) / x
+
+
+def _log_ratio(y: float) -> float:
+    """ln(1 + y) / y, accurate for tiny y (quadratic-drag drift factor)."""
+    if y < 1e-6:
+        return 1.0 - y * (0.5 - y / 3.0)
+    return math.log1p(y) / y
+
+
+def _decay_ratio_array(x: np.ndarray) -> np.ndarray:
+    small = x < 1e-5
+    safe = np.where(small, 1.0, x)
+    return np.where(small, 1.0 - x * (0.5 - x / 6.0), -np.expm1(-safe) / safe)
+
+
+def _log_ratio_array(y: np.ndarray) -> np.ndarray:
+    small = y < 1e-6
+    safe = np.where(small, 1.0, y)
+    return np.where(small, 1.0 - y * (0.5 - y / 3.0), np.log1p(safe) / safe)
+
+
 class LinearDrag:
     """Linearised Morison drag ``M w' = -b (w - u)`` (eq. 4-5)."""
 
@@ -39,20 +65,21 @@ class LinearDrag:
 
     def motion(self, z0: float, w0: float, u: float, t: float) -> tuple[float, float]:
         """Ice displacement and velocity at time t of a free flight (eq. 6-7)."""
+        dz, w = self.displacement_change(w0, u, t)
+        return z0 + dz, w
+
+    def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
+        """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
-        if self.kappa == 0.0:
-            return z0 + w0 * t, w0
-        em1 = math.expm1(-self.kappa * t)  # e^{-kappa t} - 1, exact for small kappa t
-        return z0 + u * t - r0 * em1 / self.kappa, u + r0 * (1.0 + em1)
+        x = self.kappa * t
+        return u * t + r0 * t * _decay_ratio(x), u + r0 * math.exp(-x)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
         t = np.asarray(t, dtype=float)
         r0 = w0 - u
-        if self.kappa == 0.0:
-            return z0 + w0 * t, np.full_like(t, w0)
-        em1 = np.expm1(-self.kappa * t)
-        return z0 + u * t - r0 * em1 / self.kappa, u + r0 * (1.0 + em1)
+        x = self.kappa * t
+        return z0 + u * t + r0 * t * _decay_ratio_array(x), u + r0 * np.exp(-x)
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:
         """(acceleration, bound on |acceleration|, bound on |jerk|) for all later times.
@@ -86,21 +113,21 @@ class QuadraticDrag:
 
     def motion(self, z0: float, w0: float, u: float, t: float) -> tuple[float, float]:
         """Ice displacement and velocity at time t of a free flight (exact solution of eq. 32)."""
+        dz, w = self.displacement_change(w0, u, t)
+        return z0 + dz, w
+
+    def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
+        """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
-        q = self.beta * abs(r0)
-        if q == 0.0:
-            return z0 + w0 * t, w0
-        return z0 + u * t + math.copysign(math.log1p(q * t), r0) / self.beta, u + r0 / (1.0 + q * t)
+        y = self.beta * abs(r0) * t
+        return u * t + r0 * t * _log_ratio(y), u + r0 / (1.0 + y)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
         t = np.asarray(t, dtype=float)
         r0 = w0 - u
-        q = self.beta * abs(r0)
-        if q == 0.0:
-            return z0 + w0 * t, np.full_like(t, w0)
-        return (z0 + u * t + math.copysign(1.0, r0) * np.log1p(q * t) / self.beta,
-                u + r0 / (1.0 + q * t))
+        y = self.beta * abs(r0) * t
+        return z0 + u * t + r0 * t * _log_ratio_array(y), u + r0 / (1.0 + y)
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:
         """(acceleration, bound on |acceleration|, bound on |jerk|) for all later times.

@@ -70,6 +70,24 @@ class Oscillator:
         slow, fast = math.exp(self._s_slow * t), math.exp(self._s_fast * t)
         return 0.5 * (slow + fast), 0.5 * (slow - fast) / self.omega
 
+    def basis_minus_one(self, t: float) -> tuple[float, float]:
+        """(C(t) - 1, S(t)) without cancellation at small t (for displacement increments)."""
+        decay_m1 = math.expm1(-self.sigma * t)
+        if self.regime == UNDER:
+            wt = self.omega * t
+            half = math.sin(0.5 * wt)
+            return (decay_m1 * math.cos(wt) - 2.0 * half * half,
+                    (1.0 + decay_m1) * math.sin(wt) / self.omega)
+        if self.regime == CRITICAL:
+            return decay_m1, t * (1.0 + decay_m1)
+        wt = self.omega * t
+        if wt < 1.0:
+            half = math.sinh(0.5 * wt)
+            return (decay_m1 * math.cosh(wt) + 2.0 * half * half,
+                    (1.0 + decay_m1) * math.sinh(wt) / self.omega)
+        c, s = self.basis(t)
+        return c - 1.0, s
+
     def basis_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(C(t), S(t)) for an array of t >= 0."""
         t = np.asarray(t, dtype=float)
@@ -91,10 +109,18 @@ class Oscillator:
 
     # response --------------------------------------------------------------------------------
     def response(self, x0: float, v0: float, t: float) -> tuple[float, float]:
-        """Displacement and velocity at time t after starting from (x0, v0) (eq. 24, all regimes)."""
+        """Displacement and velocity at time t from (x0, v0) (eq. 24, all regimes)."""
         y0 = x0 - self.offset
         c, s = self.basis(t)
         return (self.offset + y0 * c + (v0 + self.sigma * y0) * s,
+                v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
+
+    def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
+        """x(t) - x0 (free of the rounding of x0) and v(t): gaps near contact need it."""
+        y0 = x0 - self.offset
+        cm1, s = self.basis_minus_one(t)
+        c = cm1 + 1.0
+        return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
     def response_array(self, x0: float, v0: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -45,9 +45,13 @@ CHATTER_FRACTION = 1e-2
 STICK_RTOL = 1e-12
 STICK_ATOL = (1e-15, 1e-15, 1e-12)  # x (m), v (m/s), drag impulse (N.s)
 
-#: More than this many zero-duration events at one instant means a degenerate contact
-#: (all derivatives of gap and contact force vanish): the bodies are then held together.
+#: More than this many events within DEGENERATE_WINDOW (s) means a degenerate contact (gap and
+#: contact force both vanish to rounding): the bodies are then held together ...
 MAX_EVENTS_AT_ONE_INSTANT = 8
+DEGENERATE_WINDOW = 1e-12
+DEGENERATE_SPEED = 1e-12  # m/s
+#: ... and held for this long (s) before separation is looked for again.
+DEGENERATE_HOLD = 1e-9
 
 
 def _time_eps(t: float) -> float:
@@ -64,25 +68,28 @@ class Flight:
         self.osc = solver.osc
         self.drag = solver.drag
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
+        self.gap0 = x0 - z0
         self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0))
 
+    # Displacements are evaluated as increments from the anchor, so that the gap near contact
+    # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
     def state(self, tau: float) -> tuple[float, float, float, float]:
-        x, v = self.osc.response(self.x0, self.v0, tau)
-        z, w = self.drag.motion(self.z0, self.w0, self.u, tau)
-        return x, v, z, w
+        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        return self.x0 + dx, v, self.z0 + dz, w
 
     def gap(self, tau: float) -> float:
-        x, _ = self.osc.response(self.x0, self.v0, tau)
-        z, _ = self.drag.motion(self.z0, self.w0, self.u, tau)
-        return x - z
+        dx, _ = self.osc.displacement_change(self.x0, self.v0, tau)
+        dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
+        return self.gap0 + (dx - dz)
 
     def probe(self, tau: float) -> tuple[float, float, float]:
         """Gap, gap rate and a bound on |gap''| for all later times."""
-        x, v = self.osc.response(self.x0, self.v0, tau)
-        z, w = self.drag.motion(self.z0, self.w0, self.u, tau)
-        a_x, j_x, _ = self.osc.derivatives(x, v)
+        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        a_x, j_x, _ = self.osc.derivatives(self.x0 + dx, v)
         _, a_z_max, _ = self.drag.accel_bounds(w, self.u)
-        return x - z, v - w, self.osc.amplitude_bound(a_x, j_x) + a_z_max
+        return self.gap0 + (dx - dz), v - w, self.osc.amplitude_bound(a_x, j_x) + a_z_max
 
     def next_event(self, tau_end: float) -> float | None:
         return self.search.next_root_before(tau_end)
@@ -171,17 +178,22 @@ class QuadraticStick:
     _force_event.direction = -1
 
     def _extend(self) -> None:
-        lo, hi = self.hi, self.hi + self.chunk
+        lo = self.hi
+        if lo < self.start:  # held together: no separation looked for before `start`
+            hi, events = self.start, None
+        else:
+            hi, events = lo + self.chunk, self._force_event
+            if self._force_event(lo, self.y_hi) < 0.0:  # already tensile (after a hold)
+                self.separation, self.y_sep, self.hi = lo, self.y_hi, lo
+                return
         res = solve_ivp(self._rhs, (lo, hi), self.y_hi, method="DOP853", rtol=STICK_RTOL,
-                        atol=STICK_ATOL, dense_output=True, events=self._force_event)
+                        atol=STICK_ATOL, dense_output=True, events=events)
         if not res.success:
             raise RuntimeError(f"sticking-phase integration failed at t = {self.t0 + lo}: "
                                f"{res.message}")
-        for tev, yev in zip(res.t_events[0], res.y_events[0], strict=True):
-            if tev > self.start:
-                self.separation, self.y_sep = float(tev), yev
-                hi = float(tev)
-                break
+        if res.status == 1:  # terminal event: the contact force turns tensile
+            self.separation, self.y_sep = float(res.t_events[0][0]), res.y_events[0][0]
+            hi = self.separation
         self.chunks.append((lo, hi, res.sol))
         self.hi = hi
         self.y_hi = self.y_sep if self.separation is not None else res.y[:, -1]
@@ -244,7 +256,7 @@ class EventSolver(Solver):
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float) -> None:
         """Start the segment that follows time t from state (x, v, z, w)."""
-        if t == self._last_event_t:
+        if t - self._last_event_t <= DEGENERATE_WINDOW:
             self._events_here += 1
         else:
             self._events_here, self._last_event_t = 0, t
@@ -255,12 +267,19 @@ class EventSolver(Solver):
             self._fly(t, x, v, z, w, u)
             return
         closing = w - v
+        if self._events_here > MAX_EVENTS_AT_ONE_INSTANT and abs(closing) <= DEGENERATE_SPEED:
+            # rounding-level contact that keeps re-triggering: merge the velocities (momentum
+            # kept; the change is rounding) and hold the bodies together briefly
+            v = (self.m * v + self.M * w) / (self.m + self.M)
+            self._events_here = 0
+            self._stick(t, x, v, u, hold=DEGENERATE_HOLD)
+            return
         if closing > 0.0:  # approaching at contact: impact now
             self._impact(t, x, v, w, u)
             return
         a_x, a_z = self._free_accels(x, v, w, u)
         lam = contact_force(a_x, a_z, self.m, self.M)
-        if closing == 0.0 and (lam >= 0.0 or self._events_here > MAX_EVENTS_AT_ONE_INSTANT):
+        if closing == 0.0 and lam >= 0.0:
             self._stick(t, x, v, u)
         else:
             self._fly_from_contact(t, x, v, w, u, lam)
@@ -288,19 +307,12 @@ class EventSolver(Solver):
             start = opening / acc_bound
         if curvature > 0.0 and jerk_bound > 0.0:
             start = max(start, 2.0 * curvature / jerk_bound)
-        start = max(start, _time_eps(t))
         self._fly(t, x, v, x, w, u, start)
 
-    def _stick(self, t: float, x: float, v: float, u: float) -> None:
+    def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
+        """Bodies together from time t; separation is not looked for before ``t + hold``."""
         cls = QuadraticStick if self.drag.quadratic else LinearStick
-        seg = cls(self, t, x, v, u)
-        if isinstance(seg, LinearStick):
-            lam, rate, bound = seg.probe(0.0)
-            if lam <= 0.0:  # holding on a zero contact force: start where it is proven positive
-                seg.search.a = rate / bound if rate > 0.0 and bound > 0.0 else _time_eps(t)
-        else:
-            seg.start = _time_eps(t)
-        self.seg = seg
+        self.seg = cls(self, t, x, v, u, start=hold)
         self._set_contact(True, t)
 
     def _set_contact(self, sticking: bool, t: float) -> None:

@@ -29,7 +29,11 @@ MAX_ITERATIONS = 100_000
 
 
 class RootSearch:
-    """Incremental search for the first downward root of f after a start point.
+    """Incremental search for the first time after a start point where f goes below zero.
+
+    A zero that f only touches (f = f' = 0, then f >= 0) is not a root: a gap closing with no
+    closing speed is no impact, a contact force that vanishes without turning tensile no
+    separation.
 
     ``probe(t) -> (f, f', K)`` gives value, slope and a bound on |f''| for all times >= t;
     ``value(t) -> f`` is the cheap value alone. The search keeps its frontier (root-free up to
@@ -37,20 +41,21 @@ class RootSearch:
     results do not depend on how the caller chops time.
     """
 
-    __slots__ = ("probe", "value", "a", "root", "time_eps", "iterations", "xtol")
+    __slots__ = ("probe", "value", "a", "root", "time_eps", "iterations", "xtol", "creep")
 
     def __init__(self, probe: Callable[[float], tuple[float, float, float]],
                  value: Callable[[float], float], start: float, time_eps: float):
         self.probe = probe
         self.value = value
-        self.a = start          # f(a) > 0 and [previous a, a) is root-free
+        self.a = start          # f(a) >= 0 and [start, a) is root-free
         self.root: float | None = None
         self.time_eps = time_eps  # smallest meaningful time increment
         self.iterations = 0
+        self.creep = 0
         self.xtol = 1e-15
 
     def next_root_before(self, horizon: float) -> float | None:
-        """The first root if it lies at or before ``horizon``; else None (frontier moved past it)."""
+        """The first root if it is at or before ``horizon``, else None (frontier moved past)."""
         if self.root is not None:
             return self.root if self.root <= horizon else None
         while self.a <= horizon:
@@ -63,12 +68,13 @@ class RootSearch:
         a = self.a
         f, df, bound = self.probe(a)
         self.iterations += 1
-        if f <= 0.0:  # only by rounding right after a frontier jump: the root is here
+        if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
             return
         if bound <= 0.0:  # f is linear from here on
-            self.root = a + f / -df if df < 0.0 else None
-            if self.root is None:
+            if df < 0.0:
+                self.root = a + f / -df
+            else:
                 self.a = math.inf
             return
         disc = math.sqrt(df * df + 2.0 * bound * f)
@@ -77,8 +83,7 @@ class RootSearch:
             h_mono = -df / bound
             if h_mono > h_free:
                 b = a + h_mono
-                fb = self.value(b)
-                if fb <= 0.0:  # exactly one root in (a, b]
+                if self.value(b) < 0.0:  # exactly one crossing in (a, b)
                     self.root = brentq(self.value, a, b, xtol=self.xtol, rtol=8.9e-16)
                     return
                 self.a = b
@@ -90,9 +95,14 @@ class RootSearch:
                 # tangent approach to within rounding: f here is below bound*eps^2, a touch
                 self.root = a
                 return
-            step = eps
+            # f = f' = 0 to rounding (a degenerate start): creep out with doubling steps so that
+            # the work stays bounded; a crossing is still caught by the sign test at b
+            step = eps * 2.0 ** min(self.creep, 1000)
+            self.creep += 1
+        else:
+            self.creep = 0
         b = a + step
-        if self.value(b) <= 0.0:  # rounding at the frontier: root-free before b, so it is b
+        if self.value(b) < 0.0:  # rounding at the frontier: root-free before b, so it is b
             self.root = brentq(self.value, a, b, xtol=self.xtol, rtol=8.9e-16)
             return
         self.a = b

@@ -1,0 +1,153 @@
+"""Cost of one doStep of IceImpact.fmu against a PythonFMU slave that does no work.
+
+    python benchmarks/fmu_overhead.py [--quick] [--repeat N]
+
+Both FMUs are built fresh, then simulated in this one process through FMPy's ``simulate_fmu``,
+the Figure 2 scene for 400 s (``--quick``: 40 s) at a communication step of 1 ms, recording every
+output at every step. The core alone (``Simulator.advance`` over the same steps, no FMI) is timed
+too, so the table splits the cost into model and FMI plumbing. Prints a table and writes
+``benchmarks/results/fmu_overhead.json``. Times are the best of ``--repeat`` interleaved runs, as
+CPU time of this process (insensitive to other load on the machine; the ratio uses it) and as
+wall-clock time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.metadata
+import importlib.util
+import json
+import platform
+import sys
+import tempfile
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+HERE = Path(__file__).resolve().parent
+STEP = 1e-3  # s
+
+
+def _build_iceimpact(dest: Path) -> Path:
+    spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.build(dest)
+
+
+def _build_trivial(dest: Path) -> Path:
+    from pythonfmu import FmuBuilder
+
+    return Path(FmuBuilder.build_FMU(HERE / "trivial_fmu" / "TrivialSlave.py", dest=dest))
+
+
+def _best(times: list[tuple[float, float]]) -> tuple[float, float]:
+    """Smallest wall-clock and smallest CPU time (s) over repeated runs."""
+    return min(w for w, _ in times), min(c for _, c in times)
+
+
+def run_fmu(fmu: Path, stop_time: float) -> tuple[float, float, object]:
+    """One simulate_fmu run: wall-clock and CPU time of this process (s), the result."""
+    from fmpy import simulate_fmu
+
+    wall, cpu = time.perf_counter(), time.process_time()
+    result = simulate_fmu(str(fmu), start_time=0.0, stop_time=stop_time, output_interval=STEP)
+    return time.perf_counter() - wall, time.process_time() - cpu, result
+
+
+def run_core(stop_time: float) -> tuple[float, float, int]:
+    """The core stepped over the same communication points, no FMI: wall, CPU (s), steps."""
+    sys.path.insert(0, str(ROOT / "fmu_src"))
+    from iceimpact import Scene, Simulator
+
+    n = round(stop_time / STEP)
+    sim = Simulator(Scene())
+    wall, cpu = time.perf_counter(), time.process_time()
+    for k in range(n):
+        sim.advance((k + 1) * STEP - k * STEP, 0.1)
+    return time.perf_counter() - wall, time.process_time() - cpu, n
+
+
+def _version(package: str) -> str:
+    try:
+        return importlib.metadata.version(package)
+    except importlib.metadata.PackageNotFoundError:
+        return "?"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="40 s instead of 400 s")
+    parser.add_argument("--stop-time", type=float, help="simulated time, s (overrides --quick)")
+    parser.add_argument("--repeat", type=int, default=1, help="runs per case, best kept")
+    parser.add_argument("--output", type=Path, default=HERE / "results" / "fmu_overhead.json")
+    args = parser.parse_args(argv)
+    stop_time = args.stop_time or (40.0 if args.quick else 400.0)
+
+    cases = ("IceImpact.fmu", "TrivialSlave.fmu", "Simulator.advance (core, no FMI)")
+    times: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
+    with tempfile.TemporaryDirectory(prefix="fmu_overhead_") as tmp:
+        fmus = {cases[0]: _build_iceimpact(Path(tmp) / "ice"),
+                cases[1]: _build_trivial(Path(tmp) / "trivial")}
+        print(f"Figure 2 scene, {stop_time:g} s at {STEP * 1e3:g} ms, FMPy simulate_fmu "
+              f"recording all outputs, best of {args.repeat}")
+        steps = {}
+        for _ in range(args.repeat):  # interleaved, so that both FMUs see the same machine load
+            for case in (cases[1], cases[0]):
+                wall, cpu, result = run_fmu(fmus[case], stop_time)
+                times[case].append((wall, cpu))
+                steps[case] = len(result) - 1
+            wall, cpu, steps[cases[2]] = run_core(stop_time)
+            times[cases[2]].append((wall, cpu))
+    assert len(set(steps.values())) == 1, steps
+    n = steps[cases[0]]
+
+    best = {case: _best(times[case]) for case in cases}
+    us_wall = {case: 1e6 * best[case][0] / n for case in cases}
+    us_cpu = {case: 1e6 * best[case][1] / n for case in cases}
+    ratio = us_cpu[cases[0]] / us_cpu[cases[1]]
+
+    width = max(map(len, cases))
+    print(f"\n{'case':{width}s}  {'steps':>8s}  {'wall (s)':>9s}  {'us/step':>8s}  "
+          f"{'us/step (CPU)':>13s}")
+    for case in cases:
+        print(f"{case:{width}s}  {n:8d}  {best[case][0]:9.2f}  {us_wall[case]:8.2f}  "
+              f"{us_cpu[case]:13.2f}")
+    print(f"\nIceImpact.fmu / TrivialSlave.fmu = {ratio:.2f}x (CPU time); the model adds "
+          f"{us_cpu[cases[0]] - us_cpu[cases[1]]:.1f} us/step through FMI "
+          f"(core alone {us_cpu[cases[2]]:.1f} us/step)")
+    print(f"impacts in {stop_time:g} s: {int(result['contact.count'][-1])}")
+
+    report = {
+        "benchmark": "fmu_overhead",
+        "date": datetime.now(UTC).isoformat(timespec="seconds"),
+        "command": "python benchmarks/fmu_overhead.py" + (" --quick" if args.quick else "")
+                   + (f" --repeat {args.repeat}" if args.repeat != 1 else ""),
+        "scene": "Figure 2 (defaults)",
+        "stop_time_s": stop_time,
+        "step_s": STEP,
+        "steps": n,
+        "repeat": args.repeat,
+        "us_per_step_cpu": us_cpu,
+        "us_per_step_wall": us_wall,
+        "best_wall_s": {case: best[case][0] for case in cases},
+        "best_cpu_s": {case: best[case][1] for case in cases},
+        "ratio_iceimpact_to_trivial_cpu": ratio,
+        "ratio_iceimpact_to_trivial_wall": us_wall[cases[0]] / us_wall[cases[1]],
+        "impacts": int(result["contact.count"][-1]),
+        "environment": {
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+            "processor": platform.processor() or platform.machine(),
+            **{pkg: _version(pkg) for pkg in ("fmpy", "pythonfmu", "numpy", "scipy")},
+        },
+    }
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text(json.dumps(report, indent=2) + "\n")
+    print(f"wrote {args.output}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
