@@ -58,9 +58,11 @@ WINDOW_FRACTION = 0.1
 #: and error" by the article's authors).
 STEADY_THRESHOLD = 1e-4
 
-#: Grid points evaluated per vectorised chunk: small right after an event (the next one may be
-#: close), doubling while none occurs.
-CHUNK_MIN = 8
+#: The first SCALAR_STEPS grid points after an event are evaluated one by one (the next event may
+#: be close: in a chatter the bodies meet at every grid point); later ones in vectorised chunks of
+#: CHUNK_MIN points, doubling up to CHUNK_MAX while no event occurs.
+SCALAR_STEPS = 8
+CHUNK_MIN = 16
 CHUNK_MAX = 16384
 
 #: A time within this fraction of dt of a grid point is that grid point (rounding of t / dt).
@@ -82,6 +84,7 @@ class FixedStepSolver(Solver):
         self.pinned = False
         self.pin_x = 0.0
         self._chunk = CHUNK_MIN
+        self.max_penetration = 0.0      # deepest z - x at a detected impact, m (diagnostic)
         s = self.state
         self._anchor(0.0, s.x, s.v, s.z, s.w)
 
@@ -91,6 +94,7 @@ class FixedStepSolver(Solver):
         self.t_a = t
         self.anchor = (x, v, z, w)
         self.n = 0                      # last grid point processed, counted from the anchor
+        self._buf = None                # grid points evaluated ahead of n (see _fill)
         self.grid = (x, v, z, w)        # state at that grid point (post-impact)
 
     def _pin(self, t: float) -> None:
@@ -118,21 +122,29 @@ class FixedStepSolver(Solver):
             ws.append(w)
         return np.array(zs), np.array(ws)
 
-    def _steady(self, x, v, z, w, v_prev, w_prev):
-        """Conditions (i)-(iii) of Section 4.1 (scalars or arrays)."""
+    def _steady(self, x, v, z, w, v_prev, w_prev) -> np.ndarray:
+        """Conditions (i)-(iii) of Section 4.1 at each grid point of a chunk."""
         lim = STEADY_THRESHOLD
         return ((np.maximum(np.abs(x), np.abs(z)) < lim)
                 & (np.maximum(np.abs(v), np.abs(w)) < lim)
                 & (np.maximum(np.abs(v - v_prev), np.abs(w - w_prev)) < lim * self.dt))
 
-    def _march(self, n_hi: int) -> float:
-        """Process grid points n+1 .. n_hi; stop at the first impact or steady state.
+    def _steady_at(self, x: float, v: float, z: float, w: float, v_prev: float,
+                   w_prev: float) -> bool:
+        """Conditions (i)-(iii) of Section 4.1 at one grid point."""
+        lim = STEADY_THRESHOLD
+        return (abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
+                and abs(v - v_prev) < lim * self.dt and abs(w - w_prev) < lim * self.dt)
 
-        Returns the impulse of that impact on the structure (0 if none).
+    def _fill(self) -> None:
+        """Evaluate the next chunk of grid points after ``n`` and find its first event.
+
+        The grid does not depend on the communication step, so the chunk is computed ahead and
+        consumed by as many ``advance_to`` calls as it spans.
         """
         dt = self.dt
         x_a, v_a, z_a, w_a = self.anchor
-        ns = np.arange(self.n + 1, n_hi + 1)
+        ns = np.arange(self.n + 1, self.n + self._chunk + 1)
         tau = ns * dt
         x, v = self.osc.response_array(x_a, v_a, tau)
         if self.drag.quadratic:
@@ -149,24 +161,67 @@ class FixedStepSolver(Solver):
         v_prev = np.concatenate(([v_last], v[:-1]))
         w_prev = np.concatenate(([w_last], w[:-1]))
         flags = hit | self._steady(x, v, z, w, v_prev, w_prev)
-        if not flags.any():
-            self.n = n_hi
-            self.grid = (x[-1], v[-1], z[-1], w[-1])
-            self._chunk = min(2 * self._chunk, CHUNK_MAX)
+        j = int(np.argmax(flags)) if flags.any() else None
+        self._buf = (ns, x, v, z, w, j, hit, v_prev, w_prev)
+
+    def _march_scalar(self) -> float:
+        """Process grid point n + 1 alone (right after an event, where the next one may follow)."""
+        n = self.n + 1
+        x_a, v_a, z_a, w_a = self.anchor
+        tau = n * self.dt
+        x, v = self.osc.response(x_a, v_a, tau)
+        _, v_prev, z, w_prev = self.grid
+        if self.drag.quadratic:  # eq. 34 and 36
+            r = w_prev - self.u
+            z, w = z + w_prev * self.dt, w_prev - self.drag.beta * self.dt * abs(r) * r
+        else:
+            z, w = self.drag.motion(z_a, w_a, self.u, tau)
+        gap = x - z
+        if self.window:  # eq. 26
+            hit = abs(gap) <= WINDOW_FRACTION * self.dt * min(abs(v), abs(w)) and w > v
+        else:
+            hit = gap <= 0.0 and w > v
+        if hit or self._steady_at(x, v, z, w, v_prev, w_prev):
+            return self._event(n, x, v, z, w, hit, v_prev, w_prev)
+        self.n, self.grid = n, (x, v, z, w)
+        return 0.0
+
+    def _march(self, n_end: int) -> float:
+        """Process grid points up to ``n_end``; stop after the first impact or steady state.
+
+        Returns the impulse of that impact on the structure (0 if none).
+        """
+        if self._buf is None and self.n < SCALAR_STEPS:
+            return self._march_scalar()
+        if self._buf is None:
+            self._fill()
+        ns, x, v, z, w, j, hit, v_prev, w_prev = self._buf
+        if j is None or ns[j] > n_end:  # no event up to n_end: consume grid points
+            i = min(n_end, int(ns[-1])) - int(ns[0])
+            self.n = int(ns[i])
+            self.grid = (float(x[i]), float(v[i]), float(z[i]), float(w[i]))
+            if i == ns.size - 1:
+                self._buf = None
+                self._chunk = min(2 * self._chunk, CHUNK_MAX)
             return 0.0
+        return self._event(int(ns[j]), float(x[j]), float(v[j]), float(z[j]), float(w[j]),
+                           bool(hit[j]), float(v_prev[j]), float(w_prev[j]))
+
+    def _event(self, n: int, x: float, v: float, z: float, w: float, hit: bool,
+               v_prev: float, w_prev: float) -> float:
+        """Impact (eq. 16-17) and/or steady state (eq. 27-29) at grid point n; the impulse."""
         self._chunk = CHUNK_MIN
-        j = int(np.argmax(flags))
-        t_j = self.t_a + ns[j] * dt
-        xj, vj, zj, wj = float(x[j]), float(v[j]), float(z[j]), float(w[j])
+        t = self.t_a + n * self.dt
         impulse = 0.0
-        if hit[j]:  # eq. 16-17 at the grid point, both bodies restart from x_k (eq. 24)
-            v_plus, w_plus = impact(vj, wj, self.m, self.M, self.e)
-            impulse = impact_impulse(vj, v_plus, self.m)
-            self.impacts.append(Impact(t_j, xj, vj, wj, v_plus, w_plus, impulse, self.e))
-            vj, zj, wj = v_plus, xj, w_plus
-        self._anchor(t_j, xj, vj, zj, wj)
-        if self._steady(xj, vj, zj, wj, float(v_prev[j]), float(w_prev[j])):
-            self._pin(t_j)
+        if hit:  # both bodies restart from the structure's position x_k (eq. 24)
+            self.max_penetration = max(self.max_penetration, z - x)
+            v_plus, w_plus = impact(v, w, self.m, self.M, self.e)
+            impulse = impact_impulse(v, v_plus, self.m)
+            self.impacts.append(Impact(t, x, v, w, v_plus, w_plus, impulse, self.e))
+            v, z, w = v_plus, x, w_plus
+        self._anchor(t, x, v, z, w)
+        if self._steady_at(x, v, z, w, v_prev, w_prev):
+            self._pin(t)
         return impulse
 
     def _state_at(self, t: float) -> State:
@@ -198,9 +253,8 @@ class FixedStepSolver(Solver):
         impulse = 0.0
         n_end = math.floor((t_end - self.t_a) / self.dt + GRID_SLACK)
         while not self.pinned and self.n < n_end:
-            impulse += self._march(min(n_end, self.n + self._chunk))
-            if not self.pinned:
-                n_end = math.floor((t_end - self.t_a) / self.dt + GRID_SLACK)
+            impulse += self._march(n_end)
+            n_end = math.floor((t_end - self.t_a) / self.dt + GRID_SLACK)
         if self.pinned:  # constant contact force k x = F since the pin (eq. 28)
             impulse += self.k * self.pin_x * (t_end - max(t_now, self.sticking_since))
         self.state = self._state_at(t_end)
