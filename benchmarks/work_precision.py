@@ -35,7 +35,7 @@ import math
 import platform
 import sys
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -460,7 +460,7 @@ def main(argv: list[str] | None = None) -> int:
     long = long_study(args.quick, log)
     log("communication step:")
     steps = step_study(args.quick, args.fmu, log)
-    data = {"quick": args.quick, "date": datetime.now(timezone.utc).strftime("%Y-%m-%d"),
+    data = {"quick": args.quick, "date": datetime.now(UTC).strftime("%Y-%m-%d"),
             "machine": f"{platform.machine()}, Python {platform.python_version()}, "
                        f"numpy {np.__version__}",
             "min_approach_fraction": MIN_APPROACH, "match_time_s": MATCH_TIME,

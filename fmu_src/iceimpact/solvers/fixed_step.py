@@ -26,7 +26,9 @@ On a fixed grid of step dt = ``solver.dt`` (s), anchored at the last impact:
   structure then receives the constant contact force F. The accelerations of (iii) are backward
   differences of the marched velocities over the last step: they include the impacts, as the
   grid responses do. (The drag-law acceleration of a free floe, ``(b/M)(u - w)``, is about
-  3e-3 m/s^2 in the Figure 2 scene whenever (ii) holds, so (iii) could never be met with it.)
+  3e-3 m/s^2 in the article's scenes whenever (ii) holds, so (iii) could never be met with it.
+  With u = 0.1 m/s the differences do not meet it either: the bodies chatter, meeting every few
+  grid steps, and the article's e = 0.5 scenes are never pinned; see docs/accuracy.md.)
 
 The communication step need not be a multiple of dt: impacts are tested on grid points only, and
 the state at an off-grid time is the closed form there (a partial Euler step for the quadratic
@@ -87,6 +89,12 @@ class FixedStepSolver(Solver):
         self.max_penetration = 0.0      # deepest z - x at a detected impact, m (diagnostic)
         s = self.state
         self._anchor(0.0, s.x, s.v, s.z, s.w)
+
+    def __getstate__(self) -> dict:
+        """Snapshots (FMU get/set state) leave out the look-ahead chunk: it is recomputed, equal."""
+        state = self.__dict__.copy()
+        state["_buf"] = None
+        return state
 
     # grid bookkeeping ----------------------------------------------------------------------------
     def _anchor(self, t: float, x: float, v: float, z: float, w: float) -> None:

@@ -16,7 +16,8 @@ the article's steady-state thresholds (eq. 27-29):
 - after an impact that leaves the ice pressed on the structure (contact force lam > 0), a next
   bounce shorter than :data:`~iceimpact.solvers.event.CHATTER_FRACTION` of the structure's period
   (or a Zeno sequence that would end within :data:`~iceimpact.solvers.event.ZENO_TIME`) is closed
-  by one plastic impact;
+  by one plastic impact; so is a contact that parts too slowly for such a bounce (the rounding
+  left of a separation);
 - the bodies then move together, ``(m + M) x'' + c x' + k x = F_drag(x')``, integrated with the
   same method, the contact force ``lam = F_drag(x') - M x''`` being a terminal event (direction -1):
   they separate when it turns tensile. The drag impulse is integrated alongside, so the impulse of
@@ -47,15 +48,73 @@ from .event import CHATTER_FRACTION, MAX_EVENTS_AT_ONE_INSTANT, ZENO_TIME
 #: solve_ivp methods by ``solver.ode_method``.
 ODE_METHODS = {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}
 
-#: atol = rtol * ATOL_SCALE for every component (m and m/s; N.s for the drag impulse times 1e3).
+#: atol = rtol * ATOL_SCALE for every component (m, m/s, and N.s for the integrated drag impulse).
 ATOL_SCALE = 1e-3
 
 #: Length of one solve_ivp call, in natural periods of the structure (at least 1 s).
 CHUNK_PERIODS = 20.0
 
-
 #: Positive stand-in for a zero event value at the start of a segment.
 _TINY = 1e-300
+
+
+class _Flight:
+    """Both bodies free: ``[x, v, z, w]' = [v, -(c v + k x) / m, w, F_drag(w) / M]`` (eq. 2-8)."""
+
+    def __init__(self, solver: OdeSolver):
+        self.m, self.c, self.k, self.M = solver.m, solver.c, solver.k, solver.M
+        self.u, self.drag = solver.u, solver.drag
+
+    def __call__(self, t: float, y: np.ndarray) -> list[float]:
+        return [y[1], -(self.c * y[1] + self.k * y[0]) / self.m, y[3],
+                self.drag.force(y[3], self.u) / self.M]
+
+
+class _Gap:
+    """Terminal event: the gap x - z closes (eq. 25)."""
+
+    terminal = True
+    direction = -1
+
+    def __init__(self, start: float):
+        self.start = start
+
+    def __call__(self, t: float, y: np.ndarray) -> float:
+        # at the start the bodies may touch (g = 0): count that as open, so that only a crossing
+        # after the start is an event (and the root bracket stays valid)
+        gap = y[0] - y[2]
+        return gap if t > self.start else max(gap, _TINY)
+
+
+class _Stuck:
+    """Bodies together: ``[x, v, P]' = [v, (F_drag(v) - c v - k x) / (m + M), F_drag(v)]``."""
+
+    def __init__(self, solver: OdeSolver):
+        self.total, self.c, self.k, self.M = solver.m + solver.M, solver.c, solver.k, solver.M
+        self.u, self.drag = solver.u, solver.drag
+
+    def __call__(self, t: float, y: np.ndarray) -> list[float]:
+        f = self.drag.force(y[1], self.u)
+        return [y[1], (f - self.c * y[1] - self.k * y[0]) / self.total, f]
+
+    def contact_force(self, y: np.ndarray) -> float:
+        """Force on the structure from the ice: drag minus the ice's inertia, N."""
+        f = self.drag.force(y[1], self.u)
+        return f - self.M * (f - self.c * y[1] - self.k * y[0]) / self.total
+
+
+class _ContactForce:
+    """Terminal event: the contact force turns tensile (the bodies separate)."""
+
+    terminal = True
+    direction = -1
+
+    def __init__(self, stuck: _Stuck, start: float):
+        self.stuck, self.start = stuck, start
+
+    def __call__(self, t: float, y: np.ndarray) -> float:
+        lam = self.stuck.contact_force(y)
+        return lam if t > self.start else max(lam, _TINY)
 
 
 def _same_instant(t: float, t_ref: float) -> bool:
@@ -89,39 +148,11 @@ class OdeSolver(Solver):
 
     # equations of motion -------------------------------------------------------------------------
     def _flight_rhs(self):
-        m, c, k, M, u, force = self.m, self.c, self.k, self.M, self.u, self.drag.force
-
-        def rhs(t, y):
-            return [y[1], -(c * y[1] + k * y[0]) / m, y[3], force(y[3], u) / M]
-
-        start = self.t_hi
-
-        def gap(t, y):
-            # at the start the bodies may touch (g = 0): count that as open, so that only a
-            # crossing after the start is an event (and the root bracket stays valid)
-            return y[0] - y[2] if t > start else max(y[0] - y[2], _TINY)
-
-        gap.terminal = True
-        gap.direction = -1
-        return rhs, gap
+        return _Flight(self), _Gap(self.t_hi)
 
     def _stick_rhs(self):
-        total, c, k, M, u, force = self.m + self.M, self.c, self.k, self.M, self.u, self.drag.force
-
-        def rhs(t, y):
-            f = force(y[1], u)
-            return [y[1], (f - c * y[1] - k * y[0]) / total, f]
-
-        start = self.t_hi
-
-        def contact(t, y):
-            f = force(y[1], u)
-            lam = f - M * (f - c * y[1] - k * y[0]) / total
-            return lam if t > start else max(lam, _TINY)
-
-        contact.terminal = True
-        contact.direction = -1
-        return rhs, contact
+        rhs = _Stuck(self)
+        return rhs, _ContactForce(rhs, self.t_hi)
 
     # segments ------------------------------------------------------------------------------------
     def _segment(self, kind: str, t: float, y: list[float], hold: bool = False) -> None:
