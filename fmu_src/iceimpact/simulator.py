@@ -112,11 +112,11 @@ class Simulator:
 
     def save(self) -> object:
         """A deep copy of the whole internal state (for FMI get/set FMU state)."""
-        return copy.deepcopy((self.scene, self.solver, self.report))
+        return copy.deepcopy((self.scene, self.solver, self.report, self._n_reported))
 
     def restore(self, snapshot: object) -> None:
         """Return to a state from :meth:`save` (the snapshot stays reusable)."""
-        self.scene, self.solver, self.report = copy.deepcopy(snapshot)
+        self.scene, self.solver, self.report, self._n_reported = copy.deepcopy(snapshot)
 
 
 @dataclass
