@@ -261,3 +261,49 @@ def test_ice_starting_in_contact(w0, kind):
         assert rep.impacts == 0 and rep.gap > 0
     else:
         assert rep.sticking and rep.gap == 0.0
+
+
+# Degenerate contacts found by the property test: zero closing speed to rounding, contact force
+# vanishing to rounding right after a separation, exact tangency of an undamped structure, drag
+# far below rounding. Each once looped without end; each must finish with sound outputs.
+DEGENERATE = [
+    dict(structure_m=10.0, structure_c=0.0, structure_k=10.0, structure_v0=0.0, ice_M=10.0,
+         ice_Cd=0.0, ice_z0=0.0, ice_v0=0.0, impact_e=0.0, flow_u=0.0),
+    dict(structure_m=182.97919098315285, structure_c=66962.76866569826,
+         structure_k=6126396.618220742, ice_M=1.8297919098315285, ice_A=3.4635181522065186,
+         ice_Cd=0.5, ice_z0=-0.01, ice_v0=0.5, impact_e=0.0, flow_u=0.0),
+    dict(structure_m=97309.12714773905, structure_c=52044408.37315177,
+         structure_k=6958803665.968151, structure_x0=0.0031553379301433385,
+         structure_v0=0.032399444595779925, ice_M=3137064.4243700416, ice_A=9.924986566308483,
+         ice_Cd=1.4376295694872663, ice_z0=-0.02287382259996331, ice_v0=0.15180276292023098,
+         impact_e=0.7795916723849599, flow_u=0.4196769402612454),
+    dict(structure_m=10.0, structure_c=0.0, structure_k=301305.01814207697,
+         structure_x0=-0.008698303756774384, ice_M=0.14507538403378428, ice_A=8.66120444193421,
+         ice_Cd=0.014507538403378428, ice_z0=-0.013087032715706316,
+         ice_v0=0.014507538403378428, impact_e=0.004388728958931932, flow_u=0.864408078865055),
+    dict(structure_m=42241.85370594951, structure_c=0.0, structure_k=58833372.69716639,
+         structure_x0=-0.007049025303708411, ice_M=422.41853705949507, ice_A=9.177955034552364,
+         ice_Cd=0.0, ice_z0=-0.007049025303708411, ice_v0=0.0, impact_e=0.28260704402227216,
+         drag_model=2, flow_u=0.4407499115489842),
+    dict(structure_m=10.0, structure_c=1727.5, structure_k=74606.40625,
+         structure_x0=0.0031681944612205835, structure_v0=4.831371188027306e-70, ice_M=10.0,
+         ice_Cd=0.0, ice_z0=0.0031681944612205835, ice_v0=0.0, impact_e=0.0, flow_u=0.0),
+    dict(structure_m=10.0, structure_c=0.0, structure_k=27992.822897126796, ice_M=529.0824406189153,
+         ice_A=8.278598598463518, ice_Cd=8.143817604372124e-17, ice_z0=-1.401298464324817e-45,
+         ice_v0=0.0, impact_e=0.0, flow_u=0.16558793959893686),
+    dict(structure_m=10.0, structure_c=3.017796921041186e-18, structure_k=2.637082410600901,
+         structure_x0=0.002130621631778318, structure_v0=-0.004502401310002541,
+         ice_M=41.83693608850292, ice_A=7.089538104910952, ice_Cd=1.8736018314044691,
+         ice_z0=-0.04281886921978263, ice_v0=0.37969179098001243, impact_e=0.45363873783994013,
+         drag_model=2, flow_u=0.6903960901809159),
+]
+
+
+@pytest.mark.parametrize("params", DEGENERATE, ids=range(len(DEGENERATE)))
+def test_degenerate_contacts_finish(params):
+    sim = Simulator(Scene(**params))
+    reports = [sim.advance(0.01) for _ in range(300)]
+    values = np.array([[r.x, r.v, r.z, r.w, r.gap, r.impulse] for r in reports])
+    assert np.all(np.isfinite(values))
+    assert min(r.x - r.z for r in reports) >= -1e-12
+    assert all(i.w_minus - i.v_minus >= 0.0 for i in sim.impacts)

@@ -18,30 +18,35 @@ import math
 import numpy as np
 
 
-def _decay_ratio(x: float) -> float:
-    """(1 - e^{-x}) / x, accurate for tiny (even subnormal) x: the ice's drift factor."""
-    if x < 1e-5:
-        return 1.0 - x * (0.5 - x / 6.0)
-    return -math.expm1(-x) / x
+def _decay_lag(x: float) -> float:
+    """(1 - e^{-x}) / x - 1 for x >= 0, without cancellation at small x.
+
+    The ice's drift is ``w0 t + r0 t * _decay_lag(kappa t)``: the lag behind coasting at w0,
+    exact to rounding even when that lag is far below the rounding of u t."""
+    if x < 1e-2:  # series, truncation ~ x^6 / 5040
+        return -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
+    return -math.expm1(-x) / x - 1.0
 
 
-def _log_ratio(y: float) -> float:
-    """ln(1 + y) / y, accurate for tiny y (quadratic-drag drift factor)."""
-    if y < 1e-6:
-        return 1.0 - y * (0.5 - y / 3.0)
-    return math.log1p(y) / y
+def _log_lag(y: float) -> float:
+    """ln(1 + y) / y - 1 for y >= 0, without cancellation at small y (quadratic drag)."""
+    if y < 1e-3:  # series, truncation ~ y^6 / 7
+        return -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
+    return math.log1p(y) / y - 1.0
 
 
-def _decay_ratio_array(x: np.ndarray) -> np.ndarray:
-    small = x < 1e-5
+def _decay_lag_array(x: np.ndarray) -> np.ndarray:
+    small = x < 1e-2
     safe = np.where(small, 1.0, x)
-    return np.where(small, 1.0 - x * (0.5 - x / 6.0), -np.expm1(-safe) / safe)
+    series = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
+    return np.where(small, series, -np.expm1(-safe) / safe - 1.0)
 
 
-def _log_ratio_array(y: np.ndarray) -> np.ndarray:
-    small = y < 1e-6
+def _log_lag_array(y: np.ndarray) -> np.ndarray:
+    small = y < 1e-3
     safe = np.where(small, 1.0, y)
-    return np.where(small, 1.0 - y * (0.5 - y / 3.0), np.log1p(safe) / safe)
+    series = -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
+    return np.where(small, series, np.log1p(safe) / safe - 1.0)
 
 
 class LinearDrag:
@@ -72,14 +77,14 @@ class LinearDrag:
         """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
         x = self.kappa * t
-        return u * t + r0 * t * _decay_ratio(x), u + r0 * math.exp(-x)
+        return w0 * t + r0 * t * _decay_lag(x), u + r0 * math.exp(-x)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
         t = np.asarray(t, dtype=float)
         r0 = w0 - u
         x = self.kappa * t
-        return z0 + u * t + r0 * t * _decay_ratio_array(x), u + r0 * np.exp(-x)
+        return z0 + w0 * t + r0 * t * _decay_lag_array(x), u + r0 * np.exp(-x)
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:
         """(acceleration, bound on |acceleration|, bound on |jerk|) for all later times.
@@ -120,14 +125,14 @@ class QuadraticDrag:
         """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
         y = self.beta * abs(r0) * t
-        return u * t + r0 * t * _log_ratio(y), u + r0 / (1.0 + y)
+        return w0 * t + r0 * t * _log_lag(y), u + r0 / (1.0 + y)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
         t = np.asarray(t, dtype=float)
         r0 = w0 - u
         y = self.beta * abs(r0) * t
-        return z0 + u * t + r0 * t * _log_ratio_array(y), u + r0 / (1.0 + y)
+        return z0 + w0 * t + r0 * t * _log_lag_array(y), u + r0 / (1.0 + y)
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:
         """(acceleration, bound on |acceleration|, bound on |jerk|) for all later times.

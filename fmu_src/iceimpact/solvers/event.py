@@ -37,20 +37,21 @@ ZENO_TIME = 1e-9
 #: stops bouncing: pressed on the structure by the flow, the ice makes ever smaller and faster
 #: bounces (the impact rate doubles every ~25 s in the Figure 2 scene) whose mean force is the
 #: sticking contact force. Closing them bounds the work per simulated second; the motion it skips
-#: is a bounce of height (g'' T^2 / 8) below ~1e-9 m in the Figure 2 scene. docs/exact-solver.md
-#: measures its effect.
+#: is a bounce of height (g'' T^2 / 8) below ~1e-9 m in the Figure 2 scene. The README gives
+#: its measured effect.
 CHATTER_FRACTION = 1e-2
 
 #: Tolerances of the ODE integration of the quadratic-drag sticking phase.
 STICK_RTOL = 1e-12
 STICK_ATOL = (1e-15, 1e-15, 1e-12)  # x (m), v (m/s), drag impulse (N.s)
 
-#: More than this many events within DEGENERATE_WINDOW (s) means a degenerate contact (gap and
-#: contact force both vanish to rounding): the bodies are then held together ...
-MAX_EVENTS_AT_ONE_INSTANT = 8
-DEGENERATE_WINDOW = 1e-12
-DEGENERATE_SPEED = 1e-12  # m/s
-#: ... and held for this long (s) before separation is looked for again.
+#: A closing speed below ROUNDING_SPEED * (|v| + |w| + |u| + wn |x|) is rounding, not an impact.
+ROUNDING_SPEED = 1e-12
+#: More than this many contacts with zero closing speed, each within CHATTER_FRACTION of a period
+#: of the previous one, mean a degenerate contact (gap and contact force both zero to rounding,
+#: as right after a separation): the bodies are then held together for DEGENERATE_HOLD (s),
+#: doubling at each further such contact up to the chatter time, so the work stays bounded.
+MAX_DEGENERATE_CONTACTS = 8
 DEGENERATE_HOLD = 1e-9
 
 
@@ -83,13 +84,15 @@ class Flight:
         dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
         return self.gap0 + (dx - dz)
 
-    def probe(self, tau: float) -> tuple[float, float, float]:
-        """Gap, gap rate and a bound on |gap''| for all later times."""
+    def probe(self, tau: float) -> tuple[float, float, float, float, float]:
+        """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
         dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
         dz, w = self.drag.displacement_change(self.w0, self.u, tau)
-        a_x, j_x, _ = self.osc.derivatives(self.x0 + dx, v)
-        _, a_z_max, _ = self.drag.accel_bounds(w, self.u)
-        return self.gap0 + (dx - dz), v - w, self.osc.amplitude_bound(a_x, j_x) + a_z_max
+        a_x, j_x, s_x = self.osc.derivatives(self.x0 + dx, v)
+        a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
+        return (self.gap0 + (dx - dz), v - w, a_x - a_z,
+                self.osc.amplitude_bound(a_x, j_x) + a_z_max,
+                self.osc.amplitude_bound(j_x, s_x) + j_z_max)
 
     def next_event(self, tau_end: float) -> float | None:
         return self.search.next_root_before(tau_end)
@@ -121,14 +124,18 @@ class LinearStick:
         x, v = self.osc.response(self.x0, self.v0, tau)
         return -self.b * (v - self.u) - self.M * self.osc.acceleration(x, v)
 
-    def probe(self, tau: float) -> tuple[float, float, float]:
+    def probe(self, tau: float) -> tuple[float, float, float, float, float]:
+        """Contact force, its two derivatives, bounds on |lam''| and |lam'''| from here on."""
         x, v = self.osc.response(self.x0, self.v0, tau)
-        _, _, a, j, s, s1 = self.osc.derivative_chain(x, v, 5)
+        _, _, a, j, s, s1, s2 = self.osc.derivative_chain(x, v, 6)
         lam = -self.b * (v - self.u) - self.M * a
         rate = -self.b * a - self.M * j
+        curvature = -self.b * j - self.M * s
         bound = (self.b * self.osc.amplitude_bound(j, s)
                  + self.M * self.osc.amplitude_bound(s, s1))
-        return lam, rate, bound
+        jerk = (self.b * self.osc.amplitude_bound(s, s1)
+                + self.M * self.osc.amplitude_bound(s1, s2))
+        return lam, rate, curvature, bound, jerk
 
     def next_event(self, tau_end: float) -> float | None:
         return self.search.next_root_before(tau_end)
@@ -155,7 +162,7 @@ class QuadraticStick:
         self.drag = solver.drag
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
         period = 2.0 * math.pi / math.sqrt(self.k / (self.m + self.M))
-        self.chunk = max(1.0, 20.0 * period)
+        self.chunk = min(max(0.05, 2.0 * period), 5.0)  # s, fixed from the anchor
         self.start = start
         self.hi = 0.0                   # integrated up to here
         self.y_hi = np.array([x0, v0, 0.0])
@@ -240,11 +247,12 @@ class EventSolver(Solver):
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
         self.mu = self.m * self.M / (self.m + self.M)
+        self.omega_n = scene.omega_n
         self.chatter_time = CHATTER_FRACTION * 2.0 * math.pi / scene.omega_n
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
-        self._events_here = 0
-        self._last_event_t = -math.inf
+        self._degenerate_run = 0
+        self._last_degenerate_t = -math.inf
         self.pending_impulse = 0.0
         s = self.state
         self.seg = None
@@ -256,10 +264,6 @@ class EventSolver(Solver):
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float) -> None:
         """Start the segment that follows time t from state (x, v, z, w)."""
-        if t - self._last_event_t <= DEGENERATE_WINDOW:
-            self._events_here += 1
-        else:
-            self._events_here, self._last_event_t = 0, t
         self.u = u
         self.tau = 0.0
         gap = x - z
@@ -267,16 +271,27 @@ class EventSolver(Solver):
             self._fly(t, x, v, z, w, u)
             return
         closing = w - v
-        if self._events_here > MAX_EVENTS_AT_ONE_INSTANT and abs(closing) <= DEGENERATE_SPEED:
-            # rounding-level contact that keeps re-triggering: merge the velocities (momentum
-            # kept; the change is rounding) and hold the bodies together briefly
-            v = (self.m * v + self.M * w) / (self.m + self.M)
-            self._events_here = 0
-            self._stick(t, x, v, u, hold=DEGENERATE_HOLD)
-            return
+        speed_scale = abs(v) + abs(w) + abs(u) + self.omega_n * abs(x)
+        if closing != 0.0 and abs(closing) <= ROUNDING_SPEED * speed_scale + 1e-300:
+            # a closing speed at rounding level is no impact: merge the velocities
+            # (momentum kept) and let the contact logic below decide
+            v = w = (self.m * v + self.M * w) / (self.m + self.M)
+            closing = 0.0
         if closing > 0.0:  # approaching at contact: impact now
             self._impact(t, x, v, w, u)
             return
+        if closing == 0.0:
+            if t - self._last_degenerate_t > self.chatter_time:
+                self._degenerate_run = 0
+            self._degenerate_run += 1
+            self._last_degenerate_t = t
+            if self._degenerate_run > MAX_DEGENERATE_CONTACTS:
+                # contact keeps re-forming with no speed (contact force ~ 0 to rounding, e.g.
+                # right after a separation): hold the bodies together, for doubling times
+                extra = self._degenerate_run - MAX_DEGENERATE_CONTACTS
+                hold = min(DEGENERATE_HOLD * 2.0 ** min(extra, 60), self.chatter_time)
+                self._stick(t, x, v, u, hold=hold)
+                return
         a_x, a_z = self._free_accels(x, v, w, u)
         lam = contact_force(a_x, a_z, self.m, self.M)
         if closing == 0.0 and lam >= 0.0:
@@ -366,10 +381,7 @@ class EventSolver(Solver):
             x, v, z, w = seg.state(tau_event)
             t_event = seg.t0 + tau_event
             if seg.kind == "flight":
-                if w > v:
-                    self._impact(t_event, x, v, w, u)
-                else:  # touch without closing speed (grazing): contact logic decides
-                    self._begin(t_event, x, v, x, w, u)
+                self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
             else:  # contact force turns tensile: separate with equal velocities
                 a_x, a_z = self._free_accels(x, v, v, u)
                 self._fly_from_contact(t_event, x, v, v, u, contact_force(a_x, a_z, self.m, self.M))

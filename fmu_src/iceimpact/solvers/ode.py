@@ -43,7 +43,10 @@ from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..scene import Scene
 from .base import Impact, Solver, State
-from .event import CHATTER_FRACTION, MAX_EVENTS_AT_ONE_INSTANT, ZENO_TIME
+from .event import CHATTER_FRACTION, ZENO_TIME
+
+#: Events at one instant before the bodies are held together briefly (a degenerate contact).
+MAX_EVENTS_AT_ONE_INSTANT = 8
 
 #: solve_ivp methods by ``solver.ode_method``.
 ODE_METHODS = {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}

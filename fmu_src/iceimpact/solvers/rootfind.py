@@ -1,19 +1,22 @@
-"""First root of a smooth signal, never missed: a bound on its second derivative proves where it
+"""First root of a smooth signal, never missed: bounds on its higher derivatives prove where it
 has none.
 
 The signal f (the gap x - z in flight, the contact force in sticking) is known in closed form with
-its first derivative, and a bound K on |f''| valid for all later times. From a point a with
-f(a) > 0:
+its first two derivatives, a bound K on |f''| and a bound J on |f'''|, both valid for all later
+times. From a point a with f(a) >= 0:
 
 - Taylor: ``f(a + h) >= f(a) + f'(a) h - K h^2 / 2``, positive up to the root ``h_free`` of the
   right-hand side, so [a, a + h_free) holds no root.
-- Monotone stretch: if f'(a) < 0, f' stays negative for ``h < h_mono = -f'(a) / K``; on
-  [a, a + h_mono] f has at most one root, found by ``scipy.optimize.brentq`` if f changes sign,
-  and none if f(a + h_mono) > 0.
+- Rising stretch: if f'(a) >= 0, ``f'(a + s) >= f'(a) + f''(a) s - J s^2 / 2`` stays >= 0 for a
+  while, so f cannot fall below f(a) there. Right after a separation (f, f' and f'' all start at
+  zero) this keeps the steps proportional to the elapsed time, where K alone would crawl.
+- Monotone stretch: if f'(a) < 0, f' stays negative for ``h < h_mono`` (from K, and from
+  ``f'(a) + f''(a) s + J s^2 / 2``); on [a, a + h_mono] f has at most one root, found by
+  ``scipy.optimize.brentq`` if f changes sign, and none if f(a + h_mono) > 0.
 
-Each iteration advances by max(h_free, h_mono). Near a simple root the monotone stretch brackets it
-at once; a grazing touch (f' -> 0 as f -> 0) is approached geometrically and cannot be stepped over,
-unlike a sign test on a fixed grid, which misses two close roots.
+Each iteration advances by the longest of these stretches. Near a simple root the monotone stretch
+brackets it at once; a grazing touch (f' -> 0 as f -> 0) is approached geometrically and cannot be
+stepped over, unlike a sign test on a fixed grid, which misses two close roots.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ class RootSearch:
     closing speed is no impact, a contact force that vanishes without turning tensile no
     separation.
 
-    ``probe(t) -> (f, f', K)`` gives value, slope and a bound on |f''| for all times >= t;
+    ``probe(t) -> (f, f', f'', K, J)`` gives value, slope, curvature and the bounds K, J;
     ``value(t) -> f`` is the cheap value alone. The search keeps its frontier (root-free up to
     ``clear``) between calls, so a sequence of horizons visits the same points as one long call:
     results do not depend on how the caller chops time.
@@ -66,7 +69,7 @@ class RootSearch:
 
     def _step(self) -> None:
         a = self.a
-        f, df, bound = self.probe(a)
+        f, df, d2, bound, jerk = self.probe(a)
         self.iterations += 1
         if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
@@ -79,15 +82,32 @@ class RootSearch:
             return
         disc = math.sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
-        if df < 0.0:
+        if df >= 0.0:
+            # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
+            if jerk > 0.0:
+                h_rise = (d2 + math.sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
+            else:
+                h_rise = math.inf if d2 >= 0.0 else df / -d2
+            h_free = max(h_free, h_rise)
+        else:
+            # f' <= df + d2 s + jerk s^2 / 2 stays < 0 up to h_mono: at most one root there
             h_mono = -df / bound
+            if jerk > 0.0:
+                root = math.sqrt(d2 * d2 - 2.0 * jerk * df)
+                h_mono = max(h_mono, (root - d2) / jerk if d2 < 0.0 else -2.0 * df / (d2 + root))
+            elif d2 <= 0.0:
+                h_mono = math.inf
             if h_mono > h_free:
-                b = a + h_mono
-                if self.value(b) < 0.0:  # exactly one crossing in (a, b)
-                    self.root = brentq(self.value, a, b, xtol=self.xtol, rtol=8.9e-16)
+                b = a + min(h_mono, 1e300)
+                if b > a:
+                    if self.value(b) < 0.0:  # exactly one crossing in (a, b)
+                        self.root = brentq(self.value, a, b, xtol=self.xtol, rtol=8.9e-16)
+                        return
+                    self.a = b
                     return
-                self.a = b
-                return
+        if h_free == math.inf:
+            self.a = math.inf
+            return
         step = h_free
         eps = self.time_eps + 8.9e-16 * a  # a few ulps of the absolute time
         if step < eps:
