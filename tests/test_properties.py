@@ -33,7 +33,10 @@ def _stepped(scene, h, t_end):
     return sim, reports
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# derandomize: CI runs a fixed, reviewed set of examples; exploration with fresh seeds is done
+# by hand (hypothesis --hypothesis-seed) before changes to the solver land
+@settings(max_examples=150, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
 @given(scene=scenes())
 def test_random_scenes_are_sound(scene):
     h = 0.01
