@@ -101,7 +101,7 @@ class RootSearch:
                 b = a + min(h_mono, 1e300)
                 if b > a:
                     if self.value(b) < 0.0:  # exactly one crossing in (a, b)
-                        self.root = brentq(self.value, a, b, xtol=self.xtol, rtol=8.9e-16)
+                        self.root = self._bracketed_root(a, b)
                         return
                     self.a = b
                     return
@@ -123,6 +123,15 @@ class RootSearch:
             self.creep = 0
         b = a + step
         if self.value(b) < 0.0:  # rounding at the frontier: root-free before b, so it is b
-            self.root = brentq(self.value, a, b, xtol=self.xtol, rtol=8.9e-16)
+            self.root = self._bracketed_root(a, b)
             return
         self.a = b
+
+    def _bracketed_root(self, a: float, b: float) -> float:
+        """The crossing in [a, b] (f(a) >= 0 > f(b)) by brentq, to near machine precision.
+
+        Where rounding makes f noisy near its root brentq may not meet its tolerance; its best
+        bracketed estimate is then kept (disp=False) instead of failing the run."""
+        root, _ = brentq(self.value, a, b, xtol=self.xtol, rtol=8.9e-16, maxiter=200,
+                         full_output=True, disp=False)
+        return root
