@@ -1,0 +1,461 @@
+"""Post-processing of a run: impact statistics, displacement spectra and lock-in measures.
+
+Physics-free: every function works on plain numpy arrays (from :func:`iceimpact.run`, from the
+FMU's outputs via :func:`impacts_from_counter`, or from anywhere else), SI units throughout.
+
+- :func:`impact_statistics` -- how many impacts, how often, how regular, how strong?
+  (the impulses ``f_j`` at times ``t_j`` of the article's eq. 39).
+- :func:`displacement_spectrum` -- at which frequency does the structure vibrate?
+  (Welch power spectral density of ``x(t)``, the discrete counterpart of ``|X(omega)|^2`` of
+  eq. 43).
+- :func:`lock_in` -- is the impact period ``T`` such that ``omega_n = 2 pi N / T`` for an
+  integer ``N`` (the resonance/lock-in condition of the article's Section 5, after eq. 44)?
+- :func:`summarize` / :func:`summarize_arrays` -- all of the above as one flat, CSV-ready
+  ``dict[str, float]`` whose keys and units are listed in :data:`SUMMARY_FIELDS`.
+- :func:`impacts_from_counter` -- impact times and impulses recovered from sampled outputs
+  (the FMU's ``contact.count``, ``contact.t_last`` and ``contact.impulse``).
+
+Undefined quantities are ``nan`` (never an exception, so that sweeps can write them to CSV):
+intervals need at least two impacts, impulse means at least one, the dominant frequency a
+structure that moves (see :data:`REST_AMPLITUDE`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.signal import welch
+
+#: Default relative tolerance of :func:`lock_in`: ``|ratio - N| / N <= 0.05`` counts as locked.
+LOCK_IN_TOLERANCE = 0.05
+
+#: Root-mean-square (about its mean) of the displacement, m, at or below which the structure is
+#: considered at rest and its dominant frequency is undefined (nan). Sticking contact or a run
+#: without impacts damps out to a constant x; the "peak" of a spectrum of rounding noise or of a
+#: vanishing exponential tail is not a vibration frequency.
+REST_AMPLITUDE = 1e-9
+
+#: Relative deviation of the sample spacing from its median tolerated as uniform sampling
+#: (sample times computed as sums or products of a step carry rounding errors of ~1e-12).
+UNIFORM_RTOL = 1e-6
+
+#: Fewest samples :func:`displacement_spectrum` accepts.
+MIN_SAMPLES = 8
+
+#: Keys of :func:`summarize` with their units and meaning (all values are floats).
+SUMMARY_FIELDS: dict[str, tuple[str, str]] = {
+    "t_start_s": ("s", "start of the analysed window (the transient)"),
+    "t_end_s": ("s", "end of the analysed window (last sample)"),
+    "omega_n_rad_s": ("rad/s", "natural circular frequency sqrt(k/m) of the structure"),
+    "n_impacts": ("1", "impacts in the window"),
+    "impact_rate_hz": ("Hz", "impacts per second over the window: n_impacts / (t_end - t_start)"),
+    "impact_frequency_hz": ("Hz", "1 / mean_interval_s, the 1/T of the article's Section 5"),
+    "mean_interval_s": ("s", "mean time between consecutive impacts, T (nan if < 2 impacts)"),
+    "std_interval_s": ("s", "standard deviation (ddof = 0) of the intervals"),
+    "cv_interval": ("1", "std_interval_s / mean_interval_s: 0 for a perfectly periodic train"),
+    "mean_impulse_ns": ("N.s", "mean impulse per impact on the structure (nan if none)"),
+    "max_impulse_ns": ("N.s", "largest impulse of one impact (nan if none)"),
+    "total_impulse_ns": ("N.s", "sum of the impact impulses (sticking contact excluded)"),
+    "x_peak_m": ("m", "max |x| in the window"),
+    "x_mean_m": ("m", "mean of x in the window"),
+    "x_rms_m": ("m", "root mean square of x (about x = 0, the unloaded equilibrium)"),
+    "x_std_m": ("m", "standard deviation of x (about its mean): the vibration amplitude scale"),
+    "dominant_frequency_hz": ("Hz", "peak of the Welch PSD of x (nan when at rest or the "
+                                    "sampling is unusable)"),
+    "dominant_over_natural": ("1", "2 pi dominant_frequency_hz / omega_n"),
+    "omega_ratio": ("1", "omega_n / (2 pi impact_frequency_hz) = omega_n T / (2 pi)"),
+    "nearest_n": ("1", "integer N >= 1 nearest to omega_ratio (0 if undefined)"),
+    "lockin_mismatch": ("1", "|omega_ratio - N| / N"),
+    "locked": ("1", "1.0 if lockin_mismatch <= the tolerance, else 0.0"),
+    "sticking_fraction": ("1", "fraction of the window's samples in sticking contact "
+                               "(nan if not known)"),
+    "sticking_since_s": ("s", "start of the sticking phase that lasts to the end (nan if none)"),
+}
+
+
+# Impacts ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ImpactStatistics:
+    """Statistics of the impacts in a time window; nan marks an undefined quantity.
+
+    Intervals are the differences of consecutive impact times inside the window (so they need
+    ``count >= 2``); impulses are those delivered to the structure, ``m (v+ - v-)`` (eq. 12-17).
+    """
+
+    count: int              # impacts in the window
+    duration: float         # window length, s
+    rate: float             # count / duration, 1/s (nan if duration <= 0)
+    mean_interval: float    # s (nan if count < 2)
+    std_interval: float     # s, population standard deviation, ddof = 0 (nan if count < 2)
+    cv_interval: float      # std_interval / mean_interval (nan if count < 2)
+    mean_impulse: float     # N.s (nan if count == 0 or impulses unknown)
+    max_impulse: float      # N.s (nan if count == 0 or impulses unknown)
+    total_impulse: float    # N.s (0 if count == 0, nan if impulses unknown)
+
+    @property
+    def frequency(self) -> float:
+        """1 / mean_interval, Hz: the impact frequency 1/T (nan if undefined)."""
+        if math.isfinite(self.mean_interval) and self.mean_interval > 0.0:
+            return 1.0 / self.mean_interval
+        return math.nan
+
+
+def _impact_columns(impacts: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Times and impulses of an impact array: structured (fields t, impulse) or plain times."""
+    arr = np.asarray(impacts)
+    if arr.dtype.names is not None:
+        if "t" not in arr.dtype.names:
+            raise ValueError("impacts: a structured array needs a field 't' (impact times, s)")
+        times = np.asarray(arr["t"], dtype=float).ravel()
+        impulses = (np.asarray(arr["impulse"], dtype=float).ravel()
+                    if "impulse" in arr.dtype.names else None)
+    else:
+        if arr.ndim > 1:
+            raise ValueError(f"impacts: expected a 1-D array of times, got shape {arr.shape}")
+        times = arr.astype(float).ravel()
+        impulses = None
+    if times.size and not np.all(np.isfinite(times)):
+        raise ValueError("impacts: impact times must be finite")
+    if times.size > 1 and np.any(np.diff(times) < 0.0):
+        raise ValueError("impacts: impact times must be non-decreasing")
+    return times, impulses
+
+
+def impact_statistics(impacts: np.ndarray, t_start: float = 0.0,
+                      t_end: float | None = None) -> ImpactStatistics:
+    """Count, rate, interval and impulse statistics of the impacts with ``t_start <= t <= t_end``.
+
+    ``impacts`` is the structured array of :attr:`Result.impacts` (fields ``t`` in s and
+    ``impulse`` in N.s; the other fields are ignored), any structured array with those fields
+    (e.g. from :func:`impacts_from_counter`), or a plain 1-D array of impact times (then the
+    impulse statistics are nan). ``t_end`` defaults to the time of the last impact, so that the
+    rate of a regular train starting one period after ``t_start`` is exactly 1/T; pass the end of
+    the simulation to count a quiet tail (impacts that stopped) in the rate.
+
+    Undefined quantities are nan: the interval statistics for fewer than two impacts, the
+    impulse mean and maximum for none, the rate for an empty window.
+    """
+    times, impulses = _impact_columns(impacts)
+    if not math.isfinite(t_start):
+        raise ValueError(f"t_start = {t_start!r} must be finite (s)")
+    if t_end is None:
+        t_end = float(times[-1]) if times.size and times[-1] >= t_start else t_start
+    elif not math.isfinite(t_end) or t_end < t_start:
+        raise ValueError(f"t_end = {t_end!r} must be finite and >= t_start = {t_start!r} (s)")
+    inside = (times >= t_start) & (times <= t_end)
+    t_in = times[inside]
+    count = int(t_in.size)
+    duration = float(t_end - t_start)
+    rate = count / duration if duration > 0.0 else math.nan
+    if count >= 2:
+        intervals = np.diff(t_in)
+        mean_interval = float(np.mean(intervals))
+        std_interval = float(np.std(intervals))
+        cv_interval = std_interval / mean_interval if mean_interval > 0.0 else math.nan
+    else:
+        mean_interval = std_interval = cv_interval = math.nan
+    if impulses is None:
+        mean_impulse = max_impulse = total_impulse = math.nan
+    else:
+        j_in = impulses[inside]
+        total_impulse = float(np.sum(j_in))
+        mean_impulse = float(np.mean(j_in)) if count else math.nan
+        max_impulse = float(np.max(j_in)) if count else math.nan
+    return ImpactStatistics(count=count, duration=duration, rate=rate,
+                            mean_interval=mean_interval, std_interval=std_interval,
+                            cv_interval=cv_interval, mean_impulse=mean_impulse,
+                            max_impulse=max_impulse, total_impulse=total_impulse)
+
+
+#: dtype of :func:`impacts_from_counter`: time (s), impulse (N.s), impacts sharing the sample.
+COUNTER_IMPACT_DTYPE = np.dtype([("t", float), ("impulse", float), ("multiplicity", float)])
+
+
+def impacts_from_counter(t: np.ndarray, count: np.ndarray, t_last: np.ndarray | None = None,
+                         impulse: np.ndarray | None = None) -> np.ndarray:
+    """Impacts recovered from sampled outputs: one row per impact, fields ``t``, ``impulse``.
+
+    ``count`` is the cumulative impact counter at the sample times ``t`` (the FMU's
+    ``contact.count``); an impact happened in each sample interval where it increases.
+    ``t_last`` (``contact.t_last``, s) gives the exact time of the latest of them; without it
+    the time is the end of the sample interval. ``impulse`` (``contact.impulse``, N.s) is the
+    impulse delivered during each interval (an increase at sample 0 belongs to that sample).
+
+    When k > 1 impacts share one interval (a fast sequence, e.g. a Zeno accumulation), only the
+    last time is known: the k - 1 earlier ones are spread evenly between the interval start and
+    that time and the interval's impulse is shared equally; ``multiplicity`` records k. The
+    interval's impulse also includes any sticking-contact impulse of that interval.
+    """
+    t = np.asarray(t, dtype=float).ravel()
+    count = np.asarray(count, dtype=float).ravel()
+    if count.shape != t.shape:
+        raise ValueError(f"count: shape {count.shape} differs from t's {t.shape}")
+    for name, arr in (("t_last", t_last), ("impulse", impulse)):
+        if arr is not None and np.asarray(arr).ravel().shape != t.shape:
+            raise ValueError(f"{name}: shape {np.asarray(arr).shape} differs from t's {t.shape}")
+    if t.size == 0:
+        return np.zeros(0, dtype=COUNTER_IMPACT_DTYPE)
+    increments = np.diff(count, prepend=0.0)
+    if np.any(increments < 0):
+        raise ValueError("count: the impact counter must be non-decreasing")
+    rows: list[tuple[float, float, float]] = []
+    for i in np.flatnonzero(increments > 0):
+        k = int(round(increments[i]))
+        t_end_i = float(np.asarray(t_last).ravel()[i]) if t_last is not None else float(t[i])
+        t_begin_i = float(t[i - 1]) if i > 0 else min(0.0, t_end_i)
+        j = float(np.asarray(impulse).ravel()[i]) / k if impulse is not None else math.nan
+        for q in range(k):
+            tq = t_begin_i + (t_end_i - t_begin_i) * (q + 1) / k
+            rows.append((tq, j, float(k)))
+    return np.array(rows, dtype=COUNTER_IMPACT_DTYPE)
+
+
+# Spectrum --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Spectrum:
+    """One-sided Welch power spectral density of the structure displacement."""
+
+    f: np.ndarray                # frequencies, Hz
+    psd: np.ndarray              # power spectral density, m^2/Hz
+    dominant_frequency: float    # Hz, nan when the structure is at rest
+
+    @property
+    def resolution(self) -> float:
+        """Bin width of the spectrum, Hz."""
+        return float(self.f[1] - self.f[0]) if self.f.size > 1 else math.nan
+
+
+def sample_spacing(t: np.ndarray, name: str = "t") -> float:
+    """The uniform spacing of the sample times ``t`` (s); ValueError naming ``name`` otherwise."""
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1 or t.size < 2:
+        raise ValueError(f"{name}: need a 1-D array of at least 2 sample times, got {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError(f"{name}: sample times must be finite")
+    dt = np.diff(t)
+    h = float(np.median(dt))
+    if not h > 0.0 or np.any(dt <= 0.0):
+        raise ValueError(f"{name}: sample times must be strictly increasing")
+    worst = float(np.max(np.abs(dt - h)))
+    if worst > UNIFORM_RTOL * h:
+        raise ValueError(f"{name}: sampling is not uniform (spacings differ from the median "
+                         f"{h:.6g} s by up to {worst:.3g} s); resample onto a uniform grid")
+    return h
+
+
+def dominant_frequency(f: np.ndarray, psd: np.ndarray) -> float:
+    """Frequency (Hz) of the largest PSD value, f = 0 excluded, refined between bins.
+
+    The refinement fits a parabola through the logarithm of the PSD at the peak bin and its two
+    neighbours and takes its vertex (exact for a Gaussian-shaped peak, within a fraction of a bin
+    for the Hann window used here); the shift is limited to half a bin. nan when the PSD above
+    f = 0 is identically zero.
+    """
+    f = np.asarray(f, dtype=float)
+    psd = np.asarray(psd, dtype=float)
+    positive = np.flatnonzero(f > 0.0)
+    if positive.size == 0:
+        return math.nan
+    k = int(positive[np.argmax(psd[positive])])
+    if not psd[k] > 0.0:
+        return math.nan
+    if 0 < k < f.size - 1 and f[k - 1] > 0.0 and psd[k - 1] > 0.0 and psd[k + 1] > 0.0:
+        a, b, c = np.log(psd[k - 1]), np.log(psd[k]), np.log(psd[k + 1])
+        denom = a - 2.0 * b + c
+        if denom < 0.0:
+            shift = float(np.clip(0.5 * (a - c) / denom, -0.5, 0.5))
+            return float(f[k] + shift * (f[k + 1] - f[k]))
+    return float(f[k])
+
+
+def displacement_spectrum(t: np.ndarray, x: np.ndarray, t_start: float = 0.0,
+                          nperseg: int | None = None) -> Spectrum:
+    """Welch PSD (m^2/Hz) of the displacement ``x`` (m) sampled uniformly at times ``t`` (s).
+
+    Only samples with ``t >= t_start`` are used (skip the transient). The mean is removed
+    (``detrend='constant'``), Hann window, 50 % overlap. ``nperseg`` defaults to a quarter of the
+    samples (at least 256, or all of them if fewer): about 7 averaged segments and a resolution
+    of 4 / (record length) Hz. The dominant frequency is the peak above f = 0 refined by
+    :func:`dominant_frequency`; it is nan when the structure is at rest, i.e. the RMS of
+    ``x - mean(x)`` is at most :data:`REST_AMPLITUDE` m.
+
+    Raises ValueError (naming the argument) for non-uniform sampling, mismatched shapes, fewer
+    than :data:`MIN_SAMPLES` samples after ``t_start`` or non-finite values.
+    """
+    t = np.asarray(t, dtype=float).ravel()
+    x = np.asarray(x, dtype=float).ravel()
+    if x.shape != t.shape:
+        raise ValueError(f"x: shape {x.shape} differs from t's {t.shape}")
+    keep = t >= t_start
+    t, x = t[keep], x[keep]
+    if t.size < MIN_SAMPLES:
+        raise ValueError(f"t: need at least {MIN_SAMPLES} samples at t >= t_start = {t_start!r}, "
+                         f"got {t.size}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("x: displacements must be finite")
+    h = sample_spacing(t, "t")
+    n = t.size
+    if nperseg is None:
+        nperseg = max(min(n, 256), n // 4)
+    elif isinstance(nperseg, bool) or not isinstance(nperseg, int | np.integer) or nperseg < 2:
+        raise ValueError(f"nperseg = {nperseg!r} must be an integer >= 2")
+    nperseg = min(int(nperseg), n)
+    f, psd = welch(x, fs=1.0 / h, window="hann", nperseg=nperseg, detrend="constant",
+                   scaling="density")
+    at_rest = float(np.std(x)) <= REST_AMPLITUDE
+    dom = math.nan if at_rest else dominant_frequency(f, psd)
+    return Spectrum(f=f, psd=psd, dominant_frequency=dom)
+
+
+# Lock-in ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LockIn:
+    """How close the impact train is to the lock-in condition ``omega_n = 2 pi N / T``."""
+
+    ratio: float       # omega_n / (2 pi f_impact) = omega_n T / (2 pi), nan if undefined
+    n: int             # nearest integer N >= 1 (0 if the ratio is undefined)
+    mismatch: float    # |ratio - N| / N (nan if undefined)
+    locked: bool       # mismatch <= tolerance
+    tolerance: float   # relative tolerance used
+
+
+def lock_in(omega_n: float, impact_frequency: float,
+            tolerance: float = LOCK_IN_TOLERANCE) -> LockIn:
+    """Distance of an impact train from the lock-in (resonance) condition of Section 5.
+
+    The article models the impacts as a comb of impulses of period ``T`` (eq. 40) whose Fourier
+    transform has lines at ``2 pi N / T`` (eq. 41); the structure's response (eq. 44) resonates
+    when ``omega_n = 2 pi N / T`` for an integer ``N >= 1``. With ``omega_n`` in rad/s and
+    ``impact_frequency = 1/T`` in Hz this returns ``ratio = omega_n / (2 pi impact_frequency)``,
+    the nearest ``N >= 1``, the relative mismatch ``|ratio - N| / N`` and ``locked =
+    mismatch <= tolerance`` (default 5 %). The article's Figure 13 case: ``omega_n = 25 rad/s``,
+    ``T = 0.5 s`` gives ratio 1.99, N = 2, locked.
+
+    A non-finite or zero impact frequency (no impact train) gives ratio nan, N = 0, not locked.
+
+    Caveat: the mismatch is at most 0.5 / N, so for N >= 0.5 / tolerance (N >= 10 at 5 %) every
+    ratio counts as locked; the test only discriminates for small N. Physically, the comb line
+    2 pi N / T falls inside the structure's half-power band when the mismatch is below about the
+    damping ratio zeta (0.0025 in the article's scenes); pass ``tolerance=zeta`` for that reading.
+    Whether the impacts form a regular train at all is a separate question: check the
+    coefficient of variation of the intervals (:class:`ImpactStatistics`).
+    """
+    if not (math.isfinite(omega_n) and omega_n > 0.0):
+        raise ValueError(f"omega_n = {omega_n!r} must be a finite number > 0 (rad/s)")
+    if not (math.isfinite(tolerance) and tolerance >= 0.0):
+        raise ValueError(f"tolerance = {tolerance!r} must be a finite number >= 0")
+    if math.isnan(impact_frequency) or impact_frequency == 0.0:
+        return LockIn(ratio=math.nan, n=0, mismatch=math.nan, locked=False, tolerance=tolerance)
+    if not (math.isfinite(impact_frequency) and impact_frequency > 0.0):
+        raise ValueError(f"impact_frequency = {impact_frequency!r} must be a finite number "
+                         ">= 0 (Hz) or nan")
+    ratio = omega_n / (2.0 * math.pi * impact_frequency)
+    n = max(1, round(ratio))
+    mismatch = abs(ratio - n) / n
+    return LockIn(ratio=ratio, n=n, mismatch=mismatch, locked=mismatch <= tolerance,
+                  tolerance=tolerance)
+
+
+# Summary ---------------------------------------------------------------------------------------
+def _uniform_prefix(t: np.ndarray) -> int:
+    """Number of leading samples of ``t`` that are uniformly spaced (a short last interval, as
+    :func:`iceimpact.run` appends when t_end is not a multiple of dt, is dropped)."""
+    if t.size < 3:
+        return t.size
+    dt = np.diff(t)
+    h = float(np.median(dt))
+    if np.all(np.abs(dt[:-1] - h) <= UNIFORM_RTOL * h) and abs(dt[-1] - h) > UNIFORM_RTOL * h:
+        return t.size - 1
+    return t.size
+
+
+def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n: float,
+                     transient: float = 0.0, sticking: np.ndarray | None = None,
+                     sticking_since: float | None = None,
+                     tolerance: float = LOCK_IN_TOLERANCE) -> dict[str, float]:
+    """:func:`summarize` on plain arrays: samples ``t`` (s), ``x`` (m), an impact array as
+    accepted by :func:`impact_statistics`, ``omega_n`` (rad/s), optional per-sample sticking
+    flags and the start of a final sticking phase (s). Keys and units: :data:`SUMMARY_FIELDS`.
+    """
+    t = np.asarray(t, dtype=float).ravel()
+    x = np.asarray(x, dtype=float).ravel()
+    if x.shape != t.shape:
+        raise ValueError(f"x: shape {x.shape} differs from t's {t.shape}")
+    if t.size == 0:
+        raise ValueError("t: no samples")
+    if not (math.isfinite(transient) and transient >= 0.0):
+        raise ValueError(f"transient = {transient!r} must be a finite number >= 0 (s)")
+    t_end = float(t[-1])
+    if transient > t_end:
+        raise ValueError(f"transient = {transient!r} s is beyond the last sample t = {t_end!r} s")
+    window = t >= transient
+    t_w, x_w = t[window], x[window]
+
+    stats = impact_statistics(impacts, t_start=transient, t_end=t_end)
+    # The article's T is the time between impacts, so lock-in uses 1 / mean interval, not the
+    # window rate (which a quiet tail after the impacts stopped would lower).
+    lock = lock_in(omega_n, stats.frequency, tolerance)
+
+    dom = math.nan
+    n_uniform = _uniform_prefix(t_w)
+    try:
+        spectrum = displacement_spectrum(t_w[:n_uniform], x_w[:n_uniform])
+        dom = spectrum.dominant_frequency
+    except ValueError:
+        pass  # too few or non-uniform samples: no spectrum, dominant frequency undefined
+
+    if sticking is not None:
+        stick_w = np.asarray(sticking, dtype=bool).ravel()[window]
+        sticking_fraction = float(np.mean(stick_w)) if stick_w.size else math.nan
+    else:
+        sticking_fraction = math.nan
+
+    out = {
+        "t_start_s": float(transient),
+        "t_end_s": t_end,
+        "omega_n_rad_s": float(omega_n),
+        "n_impacts": float(stats.count),
+        "impact_rate_hz": stats.rate,
+        "impact_frequency_hz": stats.frequency,
+        "mean_interval_s": stats.mean_interval,
+        "std_interval_s": stats.std_interval,
+        "cv_interval": stats.cv_interval,
+        "mean_impulse_ns": stats.mean_impulse,
+        "max_impulse_ns": stats.max_impulse,
+        "total_impulse_ns": stats.total_impulse,
+        "x_peak_m": float(np.max(np.abs(x_w))),
+        "x_mean_m": float(np.mean(x_w)),
+        "x_rms_m": float(np.sqrt(np.mean(x_w * x_w))),
+        "x_std_m": float(np.std(x_w)),
+        "dominant_frequency_hz": float(dom),
+        "dominant_over_natural": float(2.0 * math.pi * dom / omega_n),
+        "omega_ratio": lock.ratio,
+        "nearest_n": float(lock.n),
+        "lockin_mismatch": lock.mismatch,
+        "locked": 1.0 if lock.locked else 0.0,
+        "sticking_fraction": sticking_fraction,
+        "sticking_since_s": math.nan if sticking_since is None else float(sticking_since),
+    }
+    assert out.keys() == SUMMARY_FIELDS.keys()
+    return out
+
+
+def summarize(result: Any, transient: float = 0.0,
+              tolerance: float = LOCK_IN_TOLERANCE) -> dict[str, float]:
+    """One flat dict of floats (keys and units in :data:`SUMMARY_FIELDS`) for a run's ``Result``.
+
+    Everything is computed on ``t >= transient`` (s) only: impact statistics (with the window
+    ending at the last sample), displacement peak/mean/RMS, the dominant frequency of the Welch
+    spectrum of x, and the lock-in measures of :func:`lock_in` for the impact period T = mean
+    interval (Section 5 of the article). Undefined entries are nan (fewer than two impacts, a
+    structure at rest, too few samples for a spectrum, no sticking phase). ``result`` needs
+    ``t``, ``x``, ``impacts`` and ``scene.omega_n``; ``sticking`` and ``sticking_since`` are
+    used when present.
+    """
+    return summarize_arrays(result.t, result.x, result.impacts, result.scene.omega_n,
+                            transient=transient, sticking=getattr(result, "sticking", None),
+                            sticking_since=getattr(result, "sticking_since", None),
+                            tolerance=tolerance)
