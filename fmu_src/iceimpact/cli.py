@@ -1,0 +1,259 @@
+"""The ``iceimpact`` command.
+
+    iceimpact simulate [scene.toml] [--set NAME=VALUE ...] --t-end 60 --out samples.csv
+    iceimpact sweep [scene.toml] --vary flow.u=0.01:2:50 --vary impact.e=0:1:11 \\
+        --t-end 200 --transient 50 --out sweep.csv [--workers N] [--dask ADDRESS]
+
+Scenes are TOML files with the FMU's parameter names (:func:`iceimpact.load_scene`); without one
+the article's Figure 2 scene is used. ``--set`` changes single parameters of it. Runs use the core
+(:func:`iceimpact.run`), not the FMU. See docs/sweeps.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import signal
+import sys
+import time
+from collections.abc import Sequence
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+from .scene import ParameterError, Scene, load_scene
+from .simulator import Result, run
+from .sweep import DEFAULT_DT, SweepError, apply, output_format, parse_set, parse_vary, sweep
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    return value
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number >= 0")
+    return value
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
+    return value
+
+
+def _add_scene_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", nargs="?", type=Path,
+                   help="scene file (TOML, FMI parameter names); default: the article's "
+                        "Figure 2 scene")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="NAME=VALUE",
+                   help="change one parameter of the scene, e.g. --set ice.A=2 (repeatable)")
+    p.add_argument("--t-end", type=_positive, default=60.0, metavar="S",
+                   help="simulated time per run, s (default 60)")
+    p.add_argument("--transient", type=_non_negative, default=0.0, metavar="S",
+                   help="summary measures use t >= this, s (default 0)")
+    p.add_argument("--dt", type=_positive, default=DEFAULT_DT, metavar="S",
+                   help=f"sample step, s (default {DEFAULT_DT:g}); the cost of a run is "
+                        "roughly proportional to t_end / dt")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``iceimpact`` (subcommands ``simulate`` and ``sweep``)."""
+    parser = argparse.ArgumentParser(
+        prog="iceimpact",
+        description="Flow-driven repeated ice impacts on a flexible structure (exact "
+                    "event-driven solver).")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    sim = sub.add_parser("simulate", help="run one scene, write its samples, print a summary",
+                         description="Run one scene with the core solver, write the sampled "
+                                     "states as CSV and print the summary measures.")
+    _add_scene_options(sim)
+    sim.add_argument("--out", type=Path, default=None, metavar="CSV",
+                     help="samples: t, x, v, z, w, gap, impulse, sticking (SI units)")
+    sim.add_argument("--impacts", type=Path, default=None, metavar="CSV",
+                     help="impact list: one row per impact, fields of iceimpact.Impact")
+    sim.set_defaults(handler=_simulate, subparser=sim)
+
+    sw = sub.add_parser(
+        "sweep", help="run a grid of scenes in parallel, one summary row per run",
+        description="Run every combination of the --vary values (Cartesian grid) with the "
+                    "core solver, in parallel, and write one row per run: the varied "
+                    "parameters, status, wall_s and the summary measures. Rerunning the same "
+                    "command resumes an interrupted sweep.")
+    _add_scene_options(sw)
+    sw.add_argument("--vary", action="append", default=[], metavar="NAME=SPEC", required=True,
+                    help="NAME=START:STOP:COUNT (linspace), NAME=log:START:STOP:COUNT "
+                         "(geomspace) or NAME=a,b,c; NAME is an FMI name such as flow.u, "
+                         "impact.e, ice.A (repeatable: one axis each)")
+    sw.add_argument("--out", type=Path, required=True, metavar="FILE",
+                    help="output table (.csv, or .parquet with pyarrow); resumed if it exists")
+    sw.add_argument("--format", choices=("csv", "parquet"), default=None,
+                    help="table format (default: from the --out suffix, else csv)")
+    sw.add_argument("--workers", type=_count, default=None, metavar="N",
+                    help=f"worker processes (default: all cores, here {os.cpu_count()})")
+    sw.add_argument("--chunksize", type=_count, default=None, metavar="N",
+                    help="runs per task (default: automatic)")
+    sw.add_argument("--dask", default=None, metavar="ADDRESS",
+                    help="run on a dask.distributed scheduler, e.g. tcp://host:8786 "
+                         "(pip install 'iceimpact[dask]')")
+    sw.add_argument("--overwrite", action="store_true",
+                    help="replace an output table written by a different sweep")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.set_defaults(handler=_sweep, subparser=sw)
+    return parser
+
+
+def _base_scene(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scene:
+    try:
+        base = load_scene(args.scene) if args.scene is not None else Scene()
+    except FileNotFoundError:
+        parser.error(f"scene file {str(args.scene)!r} not found")
+    except (ParameterError, ValueError, OSError) as exc:  # TOML syntax, bad values, unreadable
+        parser.error(f"scene file {str(args.scene)!r}: {exc}")
+    changes = {}
+    try:
+        for spec in args.sets:
+            name, value = parse_set(spec)
+            changes[name] = value
+        return apply(base, changes)
+    except (SweepError, ParameterError) as exc:
+        parser.error(str(exc))
+
+
+def _check_times(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    if args.transient >= args.t_end:
+        parser.error(f"--transient {args.transient:g} must be less than --t-end {args.t_end:g}")
+    if args.dt > args.t_end:
+        parser.error(f"--dt {args.dt:g} must not exceed --t-end {args.t_end:g}")
+
+
+def _format_value(value: float) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+def _write_samples(path: Path, result: Result) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(["t", "x", "v", "z", "w", "gap", "impulse", "sticking"])
+        for row in zip(result.t.tolist(), result.x.tolist(), result.v.tolist(),
+                       result.z.tolist(), result.w.tolist(), result.gap.tolist(),
+                       result.impulse.tolist(), result.sticking.astype(int).tolist(),
+                       strict=True):
+            writer.writerow(row)
+
+
+def _write_impacts(path: Path, result: Result) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    names = result.impacts.dtype.names or ()
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(names)
+        for row in result.impacts.tolist():
+            writer.writerow(row)
+
+
+def _simulate(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    from .analysis import SUMMARY_FIELDS, summarize
+
+    scene = _base_scene(parser, args)
+    _check_times(parser, args)
+    t0 = time.perf_counter()
+    result = run(scene, args.t_end, dt=args.dt)
+    wall = time.perf_counter() - t0
+    summary = summarize(result, args.transient)
+    if args.out is not None:
+        _write_samples(args.out, result)
+    if args.impacts is not None:
+        _write_impacts(args.impacts, result)
+    source = str(args.scene) if args.scene is not None else "Figure 2 scene"
+    print(f"{source}: {args.t_end:g} s simulated in {wall:.3f} s wall, "
+          f"{len(result.impacts)} impacts")
+    print(f"summary over t >= {args.transient:g} s:")
+    width = max(map(len, summary))
+    for key, value in summary.items():
+        unit = SUMMARY_FIELDS.get(key, ("", ""))[0]
+        unit = "" if unit in ("", "1") else f" {unit}"
+        print(f"  {key:<{width}}  {_format_value(value)}{unit}")
+    for label, path in (("samples", args.out), ("impacts", args.impacts)):
+        if path is not None:
+            print(f"{label}: {path}")
+    return 0
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    base = _base_scene(parser, args)
+    _check_times(parser, args)
+    grid: dict[str, list] = {}
+    try:
+        for spec in args.vary:
+            name, values = parse_vary(spec)
+            if name in grid:
+                raise SweepError(f"--vary {spec!r}: {name} is already varied")
+            grid[name] = values
+        output_format(args.out, args.format)  # a missing pyarrow is reported before anything runs
+    except SweepError as exc:
+        parser.error(str(exc))
+    n_runs = math.prod(len(v) for v in grid.values())
+    if not args.quiet:
+        axes = " x ".join(f"{n} ({len(v)})" for n, v in grid.items())
+        print(f"sweep: {n_runs} runs over {axes}, t_end {args.t_end:g} s, dt {args.dt:g} s "
+              f"-> {args.out}", file=sys.stderr)
+    t0 = time.perf_counter()
+    previous = signal.signal(signal.SIGTERM, _terminate)  # stop like Ctrl-C: workers too
+    try:
+        rows = sweep(base, grid, t_end=args.t_end, transient=args.transient, dt=args.dt,
+                     out=args.out, workers=args.workers, progress=not args.quiet,
+                     dask_address=args.dask, fmt=args.format, overwrite=args.overwrite,
+                     chunksize=args.chunksize)
+    except SweepError as exc:
+        parser.error(str(exc))
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished runs are in {args.out}; rerun the same command to "
+              "resume", file=sys.stderr)
+        return 130
+    except BrokenProcessPool as exc:
+        print(f"a worker process died ({exc}); finished runs are in {args.out}; rerun the "
+              "same command to resume", file=sys.stderr)
+        return 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    errors = [r for r in rows if r["status"] != "ok"]
+    print(f"{len(rows)} runs ({len(rows) - len(errors)} ok, {len(errors)} errors) in "
+          f"{time.perf_counter() - t0:.1f} s -> {args.out}")
+    for row in errors[:5]:
+        print(f"  run {row['run']}: {row['status']}")
+    if len(errors) > 5:
+        print(f"  ... and {len(errors) - 5} more (status column)")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``iceimpact``; returns the exit status (argument errors exit with 2)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    return args.handler(args.subparser, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,202 @@
+"""The ``iceimpact`` command: argument errors, simulate, sweep, the installed entry point,
+and a sweep killed half-way then resumed."""
+
+from __future__ import annotations
+
+import csv
+import math
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from iceimpact import Scene, run
+from iceimpact.analysis import summarize
+from iceimpact.cli import main
+from iceimpact.sweep import read_table, sweep
+
+SCRIPT = Path(sys.executable).with_name("iceimpact")
+FAST = ["--t-end", "4", "--dt", "0.01"]
+
+
+def rows_of(path: Path) -> list[list[str]]:
+    with open(path, newline="") as fh:
+        return list(csv.reader(fh))
+
+
+def usage_error(capsys, argv: list[str]) -> str:
+    """Run ``main(argv)``, expect an argparse error (exit 2) and return stderr."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return err
+
+
+@pytest.fixture
+def scene_file(tmp_path: Path) -> Path:
+    path = tmp_path / "scene.toml"
+    path.write_text('"impact.e" = 0.8\n[ice]\nM = 800.0\n[drag]\nmodel = 2\n')
+    return path
+
+
+@pytest.mark.parametrize("argv,words", [
+    (["sweep", "--vary", "ice.mass=1,2", "--out", "x.csv"], "unknown parameter 'ice.mass'"),
+    (["sweep", "--vary", "flow.u=0:1", "--out", "x.csv"], "--vary 'flow.u=0:1'"),
+    (["sweep", "--vary", "flow.u=log:0:1:4", "--out", "x.csv"], "nonzero"),
+    (["sweep", "--vary", "flow.u=1,2", "--vary", "flow.u=3", "--out", "x.csv"],
+     "already varied"),
+    (["sweep", "--out", "x.csv"], "--vary"),
+    (["sweep", "--vary", "flow.u=1,2"], "--out"),
+    (["sweep", "--vary", "flow.u=1", "--out", "x.csv", "--workers", "0"], "--workers"),
+    (["sweep", "--vary", "flow.u=1", "--out", "x.csv", "--t-end", "-1"], "--t-end"),
+    (["sweep", "--vary", "flow.u=1", "--out", "x.csv", "--t-end", "5", "--transient", "5"],
+     "--transient"),
+    (["sweep", "--vary", "flow.u=1", "--out", "x.csv", "--set", "ice.M=-3"],
+     "ice.M = -3.0 is not allowed"),
+    (["sweep", "--vary", "flow.u=1", "--out", "x.csv", "--set", "ice.M"], "--set 'ice.M'"),
+    (["sweep", "missing.toml", "--vary", "flow.u=1", "--out", "x.csv"],
+     "scene file 'missing.toml' not found"),
+    (["simulate", "--set", "foo=1"], "unknown parameter 'foo'"),
+    (["frobnicate"], "invalid choice"),
+])
+def test_argument_errors_exit_2_with_a_message(capsys, tmp_path, monkeypatch, argv, words):
+    monkeypatch.chdir(tmp_path)
+    err = usage_error(capsys, argv)
+    assert words in err
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_bad_scene_file_is_an_argument_error(capsys, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('"impact.e" = 2.0\n')
+    assert "impact.e = 2.0 is not allowed" in usage_error(capsys, ["simulate", str(bad)])
+    bad.write_text("ice = [\n")
+    assert "bad.toml" in usage_error(capsys, ["simulate", str(bad)])
+
+
+def test_simulate_writes_samples_and_prints_the_summary(capsys, tmp_path, scene_file):
+    out, impacts = tmp_path / "samples.csv", tmp_path / "impacts.csv"
+    code = main(["simulate", str(scene_file), "--set", "flow.u=0.2", *FAST, "--transient", "1",
+                 "--out", str(out), "--impacts", str(impacts)])
+    assert code == 0
+    scene = Scene(impact_e=0.8, ice_M=800.0, drag_model=2, flow_u=0.2)
+    result = run(scene, 4.0, dt=0.01)
+    summary = summarize(result, 1.0)
+    text = capsys.readouterr().out
+    assert f"{len(result.impacts)} impacts" in text
+    assert f"x_peak_m               {summary['x_peak_m']:.6g} m" in text
+    samples = rows_of(out)
+    assert samples[0] == ["t", "x", "v", "z", "w", "gap", "impulse", "sticking"]
+    assert len(samples) == 1 + result.t.size
+    assert float(samples[-1][1]) == result.x[-1]
+    assert len(rows_of(impacts)) == 1 + len(result.impacts)
+
+
+def test_sweep_subcommand_matches_the_api(capsys, tmp_path, scene_file):
+    out = tmp_path / "sweep.csv"
+    code = main(["sweep", str(scene_file), "--vary", "flow.u=0.1:0.3:2",
+                 "--vary", "impact.e=0.5,1.5", *FAST, "--transient", "1", "--out", str(out),
+                 "--workers", "2", "--quiet", "--set", "ice.A=2"])
+    assert code == 0
+    captured = capsys.readouterr()
+    assert "4 runs (2 ok, 2 errors)" in captured.out
+    assert "impact.e = 1.5 is not allowed" in captured.out
+    assert captured.err == ""  # --quiet: no progress bar
+    base = Scene(impact_e=0.8, ice_M=800.0, drag_model=2, ice_A=2.0)
+    expected = sweep(base, {"flow.u": [0.1, 0.3], "impact.e": [0.5, 1.5]}, t_end=4.0,
+                     transient=1.0, dt=0.01, workers=1, progress=False)
+    got = read_table(out)
+    assert len(got) == 4
+    for a, b in zip(got, expected, strict=True):
+        for key, value in b.items():
+            if key != "wall_s" and not (isinstance(value, float) and math.isnan(value)):
+                assert a[key] == value, key
+    # the same command again resumes a complete table: nothing to run, same file
+    before = out.read_text()
+    assert main(["sweep", str(scene_file), "--vary", "flow.u=0.1:0.3:2",
+                 "--vary", "impact.e=0.5,1.5", *FAST, "--transient", "1", "--out", str(out),
+                 "--quiet", "--set", "ice.A=2"]) == 0
+    assert out.read_text() == before
+    # a different grid into the same file is refused, then accepted with --overwrite
+    err = usage_error(capsys, ["sweep", "--vary", "flow.u=0.1", *FAST, "--out", str(out)])
+    assert "different sweep" in err and "--overwrite" in err
+    assert main(["sweep", "--vary", "flow.u=0.1", *FAST, "--out", str(out), "--quiet",
+                 "--overwrite"]) == 0
+    assert len(read_table(out)) == 1
+
+
+def test_entry_point_script(tmp_path):
+    assert SCRIPT.exists(), "install the package: pip install -e ."
+    out = tmp_path / "sweep.csv"
+    proc = subprocess.run([str(SCRIPT), "sweep", "--vary", "flow.u=log:0.05:0.5:3", *FAST,
+                           "--out", str(out), "--workers", "2"],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "3 runs (3 ok, 0 errors)" in proc.stdout
+    assert "3/3" in proc.stderr  # the progress bar goes to stderr
+    table = rows_of(out)
+    assert table[0][:2] == ["run", "flow.u"]
+    values = [float(r[1]) for r in table[1:]]
+    assert values[0] == 0.05 and values[2] == 0.5
+    assert values[1] == pytest.approx(math.sqrt(0.05 * 0.5), rel=1e-12)
+    proc = subprocess.run([str(SCRIPT), "sweep", "--vary", "flow.u=0:1", "--out", str(out)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert "--vary 'flow.u=0:1'" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_killed_sweep_resumes_to_the_complete_table(tmp_path):
+    """Kill the command (SIGKILL) after a few runs, rerun it: all runs, once each."""
+    out = tmp_path / "sweep.csv"
+    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:4", "--vary", "impact.e=0.6,1",
+            "--t-end", "30", "--dt", "0.002", "--out", str(out), "--workers", "1",
+            "--chunksize", "1", "--quiet"]
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            if out.exists() and len(out.read_text().splitlines()) >= 3:  # header + 2 runs
+                break
+            time.sleep(0.02)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    partial = read_table(out)
+    assert 2 <= len(partial) < 8, "the sweep finished before it could be killed"
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    table = rows_of(out)
+    assert [r[0] for r in table[1:]] == [str(i) for i in range(8)]
+    rows = read_table(out)
+    assert all(r["status"] == "ok" for r in rows)
+    for old in partial:  # rows written before the kill are kept as they were
+        assert rows[old["run"]]["wall_s"] == old["wall_s"]
+    # and the resumed table equals one direct run of the missing points
+    missing = [r for r in rows if r["run"] not in {p["run"] for p in partial}]
+    for row in missing[:1]:
+        scene = Scene(flow_u=row["flow.u"], impact_e=row["impact.e"])
+        expected = summarize(run(scene, 30.0, dt=0.002), 0.0)
+        assert row["x_peak_m"] == expected["x_peak_m"]
+        assert row["n_impacts"] == expected["n_impacts"]
+
+
+def test_interrupt_reports_how_to_resume(tmp_path):
+    out = tmp_path / "sweep.csv"
+    proc = subprocess.Popen([str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:20", "--t-end",
+                             "30", "--out", str(out), "--workers", "1", "--chunksize", "1",
+                             "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not (out.exists()
+                                               and len(out.read_text().splitlines()) >= 2):
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "rerun the same command to resume" in err
+    assert 1 <= len(read_table(out)) < 20
