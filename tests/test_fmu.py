@@ -452,8 +452,8 @@ BAD_PARAMETERS = [
     ("drag.model", 3, "drag.model = 3 is not allowed: 1 or 2"),
     ("ice.z0", 0.5, "ice.z0 = 0.5 is not allowed: <= structure.x0"),
     ("solver.method", 4, "solver.method = 4 is not allowed: 1, 2 or 3"),
-    ("solver.dt", 0.0, "solver.dt = 0.0 is not allowed: > 0"),
-    ("solver.rtol", 1.0, "solver.rtol = 1.0 is not allowed: 0 < rtol < 1"),
+    ("solver.dt", 0.0, "solver.dt = 0.0 is not allowed: >= 1e-9"),
+    ("solver.rtol", 1.0, "solver.rtol = 1.0 is not allowed: 1e-13 <= rtol < 1"),
     ("flow.u", float("nan"), "flow.u = nan is not allowed"),
 ]
 

@@ -19,8 +19,9 @@ INVALID = [
     ("drag.model", 3, "1 or 2"), ("drag.model", 1.5, "integer"),
     ("drag.v_lin", 0.0, "> 0"),
     ("solver.method", 0, "1, 2 or 3"),
-    ("solver.dt", -1e-4, "> 0"),
-    ("solver.rtol", 0.0, "0 < rtol < 1"), ("solver.rtol", 1.0, "0 < rtol < 1"),
+    ("solver.dt", -1e-4, ">= 1e-9"), ("solver.dt", 1e-10, ">= 1e-9"),
+    ("solver.rtol", 0.0, "1e-13 <= rtol < 1"), ("solver.rtol", 1e-14, "1e-13 <= rtol < 1"),
+    ("solver.rtol", 1.0, "1e-13 <= rtol < 1"),
     ("flow.u", math.nan, "finite"),
 ]
 

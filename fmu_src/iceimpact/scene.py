@@ -75,10 +75,14 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec("solver.method", "solver_method", "", "1 = exact event-driven, "
                   "2 = fixed-step (the article's scheme), 3 = ODE (scipy)", "1, 2 or 3",
                   kind=int, minimum=1, maximum=3),
-    ParameterSpec("solver.dt", "solver_dt", "s", "internal step of method 2", "> 0",
-                  minimum=0.0),
+    # dt >= 1 ns: a smaller grid needs over 1e9 points per simulated second (minutes of work per
+    # second) and its grid times lose their precision
+    ParameterSpec("solver.dt", "solver_dt", "s", "internal step of method 2", ">= 1e-9",
+                  minimum=1e-9),
+    # rtol >= 1e-13: scipy raises anything below 100 machine epsilons to 2.2e-14 anyway, and
+    # atol = 1e-3 rtol must stay above the rounding of the states
     ParameterSpec("solver.rtol", "solver_rtol", "1", "relative tolerance of method 3",
-                  "0 < rtol < 1", minimum=0.0, maximum=1.0),
+                  "1e-13 <= rtol < 1", minimum=1e-13, maximum=1.0),
     ParameterSpec("solver.detection", "solver_detection", "", "impact test of method 2: "
                   "1 = tolerance window (eq. 26), 2 = sign change of the gap", "1 or 2",
                   kind=int, minimum=1, maximum=2),
@@ -184,27 +188,77 @@ def _check_number(spec: ParameterSpec, value: Any) -> None:
     if spec.minimum is not None:
         if value < spec.minimum or (strict_low and value == spec.minimum):
             raise ParameterError(spec.name, value, spec.allowed)
-    if spec.name == "solver.rtol" and not 0.0 < value < 1.0:
+    if spec.name == "solver.rtol" and value >= 1.0:
         raise ParameterError(spec.name, value, spec.allowed)
     if spec.maximum is not None and value > spec.maximum:
         raise ParameterError(spec.name, value, spec.allowed)
 
 
-def validate_flow(u: Any) -> float:
-    """Check a flow speed (m/s): finite real. Returns it as float."""
+def validate_flow(u: Any, scene: Scene | None = None) -> float:
+    """Check a flow speed (m/s): a finite real whose drag force and kinetic energy on the ice of
+    ``scene`` (if given) are finite numbers. Returns it as float."""
     if isinstance(u, bool) or not isinstance(u, int | float) or not math.isfinite(u):
         raise ParameterError(FLOW_INPUT.name, u, "a finite real number (m/s)")
-    return float(u)
+    u = float(u)
+    if scene is not None:
+        drag = scene.drag_B * u * u if scene.drag_model == QUADRATIC_DRAG else scene.drag_b * u
+        if not (math.isfinite(drag) and math.isfinite(0.5 * scene.ice_M * u * u)):
+            raise ParameterError(FLOW_INPUT.name, u, "a flow speed whose drag force on the ice "
+                                 "and kinetic energy of the ice are finite (" + _OVERFLOW + ")")
+    return u
+
+
+#: Why a combination of finite parameters can still be refused.
+_OVERFLOW = "this scene's scales overflow double precision"
+
+
+def _check_scales(scene: Scene) -> None:
+    """Refuse combinations of valid parameters whose derived scales are not finite numbers.
+
+    Each parameter may be within its range while a rate the solvers use overflows (k/m = inf
+    gives omega_n = inf and NaN states) or underflows to 0; such scenes have no meaningful
+    simulation, so they get an error naming the combination rather than NaN outputs.
+    """
+    s = scene
+    linear = s.drag_model == LINEAR_DRAG
+    b = s.drag_b if linear else 0.0  # the linearised drag constant only matters for drag law 1
+    zeta_together = (s.structure_c + b) / (2.0 * math.sqrt(s.structure_k
+                                                           * (s.structure_m + s.ice_M)))
+    checks = [
+        ("structure.k / structure.m", s.structure_k / s.structure_m,
+         "omega_n^2 = k/m (1/s^2) finite and > 0", True),
+        ("structure.c / structure.m", s.structure_c / s.structure_m, "c/m (1/s) finite", False),
+        ("fluid.rho * ice.Cd * ice.A / 2", s.drag_B, "the drag constant B (kg/m) finite", False),
+        ("B / ice.M", s.drag_B / s.ice_M, "the drag rate B/M (1/m) finite", False),
+        ("B * drag.v_lin / ice.M", b / s.ice_M, "the drag rate b/M (1/s) finite", False),
+        ("zeta^2 = (structure.c / (2 sqrt(k m)))^2", s.zeta * s.zeta,
+         "the squared damping ratio of the structure finite", False),
+        ("zeta^2 = ((structure.c + b) / (2 sqrt(k (m + M))))^2 (bodies in contact)",
+         zeta_together * zeta_together,
+         "the squared damping ratio of the bodies moving together finite", False),
+        ("structure.k * structure.x0^2 / 2", 0.5 * s.structure_k * s.structure_x0 * s.structure_x0,
+         "the initial strain energy (J) finite", False),
+        ("structure.m * structure.v0^2 / 2", 0.5 * s.structure_m * s.structure_v0 * s.structure_v0,
+         "the initial kinetic energy of the structure (J) finite", False),
+        ("ice.M * ice.v0^2 / 2", 0.5 * s.ice_M * s.ice_v0 * s.ice_v0,
+         "the initial kinetic energy of the ice (J) finite", False),
+    ]
+    for name, value, allowed, positive in checks:
+        if not math.isfinite(value) or (positive and value <= 0.0):
+            raise ParameterError(name, value, f"{allowed}: {_OVERFLOW}")
 
 
 def validate(scene: Scene) -> None:
-    """Raise :class:`ParameterError` for the first parameter outside its allowed range."""
+    """Raise :class:`ParameterError` for the first parameter outside its allowed range, then for
+    combinations whose derived scales overflow (see :func:`_check_scales`)."""
     for spec in PARAMETERS:
         _check_number(spec, getattr(scene, spec.field))
     validate_flow(scene.flow_u)
     if scene.ice_z0 > scene.structure_x0:
         raise ParameterError("ice.z0", scene.ice_z0,
                              f"<= structure.x0 = {scene.structure_x0!r} (the ice starts upstream)")
+    _check_scales(scene)
+    validate_flow(scene.flow_u, scene)
 
 
 def load_scene(path: str | Path) -> Scene:

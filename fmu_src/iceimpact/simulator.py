@@ -83,7 +83,7 @@ class Simulator:
         if isinstance(h, bool) or not isinstance(h, int | float) or not (math.isfinite(h)
                                                                           and h > 0.0):
             raise ParameterError("communication step", h, "a finite number > 0 (s)")
-        u = self.scene.flow_u if u is None else validate_flow(u)
+        u = self.scene.flow_u if u is None else validate_flow(u, self.scene)
         t_end = self.solver.t + h
         impulse = self.solver.advance_to(t_end, u)
         self.report = self._report(impulse, h)
