@@ -127,6 +127,10 @@ OUTPUTS: tuple[OutputSpec, ...] = (
     OutputSpec("contact.active", "sticking", bool, "", "true while the bodies stick together"),
     OutputSpec("contact.t_last", "t_last", float, "s",
                "time of the latest impact (-1 before the first)", discrete=True),
+    # appended after the original outputs, so that their value references stay unchanged
+    OutputSpec("contact.penetration", "penetration", float, "m",
+               "distance the ice is past the structure (z - x > 0), else 0; only the "
+               "fixed-step method (solver.method = 2) lets the ice pass", minimum=0.0),
 )
 
 TUNABLE = frozenset({"impact.e"})
@@ -174,6 +178,7 @@ class IceImpact(Fmi2Slave):
         self._time = 0.0
         self._pending_e: float | None = None
         self._error: str | None = None  # why the instance cannot step (invalid parameters)
+        self._penetration_logged = False  # the warning on the ice passing the structure
 
         for spec in PARAMETERS:
             variability = (Fmi2Variability.tunable if spec.name in TUNABLE
@@ -259,6 +264,7 @@ class IceImpact(Fmi2Slave):
             self._scene, self._sim = scene, sim
             self._report = sim.report
             self._pending_e = None
+            self._penetration_logged = False
             return True
         self._log(Fmi2Status.error, self._error + "; the FMU will not step (fmi2Discard) until "
                   "the parameter is corrected after fmi2Reset")
@@ -306,6 +312,14 @@ class IceImpact(Fmi2Slave):
             return False
         self._report = report
         self._time = current_time + step_size
+        if report.penetration > 0.0 and not self._penetration_logged:
+            self._penetration_logged = True
+            missed = (" and its eq. 26 window (solver.detection = 1) misses impacts"
+                      if self._scene.solver_detection == 1 else "")
+            self._log(Fmi2Status.warning, f"doStep at t = {current_time!r} s: the ice is "
+                      f"{report.penetration:.3g} m past the structure (contact.penetration): the "
+                      f"fixed-step method tests impacts on its grid points only{missed}; "
+                      "solver.method = 1 locates every impact exactly (logged once)")
         return True
 
     # FMU state (fmi2GetFMUstate / fmi2SetFMUstate / serialization) -------------------------------
