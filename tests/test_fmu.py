@@ -8,42 +8,34 @@ an instance that can still be freed.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 import shutil
 import subprocess
-import sys
 import sysconfig
 import zipfile
-from ctypes import byref
 from pathlib import Path
 
 import numpy as np
 import pytest
+from fmpy import simulate_fmu
+from fmpy.validation import validate_fmu
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "fmu_src"))
-
-from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402
-from fmpy.fmi1 import FMICallException  # noqa: E402
-from fmpy.fmi2 import (  # noqa: E402
-    FMU2Slave,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
+from fmu_host import (
+    DT,
+    FMI_DISCARD,
+    FMI_ERROR,
+    FMI_OK,
+    OUTPUTS,
+    ROOT,
+    Instance,
+    assert_outputs_finite,
+    columns,
+    errors,
+    slave,
 )
-from fmpy.validation import validate_fmu  # noqa: E402
-
-import IceImpact as slave  # noqa: E402
-from iceimpact import Scene, Simulator, run  # noqa: E402
-from iceimpact.scene import FLOW_INPUT, PARAMETERS  # noqa: E402
-
-DT = 1e-3
-OUTPUTS = slave.OUTPUTS
-REAL_OUTPUTS = [o for o in OUTPUTS if o.kind is float]
-FMI_OK, FMI_DISCARD, FMI_ERROR = 0, 2, 3
+from iceimpact import Scene, Simulator, run
+from iceimpact.scene import FLOW_INPUT, PARAMETERS
 
 # Scenes of the equality tests (FMI names -> values) and their horizons (s).
 SCENES = {
@@ -51,29 +43,6 @@ SCENES = {
     "quadratic": ({"drag.model": 2}, 20.0),
     "e0.5": ({"impact.e": 0.5}, 20.0),  # sticking from t ~ 10 s
 }
-
-
-# Building -----------------------------------------------------------------------------------------
-def _build_module():
-    spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-@pytest.fixture(scope="session")
-def fmu(tmp_path_factory) -> Path:
-    return _build_module().build(tmp_path_factory.mktemp("dist"))
-
-
-@pytest.fixture(scope="session")
-def fmu_dir(fmu, tmp_path_factory) -> str:
-    return extract(str(fmu), unzipdir=str(tmp_path_factory.mktemp("IceImpact")))
-
-
-@pytest.fixture(scope="session")
-def model_description(fmu):
-    return read_model_description(str(fmu))
 
 
 # Reference and masters ----------------------------------------------------------------------------
@@ -119,86 +88,6 @@ def fmpy_run(fmu: Path, values: dict, t_end: float) -> np.ndarray:
         _fmpy_cache[key] = simulate_fmu(str(fmu), start_time=0.0, stop_time=t_end,
                                         output_interval=DT, start_values=values)
     return _fmpy_cache[key]
-
-
-class Instance:
-    """An FMU2Slave stepped by hand, with a logger that keeps (status, category, message)."""
-
-    def __init__(self, fmu_dir: str, md, name: str = "instance"):
-        self.messages: list[tuple[int, str, str]] = []
-
-        def log(env, instance, status, category, message):
-            self.messages.append((status, (category or b"").decode(), message.decode()))
-
-        from fmpy import calloc, free
-        from fmpy.logging import addLoggerProxy
-
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(log)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        addLoggerProxy(byref(callbacks))
-        self._callbacks = callbacks  # must outlive the instance
-        self.variables = {v.name: v for v in md.modelVariables}
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmu_dir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
-        self.time = 0.0
-
-    def set(self, values: dict) -> None:
-        for name, value in values.items():
-            var = self.variables[name]
-            if var.type == "Integer":
-                self.fmu.setInteger([var.valueReference], [value])
-            else:
-                self.fmu.setReal([var.valueReference], [value])
-
-    def initialize(self, values: dict | None = None, start: float = 0.0) -> int:
-        self.fmu.setupExperiment(startTime=start)
-        self.set(values or {})
-        self.fmu.enterInitializationMode()
-        self.time = start
-        return self.fmu.exitInitializationMode()
-
-    def step(self, t: float, h: float) -> int:
-        """doStep; returns the status instead of raising."""
-        try:
-            self.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
-        except FMICallException as exc:
-            return exc.status
-        return FMI_OK  # FMPy raises for statuses above fmi2Warning
-
-    def run(self, n: int, start_index: int = 0) -> list[dict]:
-        """n steps on the grid k*DT from step start_index; the outputs after each."""
-        rows = []
-        for k in range(start_index, start_index + n):
-            t0, t1 = k * DT, (k + 1) * DT
-            assert self.step(t0, t1 - t0) == FMI_OK, self.messages
-            rows.append(self.outputs())
-        return rows
-
-    def outputs(self) -> dict:
-        out = {}
-        for o in OUTPUTS:
-            vr = [self.variables[o.name].valueReference]
-            if o.kind is float:
-                out[o.name] = self.fmu.getReal(vr)[0]
-            elif o.kind is int:
-                out[o.name] = self.fmu.getInteger(vr)[0]
-            else:
-                out[o.name] = self.fmu.getBoolean(vr)[0]
-        return out
-
-    def free(self) -> None:
-        self.fmu.freeInstance()
-
-
-def columns(rows: list[dict]) -> dict[str, np.ndarray]:
-    return {o.name: np.array([r[o.name] for r in rows]) for o in OUTPUTS}
-
-
-def errors(inst: Instance) -> str:
-    return "\n".join(m for status, _, m in inst.messages if status >= FMI_DISCARD)
 
 
 # Model description --------------------------------------------------------------------------------
@@ -456,11 +345,6 @@ BAD_PARAMETERS = [
     ("solver.rtol", 1.0, "solver.rtol = 1.0 is not allowed: 1e-13 <= rtol < 1"),
     ("flow.u", float("nan"), "flow.u = nan is not allowed"),
 ]
-
-
-def assert_outputs_finite(inst: Instance) -> None:
-    out = inst.outputs()
-    assert all(math.isfinite(out[o.name]) for o in REAL_OUTPUTS), out
 
 
 @pytest.mark.parametrize(("name", "value", "message"), BAD_PARAMETERS,

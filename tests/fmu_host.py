@@ -1,0 +1,126 @@
+"""Shared by the FMU tests: the FMU built once per test session, and a hand-stepped instance.
+
+``Instance`` drives an FMU2Slave call by call, keeps every log message with its status, and turns
+FMPy's exceptions for non-OK statuses back into status codes, so that tests can assert on them.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from ctypes import byref
+from pathlib import Path
+
+import numpy as np
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "fmu_src"))
+
+import IceImpact as slave  # noqa: E402
+
+DT = 1e-3
+OUTPUTS = slave.OUTPUTS
+REAL_OUTPUTS = [o for o in OUTPUTS if o.kind is float]
+FMI_OK, FMI_WARNING, FMI_DISCARD, FMI_ERROR = 0, 1, 2, 3
+
+
+def build_module():
+    """build_fmu.py imported as a module."""
+    spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+class Instance:
+    """An FMU2Slave stepped by hand, with a logger that keeps (status, category, message)."""
+
+    def __init__(self, fmu_dir: str, md, name: str = "instance"):
+        self.messages: list[tuple[int, str, str]] = []
+
+        def log(env, instance, status, category, message):
+            self.messages.append((status, (category or b"").decode(), message.decode()))
+
+        from fmpy import calloc, free
+        from fmpy.logging import addLoggerProxy
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        addLoggerProxy(byref(callbacks))
+        self._callbacks = callbacks  # must outlive the instance
+        self.variables = {v.name: v for v in md.modelVariables}
+        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmu_dir,
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
+        self.time = 0.0
+
+    def set(self, values: dict) -> None:
+        for name, value in values.items():
+            var = self.variables[name]
+            if var.type == "Integer":
+                self.fmu.setInteger([var.valueReference], [value])
+            else:
+                self.fmu.setReal([var.valueReference], [value])
+
+    def initialize(self, values: dict | None = None, start: float = 0.0) -> int:
+        self.fmu.setupExperiment(startTime=start)
+        self.set(values or {})
+        self.fmu.enterInitializationMode()
+        self.time = start
+        return self.fmu.exitInitializationMode()
+
+    def step(self, t: float, h: float) -> int:
+        """doStep; returns the status instead of raising."""
+        try:
+            self.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+        except FMICallException as exc:
+            return exc.status
+        return FMI_OK  # FMPy raises for statuses above fmi2Warning
+
+    def run(self, n: int, start_index: int = 0) -> list[dict]:
+        """n steps on the grid k*DT from step start_index; the outputs after each."""
+        rows = []
+        for k in range(start_index, start_index + n):
+            t0, t1 = k * DT, (k + 1) * DT
+            assert self.step(t0, t1 - t0) == FMI_OK, self.messages
+            rows.append(self.outputs())
+        return rows
+
+    def outputs(self) -> dict:
+        out = {}
+        for o in OUTPUTS:
+            vr = [self.variables[o.name].valueReference]
+            if o.kind is float:
+                out[o.name] = self.fmu.getReal(vr)[0]
+            elif o.kind is int:
+                out[o.name] = self.fmu.getInteger(vr)[0]
+            else:
+                out[o.name] = self.fmu.getBoolean(vr)[0]
+        return out
+
+    def free(self) -> None:
+        self.fmu.freeInstance()
+
+
+def columns(rows: list[dict]) -> dict[str, np.ndarray]:
+    return {o.name: np.array([r[o.name] for r in rows]) for o in OUTPUTS}
+
+
+def errors(inst: Instance) -> str:
+    return "\n".join(m for status, _, m in inst.messages if status >= FMI_DISCARD)
+
+
+def assert_outputs_finite(inst: Instance) -> None:
+    out = inst.outputs()
+    assert all(math.isfinite(out[o.name]) for o in REAL_OUTPUTS), out
