@@ -1,0 +1,96 @@
+"""Numerical stability at the extremes (the matrix of tests/extremes.py) and refused scenes.
+
+Every corner scene x both drag laws x the three methods must stay finite, keep the gap (method 2:
+within one grid step), conserve momentum at impacts, never create energy without flow, finish
+with bounded work, and (method 1) agree with a tight scipy integration. docs/robustness.md shows
+the same matrix with its measurements (``python tests/extremes.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from extremes import CELLS, failures, run_cell
+from iceimpact import ParameterError, Scene, Simulator
+
+
+@pytest.mark.parametrize("method", [1, 2, 3], ids=["exact", "fixed-step", "ode"])
+@pytest.mark.parametrize("drag", [1, 2], ids=["linear", "quadratic"])
+@pytest.mark.parametrize("cell", CELLS, ids=[c.name for c in CELLS])
+def test_extreme_cell(cell, drag, method):
+    res = run_cell(cell, drag, method)
+    if not res.finished and res.notes[0].startswith("not run"):
+        assert method == 3 and cell.t_end_ode == 0.0
+        return
+    assert failures(res) == [], res
+
+
+@pytest.mark.parametrize("method", [1, 2], ids=["exact", "fixed-step"])
+@pytest.mark.parametrize("drag", [1, 2], ids=["linear", "quadratic"])
+@pytest.mark.parametrize(("name", "h_other"), [("step 10 s (40 periods)", 0.01),
+                                               ("step 10 s, omega_n = 1e4", 0.01),
+                                               ("step 1e-6 s", 1e-3)])
+def test_extreme_steps_give_the_same_impacts(name, h_other, drag, method):
+    """Methods 1 and 2 anchor their flights (grid) at events, not at communication points: steps
+    of 10 s (40 to 16,000 periods of the structure) or 1 us give the impacts of ordinary steps."""
+    cell = next(c for c in CELLS if c.name == name)
+    a = run_cell(cell, drag, method)
+    b = run_cell(cell, drag, method, h=h_other)
+    assert len(a.impact_times) == len(b.impact_times) > 0
+    np.testing.assert_allclose(a.impact_times, b.impact_times, rtol=0, atol=1e-9)
+
+
+def test_flow_reversal_separates_sticking_bodies():
+    """e = 0.5: the bodies stick before t = 15 s; the reversed flow pulls the ice away (exact)."""
+    sim = Simulator(Scene(impact_e=0.5))
+    while sim.t < 15.0 - 1e-9:
+        sim.advance(0.01, 0.1)
+    assert sim.solver.sticking
+    while sim.t < 20.0 - 1e-9:
+        report = sim.advance(0.01, -0.1)
+    assert not report.sticking and report.gap > 0.01 and report.w < 0.0
+
+
+# Combinations that have no meaningful simulation are refused with an error naming them --------
+REFUSED = [
+    ({"structure_k": 1e300, "structure_m": 1e-10}, "structure.k / structure.m = inf"),
+    ({"fluid_rho": 1e300, "ice_A": 1e300}, "fluid.rho * ice.Cd * ice.A / 2 = inf"),
+    ({"structure_c": 1e300}, "zeta^2 = (structure.c / (2 sqrt(k m)))^2 = inf"),
+    ({"drag_v_lin": 1e300}, "zeta^2 = ((structure.c + b) / (2 sqrt(k (m + M))))^2"),
+    ({"ice_v0": 1e300}, "ice.M * ice.v0^2 / 2 = inf"),
+    ({"structure_v0": -1e300}, "structure.m * structure.v0^2 / 2 = inf"),
+    ({"structure_x0": 1e200, "ice_z0": 0.0}, "structure.k * structure.x0^2 / 2 = inf"),
+    ({"flow_u": 1e300}, "flow.u = 1e+300 is not allowed: a flow speed whose drag force"),
+    ({"ice_z0": 0.01}, "ice.z0 = 0.01 is not allowed: <= structure.x0 = 0.0"),
+    ({"solver_dt": 1e-12}, "solver.dt = 1e-12 is not allowed: >= 1e-9"),
+    ({"solver_rtol": 1e-15}, "solver.rtol = 1e-15 is not allowed: 1e-13 <= rtol < 1"),
+]
+
+
+@pytest.mark.parametrize(("changes", "message"), REFUSED, ids=[m.split(" =")[0]
+                                                              for _, m in REFUSED])
+def test_meaningless_combination_is_refused(changes, message):
+    with pytest.raises(ParameterError) as err:
+        Scene(**changes)
+    assert message in str(err.value)
+    assert "is not allowed" in str(err.value)
+
+
+def test_drag_linearisation_speed_is_irrelevant_to_quadratic_drag():
+    """v_lin only enters the linearised law: a huge one is fine with quadratic drag."""
+    sim = Simulator(Scene(drag_model=2, drag_v_lin=1e300))
+    report = sim.advance(5.0)
+    assert math.isfinite(report.x) and report.impact_count >= 1
+
+
+def test_flow_that_overflows_the_drag_is_refused_during_the_run():
+    sim = Simulator(Scene(drag_model=2))
+    sim.advance(0.5)
+    before = sim.report
+    with pytest.raises(ParameterError, match=r"flow.u = 1e\+200 is not allowed"):
+        sim.advance(0.5, 1e200)  # B u^2 = 5e402 N
+    assert sim.report == before and sim.t == before.t
+    sim.advance(0.5, -0.1)  # the run goes on
