@@ -6,7 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-all fmu bench lint clean
+.PHONY: setup demo test test-all fmu bench reproduce regime-map lint clean
 
 setup: $(STAMP)
 
@@ -32,6 +32,16 @@ test-all: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) benchmarks/core_speed.py
+
+# the article's figures and its lock-in case through the FMU (~7 min), and the regime map (~5 min)
+reproduce: $(STAMP)
+	$(PY) build_fmu.py
+	$(PY) examples/reproduce_linear.py
+	$(PY) examples/reproduce_quadratic.py
+	$(PY) examples/lockin.py
+
+regime-map: $(STAMP)
+	$(PY) examples/regime_map.py
 
 lint: $(STAMP)
 	$(PY) -m ruff check fmu_src tests benchmarks examples build_fmu.py

@@ -66,6 +66,7 @@ class Cell:
     t_end_ode: float | None = None  # a shorter horizon for method 3 where it is costly
     flow: tuple[tuple[float, float], ...] = ()  # (from time, u) changes of the flow input
     conservative: bool = False  # nothing dissipates: energy constant
+    reference: bool = True  # compare method 1 with scipy (off where another cell already does)
 
 
 CELLS: tuple[Cell, ...] = (
@@ -95,7 +96,7 @@ CELLS: tuple[Cell, ...] = (
     Cell("step 1e-6 s", {"ice_z0": -1e-4}, t_end=0.02, h=1e-6),
     Cell("step 10 s (40 periods)", {}, t_end=100.0, h=10.0, t_end_ode=20.0),
     Cell("step 10 s, omega_n = 1e4", {"structure_k": M_STRUCT * 1e4 ** 2}, t_end=20.0, h=10.0,
-         t_end_ode=0.0),
+         t_end_ode=0.0, reference=False),  # the omega_n = 1e4 cell compares with scipy
     Cell("flow reversing, e = 1", {}, t_end=30.0, h=1e-2, t_end_ode=15.0,
          flow=((10.0, -0.1), (20.0, 0.1))),
     Cell("flow reversing while sticking", {"impact_e": 0.5}, t_end=30.0, h=1e-2,
@@ -144,9 +145,10 @@ def _energy(scene: Scene, x, v, w) -> np.ndarray:
             + 0.5 * scene.ice_M * np.square(w))
 
 
-def run_cell(cell: Cell, drag: int, method: int, h: float | None = None) -> CellResult:
+def run_cell(cell: Cell, drag: int, method: int, h: float | None = None,
+             reference: bool = True) -> CellResult:
     """Step the cell through the core and measure it (see the module docstring); ``h`` (s)
-    replaces the cell's communication step."""
+    replaces the cell's communication step; ``reference=False`` skips the scipy comparison."""
     if h is not None:
         cell = dataclasses.replace(cell, h=h)
     scene = scene_of(cell, drag, method)
@@ -201,7 +203,7 @@ def run_cell(cell: Cell, drag: int, method: int, h: float | None = None) -> Cell
         res.energy_growth = float(np.max(np.diff(energy), initial=0.0) / e0)
         if cell.conservative:
             res.energy_drift = float(np.max(np.abs(energy - e0)) / e0)
-    if method == 1 and res.finished:
+    if method == 1 and res.finished and reference and cell.reference:
         _compare_with_reference(res, scene, sim)
     return res
 
