@@ -161,7 +161,7 @@ class IceImpact(Fmi2Slave):
     description = ("Flow-driven repeated ice impacts on a flexible structure: a damped SDOF "
                    "structure struck by an ice floe pushed by the current")
     license = "MIT"
-    version = "0.1.0"
+    version = "0.2.0"
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=400.0, step_size=1e-3)
 
     def __init__(self, **kwargs: Any) -> None:

@@ -15,4 +15,4 @@ from .solvers.base import Impact
 
 __all__ = ["PARAMETERS", "Impact", "ParameterError", "Result", "Scene", "Simulator",
            "StepReport", "load_scene", "run"]
-__version__ = "0.1.0"
+__version__ = "0.2.0"
