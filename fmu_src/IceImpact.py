@@ -37,7 +37,7 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Status
 
-from iceimpact import ParameterError, Scene, Simulator
+from iceimpact import ParameterError, Scene, Simulator, SolverError
 from iceimpact.scene import FLOW_INPUT, PARAMETERS
 
 # PythonFMU 0.7.0's native loader (findClass in PySlaveInstance.cpp) runs this module's source a
@@ -129,8 +129,9 @@ OUTPUTS: tuple[OutputSpec, ...] = (
                "time of the latest impact (-1 before the first)", discrete=True),
     # appended after the original outputs, so that their value references stay unchanged
     OutputSpec("contact.penetration", "penetration", float, "m",
-               "distance the ice is past the structure (z - x > 0), else 0; only the "
-               "fixed-step method (solver.method = 2) lets the ice pass", minimum=0.0),
+               "distance the ice is past the structure (z - x > 0), else 0: the fixed-step "
+               "method's grid (solver.method = 2), or the ODE method's integration error (3, "
+               "below 1e-3 solver.rtol m); always 0 with the exact method", minimum=0.0),
 )
 
 TUNABLE = frozenset({"impact.e"})
@@ -302,7 +303,7 @@ class IceImpact(Fmi2Slave):
             self._pending_e = None
         try:
             report = sim.advance(step_size, self._flow_u)
-        except ParameterError as exc:
+        except (ParameterError, SolverError) as exc:  # a SolverError stops the run for good
             self._log(Fmi2Status.error, f"doStep at t = {current_time!r} s: {exc}")
             return False
         if not all(math.isfinite(getattr(report, o.field)) for o in OUTPUTS
@@ -314,12 +315,16 @@ class IceImpact(Fmi2Slave):
         self._time = current_time + step_size
         if report.penetration > 0.0 and not self._penetration_logged:
             self._penetration_logged = True
-            missed = (" and its eq. 26 window (solver.detection = 1) misses impacts"
-                      if self._scene.solver_detection == 1 else "")
+            if self._scene.solver_method == 2:
+                why = ("the fixed-step method tests impacts on its grid points only" +
+                       (" and its eq. 26 window (solver.detection = 1) misses impacts"
+                        if self._scene.solver_detection == 1 else ""))
+            else:
+                why = ("the ODE method's positions carry its integration error (absolute "
+                       "tolerance 1e-3 solver.rtol m)")
             self._log(Fmi2Status.warning, f"doStep at t = {current_time!r} s: the ice is "
-                      f"{report.penetration:.3g} m past the structure (contact.penetration): the "
-                      f"fixed-step method tests impacts on its grid points only{missed}; "
-                      "solver.method = 1 locates every impact exactly (logged once)")
+                      f"{report.penetration:.3g} m past the structure (contact.penetration): "
+                      f"{why}; solver.method = 1 locates every impact exactly (logged once)")
         return True
 
     # FMU state (fmi2GetFMUstate / fmi2SetFMUstate / serialization) -------------------------------

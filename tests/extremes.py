@@ -6,8 +6,9 @@ m/s, omega_n = 25 rad/s) pushed to one extreme. :func:`run_cell` steps the core
 measurement breaks:
 
 - every output finite;
-- methods 1 and 3: the gap x - z >= -1e-12 m at every communication point; method 2 (the article's
-  fixed-step scheme, with the sign test): the ice at most one grid step's closing distance past the
+- the gap x - z >= -1e-12 m at every communication point (method 1), >= -atol = -1e-11 m
+  (method 3, whose positions carry its integration error); method 2 (the article's fixed-step
+  scheme, with the sign test): the ice at most one grid step's closing distance past the
   structure, since that scheme tests impacts on grid points only;
 - momentum conserved at every impact (relative 1e-12);
 - with u = 0, the energy never grows (drag, damping and impacts only take energy away), and where
@@ -51,6 +52,10 @@ REFERENCE_TOLERANCE = 1e-8
 #: (closed forms), the integration tolerance for method 3 (rtol 1e-8).
 ENERGY_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
 
+#: Method 3 locates impacts on positions that carry its integration error: atol = 1e-3 rtol (m),
+#: 1e-11 m at the default rtol 1e-8.
+ODE_GAP_TOLERANCE = 1e-3 * Scene().solver_rtol
+
 K, M_STRUCT = 1.0e6, 1600.0
 C_CRITICAL = 2.0 * math.sqrt(K * M_STRUCT)  # 80,000 N.s/m exactly (sqrt(1.6e9) = 40,000)
 
@@ -93,6 +98,11 @@ CELLS: tuple[Cell, ...] = (
     Cell("contact, ice moving away", {"ice_z0": 0.0, "ice_v0": -0.01}),
     Cell("contact, at rest", {"ice_z0": 0.0, "ice_v0": 0.0}),
     Cell("contact, same speed", {"ice_z0": 0.0, "ice_v0": 0.01, "structure_v0": 0.01}),
+    # nothing moves and no force acts: the contact force is exactly zero throughout (method 3
+    # once re-formed the contact every microsecond here; found by random search)
+    Cell("contact, at rest, no force at all", {"ice_z0": 0.0, "ice_v0": 0.0, "flow_u": 0.0,
+                                               "ice_Cd": 0.0, "structure_c": 0.0,
+                                               "impact_e": 0.0}),
     Cell("step 1e-6 s", {"ice_z0": -1e-4}, t_end=0.02, h=1e-6),
     Cell("step 10 s (40 periods)", {}, t_end=100.0, h=10.0, t_end_ode=20.0),
     Cell("step 10 s, omega_n = 1e4", {"structure_k": M_STRUCT * 1e4 ** 2}, t_end=20.0, h=10.0,
@@ -200,7 +210,9 @@ def run_cell(cell: Cell, drag: int, method: int, h: float | None = None,
     if all(u == 0.0 for _, u in flow):
         energy = _energy(scene, x, v, w)
         e0 = energy[0]
-        res.energy_growth = float(np.max(np.diff(energy), initial=0.0) / e0)
+        growth = float(np.max(np.diff(energy), initial=0.0))
+        # relative to the initial energy; absolute (J) when the bodies start at rest
+        res.energy_growth = growth / e0 if e0 > 0.0 else growth
         if cell.conservative:
             res.energy_drift = float(np.max(np.abs(energy - e0)) / e0)
     if method == 1 and res.finished and reference and cell.reference:
@@ -243,7 +255,7 @@ def failures(res: CellResult) -> list[str]:
         if -res.min_gap > res.penetration_bound + 1e-12:
             out.append(f"ice {-res.min_gap:.3g} m past the structure, more than one grid step's "
                        f"closing distance {res.penetration_bound:.3g} m")
-    elif res.min_gap < -1e-12:
+    elif res.min_gap < -(1e-12 if res.method == 1 else ODE_GAP_TOLERANCE):
         out.append(f"negative gap {res.min_gap:.3g} m")
     if res.momentum_error > 1e-12:
         out.append(f"momentum error {res.momentum_error:.3g}")

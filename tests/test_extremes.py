@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from extremes import CELLS, failures, run_cell
-from iceimpact import ParameterError, Scene, Simulator
+from iceimpact import ParameterError, Scene, Simulator, SolverError
 
 
 @pytest.mark.parametrize("method", [1, 2, 3], ids=["exact", "fixed-step", "ode"])
@@ -94,3 +94,37 @@ def test_flow_that_overflows_the_drag_is_refused_during_the_run():
         sim.advance(0.5, 1e200)  # B u^2 = 5e402 N
     assert sim.report == before and sim.t == before.t
     sim.advance(0.5, -0.1)  # the run goes on
+
+
+# The article's explicit Euler step (method 2, quadratic drag) diverges when dt is too long -----
+EULER_DIVERGES_AFTER_IMPACT = {  # stable at the start (ice at rest), not once struck at 3 m/s
+    "structure_m": 4.0, "structure_k": 4.0, "structure_v0": -3.0, "ice_M": 0.06, "ice_A": 6.0,
+    "ice_Cd": 1.3, "ice_z0": -1e-3, "ice_v0": 0.0, "drag_model": 2, "flow_u": 0.0,
+    "solver_method": 2, "solver_detection": 2}
+
+
+def test_unstable_euler_step_is_refused_up_front():
+    """(B/M) dt |w0 - u| > 2: eq. 36 would diverge from the first step (found by random search:
+    NaN outputs before this check)."""
+    with pytest.raises(ParameterError) as err:
+        Scene(structure_m=4.0, structure_k=4.0, ice_M=0.0617, ice_A=6.22, ice_Cd=1.33,
+              ice_v0=0.30, drag_model=2, flow_u=1e-6, solver_method=2)
+    assert str(err.value).startswith("solver.dt = 0.0001 is not allowed: < 2 M / (B |ice.v0 - "
+                                     "flow.u|) = ")
+
+
+def test_unstable_euler_step_stops_the_run_with_a_clear_error():
+    sim = Simulator(Scene(**EULER_DIVERGES_AFTER_IMPACT))
+    with pytest.raises(SolverError) as err:
+        for _ in range(100):
+            sim.advance(1e-3)
+    text = str(err.value)
+    assert "solver.dt = 0.0001 s is too large for the explicit Euler step" in text
+    assert "use solver.dt < " in text and "or solver.method = 1" in text
+    report = sim.report  # the last completed step, finite
+    assert all(math.isfinite(v) for v in (report.x, report.v, report.z, report.w))
+    with pytest.raises(SolverError, match="the run stopped"):  # and it stays stopped
+        sim.advance(1e-3)
+    # the exact method runs the same scene
+    exact = Simulator(Scene(**{**EULER_DIVERGES_AFTER_IMPACT, "solver_method": 1}))
+    assert exact.advance(0.1).impact_count >= 1

@@ -208,6 +208,10 @@ def validate_flow(u: Any, scene: Scene | None = None) -> float:
     return u
 
 
+#: The explicit Euler step of the quadratic drag (eq. 36) maps r = w - u to r (1 - q |r|) with
+#: q = (B/M) dt: |r| grows (and overflows) once q |r| exceeds this (method 2).
+EULER_STABILITY_LIMIT = 2.0
+
 #: Why a combination of finite parameters can still be refused.
 _OVERFLOW = "this scene's scales overflow double precision"
 
@@ -259,6 +263,15 @@ def validate(scene: Scene) -> None:
                              f"<= structure.x0 = {scene.structure_x0!r} (the ice starts upstream)")
     _check_scales(scene)
     validate_flow(scene.flow_u, scene)
+    if scene.solver_method == METHOD_FIXED_STEP and scene.drag_model == QUADRATIC_DRAG:
+        relative = abs(scene.ice_v0 - scene.flow_u)
+        rate = scene.drag_B / scene.ice_M * relative  # 1/s
+        if rate * scene.solver_dt > EULER_STABILITY_LIMIT:
+            raise ParameterError(
+                "solver.dt", scene.solver_dt,
+                f"< {EULER_STABILITY_LIMIT:g} M / (B |ice.v0 - flow.u|) = "
+                f"{EULER_STABILITY_LIMIT / rate:.3g} s with quadratic drag and "
+                "solver.method = 2: a longer explicit Euler step (eq. 36) diverges")
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, ParameterError, Scene, validate_flow
-from .solvers.base import Impact, Solver
+from .solvers.base import Impact, Solver, SolverError
 from .solvers.event import EventSolver
 from .solvers.fixed_step import FixedStepSolver
 from .solvers.ode import OdeSolver
@@ -49,7 +49,7 @@ class StepReport:
     z: float             # ice displacement, m
     w: float             # ice velocity, m/s
     gap: float           # x - z, m, >= 0 (0 while the ice is past the structure)
-    penetration: float   # z - x when the ice is past the structure, else 0, m (method 2 only)
+    penetration: float   # z - x when the ice is past the structure, else 0, m (methods 2, 3)
     impulse: float       # impulse on the structure during the step (impacts + sticking), N.s
     force: float         # impulse / h, mean contact force over the step, N
     impacts: int         # impacts during the step
@@ -65,6 +65,7 @@ class Simulator:
         self.scene = scene
         self.solver = make_solver(scene)
         self._n_reported = 0  # impacts already reported (an impact at t = 0 goes to step 1)
+        self.failed: str | None = None  # why the run stopped (a SolverError), if it did
         self.report = self._report(0.0, 0.0)
 
     @property
@@ -79,24 +80,33 @@ class Simulator:
         """Advance by the communication step ``h`` (s) with flow speed ``u`` (m/s) held constant.
 
         ``u`` defaults to the scene's ``flow.u``. Raises :class:`ParameterError` for a step that
-        is not a positive finite number or a flow speed that is not finite.
+        is not a positive finite number or a flow speed that is not finite (nothing changes), and
+        :class:`SolverError` when the method cannot continue; the run then stays stopped, and
+        every later call raises the same error.
         """
         if isinstance(h, bool) or not isinstance(h, int | float) or not (math.isfinite(h)
                                                                           and h > 0.0):
             raise ParameterError("communication step", h, "a finite number > 0 (s)")
         u = self.scene.flow_u if u is None else validate_flow(u, self.scene)
+        if self.failed is not None:
+            raise SolverError(self.failed)
         t_end = self.solver.t + h
-        impulse = self.solver.advance_to(t_end, u)
+        try:
+            impulse = self.solver.advance_to(t_end, u)
+        except SolverError as exc:  # the state is not trustworthy any more: stop the run
+            self.failed = f"the run stopped: {exc}"
+            raise SolverError(self.failed) from exc
         self.report = self._report(impulse, h)
         self._n_reported = len(self.solver.impacts)
         return self.report
 
     def _report(self, impulse: float, h: float) -> StepReport:
         s = self.solver.state
-        # Methods 1 and 3 keep x - z >= 0 up to rounding. The fixed-step scheme (method 2) tests
-        # impacts on grid points only, so the ice can be up to one step's closing distance past
-        # the structure, or pass through it when its eq. 26 window misses an impact: that is
-        # reported as a penetration, not as a negative gap.
+        # Method 1 keeps x - z >= 0 up to rounding; method 3 up to its integration error (atol
+        # = 1e-3 rtol m). The fixed-step scheme (method 2) tests impacts on grid points only,
+        # so the ice can be up to one step's closing distance past the structure, or pass
+        # through it when its eq. 26 window misses an impact. A negative x - z is reported as a
+        # penetration, not as a negative gap.
         gap = s.x - s.z
         penetration = 0.0
         if gap < 0.0:

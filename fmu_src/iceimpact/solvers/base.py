@@ -14,6 +14,11 @@ from typing import NamedTuple
 from ..scene import Scene
 
 
+class SolverError(RuntimeError):
+    """A method cannot continue the run (an unstable explicit step, a failed integration); the
+    message says why and what to change. The run stops: its state is no longer trustworthy."""
+
+
 class Impact(NamedTuple):
     """One impact (eq. 11-18). Velocities in m/s, impulse on the structure in N.s."""
 

@@ -25,7 +25,7 @@ from ..physics.contact import contact_force, impact, impact_impulse
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..scene import Scene
-from .base import Impact, Solver, State
+from .base import Impact, Solver, SolverError, State
 from .rootfind import RootSearch
 
 #: A Zeno sequence whose remaining impacts would all happen within this time (s) is closed by
@@ -197,7 +197,7 @@ class QuadraticStick:
         res = solve_ivp(self._rhs, (lo, hi), self.y_hi, method="DOP853", rtol=STICK_RTOL,
                         atol=STICK_ATOL, dense_output=True, events=events)
         if not res.success:
-            raise RuntimeError(f"sticking-phase integration failed at t = {self.t0 + lo}: "
+            raise SolverError(f"sticking-phase integration failed at t = {self.t0 + lo}: "
                                f"{res.message}")
         if res.status == 1:  # terminal event: the contact force turns tensile
             self.separation, self.y_sep = float(res.t_events[0][0]), res.y_events[0][0]

@@ -50,8 +50,8 @@ import numpy as np
 from ..physics.contact import impact, impact_impulse
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
-from ..scene import DETECTION_WINDOW, Scene
-from .base import Impact, Solver, State
+from ..scene import DETECTION_WINDOW, EULER_STABILITY_LIMIT, Scene
+from .base import Impact, Solver, SolverError, State
 
 #: Tolerance window of eq. 26: Delta = WINDOW_FRACTION * min(|v dt|, |w dt|).
 WINDOW_FRACTION = 0.1
@@ -122,13 +122,26 @@ class FixedStepSolver(Solver):
         _, _, z, w = self.grid
         u, dt, q = self.u, self.dt, self.drag.beta * self.dt
         zs, ws = [], []
-        for _ in range(count):
+        for i in range(count):
             r = w - u
+            if q * abs(r) > EULER_STABILITY_LIMIT:
+                self._unstable(r, self.n + i)
             z = z + w * dt             # eq. 34
             w = w - q * abs(r) * r     # eq. 36
             zs.append(z)
             ws.append(w)
         return np.array(zs), np.array(ws)
+
+    def _unstable(self, r: float, n: int) -> None:
+        """Eq. 36 maps r = w - u to r (1 - q |r|), q = (B/M) dt: beyond q |r| = 2 the relative
+        velocity grows at every step and overflows to NaN. Stop the run with a clear error."""
+        q = self.drag.beta * self.dt
+        limit = EULER_STABILITY_LIMIT
+        raise SolverError(
+            f"solver.dt = {self.dt!r} s is too large for the explicit Euler step of the quadratic "
+            f"drag (eq. 36) at t = {self.t_a + n * self.dt:.9g} s: (B/M) dt |w - u| = "
+            f"{q * abs(r):.3g} > {limit:g}, so the ice velocity would diverge; use "
+            f"solver.dt < {limit / (self.drag.beta * abs(r)):.3g} s, or solver.method = 1")
 
     def _steady(self, x, v, z, w, v_prev, w_prev) -> np.ndarray:
         """Conditions (i)-(iii) of Section 4.1 at each grid point of a chunk."""
@@ -181,6 +194,8 @@ class FixedStepSolver(Solver):
         _, v_prev, z, w_prev = self.grid
         if self.drag.quadratic:  # eq. 34 and 36
             r = w_prev - self.u
+            if self.drag.beta * self.dt * abs(r) > EULER_STABILITY_LIMIT:
+                self._unstable(r, self.n)
             z, w = z + w_prev * self.dt, w_prev - self.drag.beta * self.dt * abs(r) * r
         else:
             z, w = self.drag.motion(z_a, w_a, self.u, tau)

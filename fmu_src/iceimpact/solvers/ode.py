@@ -42,8 +42,14 @@ from ..physics.contact import contact_force, impact, impact_impulse
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..scene import Scene
-from .base import Impact, Solver, State
-from .event import CHATTER_FRACTION, ZENO_TIME
+from .base import Impact, Solver, SolverError, State
+from .event import (
+    CHATTER_FRACTION,
+    DEGENERATE_HOLD,
+    MAX_DEGENERATE_CONTACTS,
+    ROUNDING_SPEED,
+    ZENO_TIME,
+)
 
 #: Events at one instant before the bodies are held together briefly (a degenerate contact).
 MAX_EVENTS_AT_ONE_INSTANT = 8
@@ -117,7 +123,9 @@ class _ContactForce:
 
     def __call__(self, t: float, y: np.ndarray) -> float:
         lam = self.stuck.contact_force(y)
-        return lam if t > self.start else max(lam, _TINY)
+        # a contact force of exactly zero is not tensile (nothing pulls the bodies apart, e.g.
+        # both at rest with no flow): only a negative one separates them
+        return lam if t > self.start and lam != 0.0 else max(lam, _TINY)
 
 
 def _same_instant(t: float, t_ref: float) -> bool:
@@ -138,6 +146,7 @@ class OdeSolver(Solver):
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
         self.mu = self.m * self.M / (self.m + self.M)
+        self.omega_n = scene.omega_n
         period = 2.0 * math.pi / scene.omega_n
         self.chatter_time = CHATTER_FRACTION * period
         self.chunk = max(1.0, CHUNK_PERIODS * period)
@@ -146,6 +155,8 @@ class OdeSolver(Solver):
         self.nfev = 0                   # right-hand-side evaluations, for the benchmarks
         self._events_here = 0
         self._last_event_t = -math.inf
+        self._degenerate_run = 0        # contacts re-formed with no closing speed (as method 1)
+        self._last_degenerate_t = -math.inf
         s = self.state
         self._begin(0.0, s.x, s.v, s.z, s.w)
 
@@ -158,8 +169,9 @@ class OdeSolver(Solver):
         return rhs, _ContactForce(rhs, self.t_hi)
 
     # segments ------------------------------------------------------------------------------------
-    def _segment(self, kind: str, t: float, y: list[float], hold: bool = False) -> None:
-        """Start a flight ``[x, v, z, w]`` or a sticking phase ``[x, v, drag impulse]`` at t."""
+    def _segment(self, kind: str, t: float, y: list[float], hold: float = 0.0) -> None:
+        """Start a flight ``[x, v, z, w]`` or a sticking phase ``[x, v, drag impulse]`` at t;
+        a sticking phase ignores separation for ``hold`` seconds."""
         self.kind = kind
         self.t_lo = self.t_hi = t
         self.rhs, self.event_fn = self._flight_rhs() if kind == "flight" else self._stick_rhs()
@@ -167,8 +179,8 @@ class OdeSolver(Solver):
         self.y_now = self.y_hi.copy()
         self.sol = None
         self.event: tuple[float, np.ndarray] | None = None
-        # a forced hold ignores the separation event for one chatter time
-        self.hold_until = t + self.chatter_time if hold else -math.inf
+        # a forced hold ignores the separation event for a while
+        self.hold_until = t + hold if hold > 0.0 else -math.inf
         sticking = kind == "stick"
         if sticking and not self.sticking:
             self.sticking_since = t
@@ -187,7 +199,7 @@ class OdeSolver(Solver):
                         atol=self.atol, dense_output=True, events=events)
         self.nfev += res.nfev
         if res.status == -1:
-            raise RuntimeError(f"ODE integration ({self.method}) failed at t = {lo}: "
+            raise SolverError(f"ODE integration ({self.method}) failed at t = {lo}: "
                                f"{res.message}")
         self.sol, self.t_lo = res.sol, lo
         if events is None:  # end of a forced hold: the contact logic decides again
@@ -219,11 +231,28 @@ class OdeSolver(Solver):
             # degenerate contact or integration noise: plastic contact, held for a moment
             v_plus, _ = impact(v, w, self.m, self.M, 0.0)
             self.pending_impulse += impact_impulse(v, v_plus, self.m)
-            self._segment("stick", t, [x, v_plus, 0.0], hold=True)
+            self._segment("stick", t, [x, v_plus, 0.0], hold=self.chatter_time)
             return
         if closing > 0.0:  # approaching at contact: impact now
             self._impact(t, x, v, w)
             return
+        speed_scale = abs(v) + abs(w) + abs(self.u) + self.omega_n * abs(x)
+        if -closing <= ROUNDING_SPEED * speed_scale + 1e-300:
+            # no closing speed: as in method 1, contact that keeps re-forming (contact force
+            # zero to rounding, e.g. everything at rest with no flow) is held together for
+            # doubling times up to the chatter time, so that the work stays bounded
+            if t - self._last_degenerate_t > self.chatter_time:
+                self._degenerate_run = 0
+            self._degenerate_run += 1
+            self._last_degenerate_t = t
+            if self._degenerate_run > MAX_DEGENERATE_CONTACTS:
+                extra = self._degenerate_run - MAX_DEGENERATE_CONTACTS
+                v_common, _ = impact(v, w, self.m, self.M, 0.0)
+                self.pending_impulse += impact_impulse(v, v_common, self.m)
+                self._segment("stick", t, [x, v_common, 0.0],
+                              hold=min(DEGENERATE_HOLD * 2.0 ** min(extra, 60),
+                                       self.chatter_time))
+                return
         lam = contact_force(self.osc.acceleration(x, v), self.drag.force(w, self.u) / self.M,
                             self.m, self.M)
         if lam >= 0.0 and -2.0 * closing * self.mu <= lam * self.chatter_time:
