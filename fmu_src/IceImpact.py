@@ -131,7 +131,8 @@ OUTPUTS: tuple[OutputSpec, ...] = (
     OutputSpec("contact.penetration", "penetration", float, "m",
                "distance the ice is past the structure (z - x > 0), else 0: the fixed-step "
                "method's grid (solver.method = 2), or the ODE method's integration error (3, "
-               "below 1e-3 solver.rtol m); always 0 with the exact method", minimum=0.0),
+               "of the order of its absolute tolerance, 1e-3 solver.rtol m); always 0 with the "
+               "exact method", minimum=0.0),
 )
 
 TUNABLE = frozenset({"impact.e"})
@@ -321,7 +322,7 @@ class IceImpact(Fmi2Slave):
                         if self._scene.solver_detection == 1 else ""))
             else:
                 why = ("the ODE method's positions carry its integration error (absolute "
-                       "tolerance 1e-3 solver.rtol m)")
+                       "tolerance 1e-3 solver.rtol m, exceeded a few times at most)")
             self._log(Fmi2Status.warning, f"doStep at t = {current_time!r} s: the ice is "
                       f"{report.penetration:.3g} m past the structure (contact.penetration): "
                       f"{why}; solver.method = 1 locates every impact exactly (logged once)")

@@ -6,7 +6,7 @@ m/s, omega_n = 25 rad/s) pushed to one extreme. :func:`run_cell` steps the core
 measurement breaks:
 
 - every output finite;
-- the gap x - z >= -1e-12 m at every communication point (method 1), >= -atol = -1e-11 m
+- the gap x - z >= -1e-12 m at every communication point (method 1), >= -10 atol = -1e-10 m
   (method 3, whose positions carry its integration error); method 2 (the article's fixed-step
   scheme, with the sign test): the ice at most one grid step's closing distance past the
   structure, since that scheme tests impacts on grid points only;
@@ -52,9 +52,9 @@ REFERENCE_TOLERANCE = 1e-8
 #: (closed forms), the integration tolerance for method 3 (rtol 1e-8).
 ENERGY_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
 
-#: Method 3 locates impacts on positions that carry its integration error: atol = 1e-3 rtol (m),
-#: 1e-11 m at the default rtol 1e-8.
-ODE_GAP_TOLERANCE = 1e-3 * Scene().solver_rtol
+#: Method 3 locates impacts on positions that carry its integration error, controlled per step by
+#: atol = 1e-3 rtol (m), 1e-11 m at the default rtol 1e-8; globally up to a few times that.
+ODE_GAP_TOLERANCE = 10 * 1e-3 * Scene().solver_rtol
 
 K, M_STRUCT = 1.0e6, 1600.0
 C_CRITICAL = 2.0 * math.sqrt(K * M_STRUCT)  # 80,000 N.s/m exactly (sqrt(1.6e9) = 40,000)
