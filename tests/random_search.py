@@ -2,11 +2,12 @@
 
     python tests/random_search.py --method 1 --seed 23 --examples 2000
 
-Each random scene (the strategy of tests/test_properties.py, with the chosen solver method; method
-2 uses the gap-sign test) runs for 3 s (method 3: 1 s) at a random communication step of 1 ms to
-10 s, with a 30 s wall-time limit. Printed: every scene that stalls (TIMEOUT), produces a
-non-finite output or a negative gap beyond its method's tolerance (FAIL), or is slow (SLOW).
-Scenes the model refuses (ParameterError) are skipped. docs/robustness.md reports the searches.
+Each random scene (the strategy of tests/test_properties.py, with the chosen solver method;
+method 2 uses the gap-sign test unless --detection 1) runs for 3 s (method 3: 1 s) at a random
+communication step of 1 ms to 10 s, with a 30 s wall-time limit. Printed: every scene that stalls
+(TIMEOUT), produces a non-finite output or a negative gap beyond its method's tolerance (FAIL),
+or is slow (SLOW). Scenes the model refuses (ParameterError) are skipped. docs/robustness.md
+reports the searches.
 """
 
 from __future__ import annotations
@@ -40,6 +41,8 @@ def main() -> None:
     parser.add_argument("--method", type=int, choices=(1, 2, 3), default=1)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--examples", type=int, default=500)
+    parser.add_argument("--detection", type=int, choices=(1, 2), default=2,
+                        help="impact test of method 2: 1 = eq. 26 window, 2 = gap sign")
     args = parser.parse_args()
     signal.signal(signal.SIGALRM, _alarm)
     found: list[str] = []
@@ -52,7 +55,7 @@ def main() -> None:
     def check(scene, h):
         nonlocal count
         try:
-            scene = scene.replace(solver_method=args.method, solver_detection=2)
+            scene = scene.replace(solver_method=args.method, solver_detection=args.detection)
         except ParameterError:
             assume(False)
         count += 1
