@@ -55,6 +55,34 @@ MAX_DEGENERATE_CONTACTS = 8
 DEGENERATE_HOLD = 1e-9
 
 
+class DegenerateContacts:
+    """The rule for contacts that keep re-forming with no closing speed (methods 1 and 3).
+
+    The gap and the contact force can both be zero to rounding (right after a separation, or
+    with everything at rest and no force): contact then re-forms at every event. After
+    MAX_DEGENERATE_CONTACTS such contacts, each within the chatter time of the previous one, the
+    bodies are held together for DEGENERATE_HOLD, doubling at each further one up to the chatter
+    time, so that the work per simulated second stays bounded.
+    """
+
+    def __init__(self, chatter_time: float):
+        self.chatter_time = chatter_time
+        self.run = 0
+        self.last = -math.inf
+
+    def hold(self, t: float) -> float:
+        """Count a contact with no closing speed at time t (s); how long to hold the bodies
+        together from t (s), 0 while the run of such contacts is short."""
+        if t - self.last > self.chatter_time:
+            self.run = 0
+        self.run += 1
+        self.last = t
+        if self.run <= MAX_DEGENERATE_CONTACTS:
+            return 0.0
+        extra = self.run - MAX_DEGENERATE_CONTACTS
+        return min(DEGENERATE_HOLD * 2.0 ** min(extra, 60), self.chatter_time)
+
+
 def _time_eps(t: float) -> float:
     return 8.9e-16 * max(1.0, abs(t))
 
@@ -266,8 +294,7 @@ class EventSolver(Solver):
         self.chatter_time = CHATTER_FRACTION * 2.0 * math.pi / scene.omega_n
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
-        self._degenerate_run = 0
-        self._last_degenerate_t = -math.inf
+        self.degenerate = DegenerateContacts(self.chatter_time)
         self.pending_impulse = 0.0
         s = self.state
         self.seg = None
@@ -296,15 +323,8 @@ class EventSolver(Solver):
             self._impact(t, x, v, w, u)
             return
         if closing == 0.0:
-            if t - self._last_degenerate_t > self.chatter_time:
-                self._degenerate_run = 0
-            self._degenerate_run += 1
-            self._last_degenerate_t = t
-            if self._degenerate_run > MAX_DEGENERATE_CONTACTS:
-                # contact keeps re-forming with no speed (contact force ~ 0 to rounding, e.g.
-                # right after a separation): hold the bodies together, for doubling times
-                extra = self._degenerate_run - MAX_DEGENERATE_CONTACTS
-                hold = min(DEGENERATE_HOLD * 2.0 ** min(extra, 60), self.chatter_time)
+            hold = self.degenerate.hold(t)
+            if hold > 0.0:  # contact keeps re-forming with no speed: hold the bodies together
                 self._stick(t, x, v, u, hold=hold)
                 return
         a_x, a_z = self._free_accels(x, v, w, u)

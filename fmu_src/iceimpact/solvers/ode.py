@@ -44,13 +44,7 @@ from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..scene import Scene
 from .base import Impact, Solver, SolverError, State
-from .event import (
-    CHATTER_FRACTION,
-    DEGENERATE_HOLD,
-    MAX_DEGENERATE_CONTACTS,
-    ROUNDING_SPEED,
-    ZENO_TIME,
-)
+from .event import CHATTER_FRACTION, ROUNDING_SPEED, ZENO_TIME, DegenerateContacts
 
 #: Events at one instant before the bodies are held together briefly (a degenerate contact).
 MAX_EVENTS_AT_ONE_INSTANT = 8
@@ -160,8 +154,7 @@ class OdeSolver(Solver):
         self.nfev = 0                   # right-hand-side evaluations, for the benchmarks
         self._events_here = 0
         self._last_event_t = -math.inf
-        self._degenerate_run = 0        # contacts re-formed with no closing speed (as method 1)
-        self._last_degenerate_t = -math.inf
+        self.degenerate = DegenerateContacts(self.chatter_time)  # the rule of method 1
         s = self.state
         self._begin(0.0, s.x, s.v, s.z, s.w)
 
@@ -246,17 +239,11 @@ class OdeSolver(Solver):
             # no closing speed: as in method 1, contact that keeps re-forming (contact force
             # zero to rounding, e.g. everything at rest with no flow) is held together for
             # doubling times up to the chatter time, so that the work stays bounded
-            if t - self._last_degenerate_t > self.chatter_time:
-                self._degenerate_run = 0
-            self._degenerate_run += 1
-            self._last_degenerate_t = t
-            if self._degenerate_run > MAX_DEGENERATE_CONTACTS:
-                extra = self._degenerate_run - MAX_DEGENERATE_CONTACTS
+            hold = self.degenerate.hold(t)
+            if hold > 0.0:
                 v_common, _ = impact(v, w, self.m, self.M, 0.0)
                 self.pending_impulse += impact_impulse(v, v_common, self.m)
-                self._segment("stick", t, [x, v_common, 0.0],
-                              hold=min(DEGENERATE_HOLD * 2.0 ** min(extra, 60),
-                                       self.chatter_time))
+                self._segment("stick", t, [x, v_common, 0.0], hold=hold)
                 return
         lam = contact_force(self.osc.acceleration(x, v), self.drag.force(w, self.u) / self.M,
                             self.m, self.M)
