@@ -27,24 +27,23 @@ from .simulator import Result, run
 from .sweep import DEFAULT_DT, SweepError, apply, output_format, parse_set, parse_vary, sweep
 
 
-def _positive(text: str) -> float:
+def _finite(text: str, allow_zero: bool) -> float:
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0.0):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    if not (math.isfinite(value) and (value > 0.0 or (allow_zero and value == 0.0))):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number {bound}")
     return value
+
+
+def _positive(text: str) -> float:
+    return _finite(text, allow_zero=False)
 
 
 def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number >= 0")
-    return value
+    return _finite(text, allow_zero=True)
 
 
 def _count(text: str) -> int:
