@@ -38,7 +38,7 @@ from pythonfmu import (
 from pythonfmu.enums import Fmi2Status
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError
-from iceimpact.scene import FLOW_INPUT, PARAMETERS
+from iceimpact.scene import DETECTION_WINDOW, FLOW_INPUT, METHOD_FIXED_STEP, PARAMETERS
 
 # PythonFMU 0.7.0's native loader (findClass in PySlaveInstance.cpp) runs this module's source a
 # second time for every fmi2Instantiate and then calls Py_DECREF on the *borrowed* module
@@ -316,10 +316,10 @@ class IceImpact(Fmi2Slave):
         self._time = current_time + step_size
         if report.penetration > 0.0 and not self._penetration_logged:
             self._penetration_logged = True
-            if self._scene.solver_method == 2:
+            if self._scene.solver_method == METHOD_FIXED_STEP:
                 why = ("the fixed-step method tests impacts on its grid points only" +
                        (" and its eq. 26 window (solver.detection = 1) misses impacts"
-                        if self._scene.solver_detection == 1 else ""))
+                        if self._scene.solver_detection == DETECTION_WINDOW else ""))
             else:
                 why = ("the ODE method's positions carry its integration error (absolute "
                        "tolerance 1e-3 solver.rtol m, exceeded a few times at most)")

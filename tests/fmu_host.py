@@ -98,15 +98,13 @@ class Instance:
         return rows
 
     def outputs(self) -> dict:
+        """Every output, in one FMI get call per type."""
+        groups = {kind: [o for o in OUTPUTS if o.kind is kind] for kind in (float, int, bool)}
+        getters = {float: self.fmu.getReal, int: self.fmu.getInteger, bool: self.fmu.getBoolean}
         out = {}
-        for o in OUTPUTS:
-            vr = [self.variables[o.name].valueReference]
-            if o.kind is float:
-                out[o.name] = self.fmu.getReal(vr)[0]
-            elif o.kind is int:
-                out[o.name] = self.fmu.getInteger(vr)[0]
-            else:
-                out[o.name] = self.fmu.getBoolean(vr)[0]
+        for kind, outs in groups.items():
+            values = getters[kind]([self.variables[o.name].valueReference for o in outs])
+            out.update({o.name: v for o, v in zip(outs, values, strict=True)})
         return out
 
     def free(self) -> None:
