@@ -95,6 +95,8 @@ FLOW_INPUT = ParameterSpec("flow.u", "flow_u", "m/s",
                            "flow speed, positive towards the structure", "finite")
 
 _BY_NAME = {p.name: p for p in PARAMETERS}
+#: Every FMI-named value a scene holds: the parameters and the flow input's start value.
+SPECS_BY_NAME: dict[str, ParameterSpec] = {**_BY_NAME, FLOW_INPUT.name: FLOW_INPUT}
 _BY_FIELD = {p.field: p for p in PARAMETERS}
 
 
@@ -157,19 +159,25 @@ class Scene:
         out[FLOW_INPUT.name] = self.flow_u
         return out
 
+    def replace_fmi(self, values: dict[str, Any]) -> Scene:
+        """A copy with FMI-named values changed (``{"ice.M": 800.0, "flow.u": 0.5}``)."""
+        return dataclasses.replace(self, **_fields(values))
+
     @classmethod
     def from_fmi(cls, values: dict[str, Any]) -> Scene:
         """Build a scene from FMI-named values (``{"ice.M": 800.0, ...}``); others keep defaults."""
-        fields: dict[str, Any] = {}
-        for name, value in values.items():
-            if name == FLOW_INPUT.name:
-                fields[FLOW_INPUT.field] = value
-            elif name in _BY_NAME:
-                fields[_BY_NAME[name].field] = value
-            else:
-                raise ParameterError(name, value, "no such parameter; known: "
-                                     + ", ".join(sorted(_BY_NAME) + [FLOW_INPUT.name]))
-        return cls(**fields)
+        return cls(**_fields(values))
+
+
+def _fields(values: dict[str, Any]) -> dict[str, Any]:
+    """FMI-named values keyed by Scene field; an unknown name is a ParameterError."""
+    fields: dict[str, Any] = {}
+    for name, value in values.items():
+        if name not in SPECS_BY_NAME:
+            raise ParameterError(name, value, "no such parameter; known: "
+                                 + ", ".join(sorted(_BY_NAME) + [FLOW_INPUT.name]))
+        fields[SPECS_BY_NAME[name].field] = value
+    return fields
 
 
 def _check_number(spec: ParameterSpec, value: Any) -> None:

@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from .scene import FLOW_INPUT, PARAMETERS, ParameterSpec, Scene
+from .scene import FLOW_INPUT, PARAMETERS, SPECS_BY_NAME, Scene
 from .simulator import Result, run
 
 #: Default sample step of the runs, s: 125 samples per natural period of the Figure 2 structure
@@ -68,8 +68,6 @@ STATUS_OK = "ok"
 Measure = Callable[[Result, float], Mapping[str, float]]
 Value = float | int
 
-_SPECS: dict[str, ParameterSpec] = {p.name: p for p in PARAMETERS}
-_SPECS[FLOW_INPUT.name] = FLOW_INPUT
 
 
 class SweepError(ValueError):
@@ -143,7 +141,7 @@ def _coerce(name: str, value: Any) -> Value:
         raise SweepError(f"{name}: grid value {value!r} is not a number")
     if not math.isfinite(value):  # no parameter accepts it; nan would also defeat resuming
         raise SweepError(f"{name}: grid value {value!r} is not finite")
-    if _SPECS[name].kind is int and value == int(value):
+    if SPECS_BY_NAME[name].kind is int and value == int(value):
         return int(value)
     return float(value)
 
@@ -174,7 +172,7 @@ def parse_set(spec: str) -> tuple[str, Value]:
 
 
 def _check_name(name: str, what: str) -> None:
-    if name not in _SPECS:
+    if name not in SPECS_BY_NAME:
         raise SweepError(f"{what}: unknown parameter {name!r}; known: "
                          + ", ".join(parameter_names()))
 
@@ -203,7 +201,7 @@ def grid_points(grid: Mapping[str, Sequence[Value]]) -> list[tuple[Value, ...]]:
 
 def apply(base: Scene, params: Mapping[str, Value]) -> Scene:
     """``base`` with FMI-named parameters replaced (validated: may raise ParameterError)."""
-    return base.replace(**{_SPECS[name].field: value for name, value in params.items()})
+    return base.replace_fmi(dict(params))
 
 
 # One run ---------------------------------------------------------------------------------------
