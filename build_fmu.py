@@ -8,8 +8,8 @@ scipy is available, without ``iceimpact`` being installed.
 
 PythonFMU writes no units, ranges or initial unknowns, so modelDescription.xml is completed here:
 UnitDefinitions, the unit of every Real, min/max, ModelStructure/InitialUnknowns and the
-DefaultExperiment. Units, descriptions and ranges come from ``iceimpact.scene.PARAMETERS`` (and
-the output table of the slave), never from a second table.
+DefaultExperiment. Units, descriptions, ranges and the default experiment come from the contract
+table ``iceimpact.contract``, never from a second table.
 """
 
 from __future__ import annotations
@@ -27,8 +27,6 @@ ROOT = Path(__file__).resolve().parent
 FMU_SRC = ROOT / "fmu_src"
 SLAVE_NAME = "IceImpact"
 PACKAGE_NAME = "iceimpact"
-
-DEFAULT_EXPERIMENT = {"startTime": "0", "stopTime": "400", "stepSize": "0.001"}
 
 # SI base-unit exponents of the symbols that unit strings are written with ("N.s/m", "kg/m3").
 _SYMBOLS = {
@@ -65,34 +63,23 @@ def requirements() -> str:
     return "".join(f"{dep}\n" for dep in deps)
 
 
-def _number(value: float | int) -> str:
-    return repr(int(value)) if float(value).is_integer() and abs(value) < 1e15 else repr(
-        float(value))
-
-
-def complete_model_description(xml: bytes, slave_module) -> bytes:
+def complete_model_description(xml: bytes) -> bytes:
     """Add units, ranges, initial unknowns and the default experiment to PythonFMU's XML."""
-    from iceimpact.scene import FLOW_INPUT, PARAMETERS
+    from iceimpact.contract import BY_NAME, DEFAULT_EXPERIMENT, number_text
 
     root = ET.fromstring(xml)
-    ranges: dict[str, tuple[float | None, float | None]] = {
-        p.name: (p.minimum, p.maximum) for p in PARAMETERS}
-    ranges.update({o.name: (o.minimum, None) for o in slave_module.OUTPUTS})
-    descriptions = {p.name: p.description for p in PARAMETERS}
-    descriptions[FLOW_INPUT.name] = FLOW_INPUT.description
-    descriptions.update({o.name: o.description for o in slave_module.OUTPUTS})
-    units = slave_module.variable_units()
 
     used_units: list[str] = []
     outputs: list[int] = []
     model_variables = root.find("ModelVariables")
     for index, var in enumerate(model_variables.findall("ScalarVariable"), start=1):
         name = var.get("name")
-        if not var.get("description") and name in descriptions:
-            var.set("description", descriptions[name])
+        spec = BY_NAME[name]
+        if not var.get("description"):
+            var.set("description", spec.description)
         type_node = var[0]
         if type_node.tag == "Real":
-            unit = units.get(name)
+            unit = spec.unit
             if not unit:
                 raise ValueError(f"no unit for the Real variable {name!r}")
             type_node.set("unit", unit)
@@ -101,12 +88,11 @@ def complete_model_description(xml: bytes, slave_module) -> bytes:
         if type_node.tag in ("Integer", "Boolean") and var.get("causality") not in (
                 "parameter", "calculatedParameter"):
             var.set("variability", "discrete")
-        low, high = ranges.get(name, (None, None))
         if type_node.tag in ("Real", "Integer"):
-            if low is not None:
-                type_node.set("min", _number(low))
-            if high is not None:
-                type_node.set("max", _number(high))
+            if spec.minimum is not None:
+                type_node.set("min", number_text(spec.minimum))
+            if spec.maximum is not None:
+                type_node.set("max", number_text(spec.maximum))
         if var.get("causality") == "output":
             outputs.append(index)
             if var.get("initial") is None:
@@ -125,7 +111,10 @@ def complete_model_description(xml: bytes, slave_module) -> bytes:
 
     for old in root.findall("DefaultExperiment"):
         root.remove(old)
-    experiment = ET.Element("DefaultExperiment", DEFAULT_EXPERIMENT)
+    experiment = ET.Element("DefaultExperiment", {
+        "startTime": number_text(DEFAULT_EXPERIMENT.start_time),
+        "stopTime": number_text(DEFAULT_EXPERIMENT.stop_time),
+        "stepSize": number_text(DEFAULT_EXPERIMENT.step_size)})
     root.insert(list(root).index(model_variables), experiment)
 
     structure = root.find("ModelStructure")
@@ -141,22 +130,20 @@ def complete_model_description(xml: bytes, slave_module) -> bytes:
     return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
 
 
-def _rewrite_model_description(fmu: Path, slave_module) -> None:
+def _rewrite_model_description(fmu: Path) -> None:
     with zipfile.ZipFile(fmu) as src:
         entries = [(info, src.read(info)) for info in src.infolist()]
     tmp = fmu.with_suffix(".fmu.tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as dst:
         for info, data in entries:
             if info.filename == "modelDescription.xml":
-                data = complete_model_description(data, slave_module)
+                data = complete_model_description(data)
             dst.writestr(info.filename, data, compress_type=zipfile.ZIP_DEFLATED)
     tmp.replace(fmu)
 
 
 def build(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) -> Path:
     """Build ``<dest>/IceImpact.fmu`` from ``<source_dir>/IceImpact.py`` and its package."""
-    import importlib
-
     source_dir = Path(source_dir).resolve()
     dest = Path(dest).resolve()
     dest.mkdir(parents=True, exist_ok=True)
@@ -164,7 +151,6 @@ def build(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) ->
         sys.path.insert(0, str(source_dir))
     from pythonfmu import FmuBuilder
 
-    slave_module = importlib.import_module(SLAVE_NAME)
     with tempfile.TemporaryDirectory(prefix="iceimpact_fmu_") as tmp:
         req = Path(tmp) / "requirements.txt"
         req.write_text(requirements())
@@ -176,25 +162,22 @@ def build(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) ->
             canSerializeFMUstate=True,
         )
     fmu = Path(fmu)
-    _rewrite_model_description(fmu, slave_module)
+    _rewrite_model_description(fmu)
     return fmu
 
 
 def variables_table(fmu: str | Path) -> str:
-    """The variables of a built FMU as a Markdown table (the one in docs/fmu.md)."""
+    """The variables of a built FMU as the Markdown table of docs/fmu.md (the contract's)."""
     from fmpy import read_model_description
 
-    from iceimpact.scene import FLOW_INPUT, PARAMETERS
+    from iceimpact.contract import markdown_table
 
-    allowed = {p.name: p.allowed for p in (*PARAMETERS, FLOW_INPUT)}
-    rows = ["| name | causality | type | unit | start | allowed | meaning |",
-            "|---|---|---|---|---|---|---|"]
-    for v in read_model_description(str(fmu)).modelVariables:
-        causality = v.causality + (" (tunable)" if v.variability == "tunable" else "")
-        start = "" if v.start is None else v.start
-        rows.append(f"| `{v.name}` | {causality} | {v.type} | {v.unit or '–'} | {start} | "
-                    f"{allowed.get(v.name, '')} | {v.description} |")
-    return "\n".join(rows) + "\n"
+    names = [v.name for v in read_model_description(str(fmu)).modelVariables]
+    table = markdown_table()
+    missing = [n for n in names if f"| `{n}` |" not in table]
+    if missing:
+        raise ValueError(f"variables of the FMU missing from the contract: {missing}")
+    return table
 
 
 def main(argv: list[str] | None = None) -> int:

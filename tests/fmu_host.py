@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import importlib.util
 import math
-import sys
 from ctypes import byref
 from pathlib import Path
 
@@ -22,13 +21,11 @@ from fmpy.fmi2 import (
     fmi2CallbackLoggerTYPE,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "fmu_src"))
+from iceimpact.contract import OUTPUTS
 
-import IceImpact as slave  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 DT = 1e-3
-OUTPUTS = slave.OUTPUTS
 REAL_OUTPUTS = [o for o in OUTPUTS if o.kind is float]
 FMI_OK, FMI_WARNING, FMI_DISCARD, FMI_ERROR = 0, 1, 2, 3
 

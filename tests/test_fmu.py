@@ -32,10 +32,10 @@ from fmu_host import (
     assert_outputs_finite,
     columns,
     errors,
-    slave,
 )
 from iceimpact import Scene, Simulator, run
-from iceimpact.scene import FLOW_INPUT, PARAMETERS
+from iceimpact.contract import FLOW_INPUT, PARAMETERS, markdown_table
+from iceimpact.fmi.pythonfmu_fixes import _GUARDED_LIBRARIES
 
 # Scenes of the equality tests (FMI names -> values) and their horizons (s).
 SCENES = {
@@ -106,7 +106,7 @@ def test_model_description_follows_the_interface(fmu, model_description):
     for spec in PARAMETERS:
         v = variables[spec.name]
         assert v.causality == "parameter"
-        assert v.variability == ("tunable" if spec.name == "impact.e" else "fixed")
+        assert v.variability == ("tunable" if spec.tunable else "fixed")
         assert v.type == ("Integer" if spec.kind is int else "Real")
         if spec.kind is float:
             assert v.unit == spec.unit
@@ -145,12 +145,11 @@ def test_fmu_bundles_the_core_and_its_requirements(fmu):
 
 
 def test_docs_describe_every_variable(model_description):
-    rows = {line.split("|")[1].strip(): line.split("|")
-            for line in (ROOT / "docs" / "fmu.md").read_text().splitlines()
-            if line.startswith("| `")}
-    for v in model_description.modelVariables:
-        assert f"`{v.name}`" in rows, f"docs/fmu.md lacks {v.name}"
-        assert rows[f"`{v.name}`"][4].strip() == (v.unit or "–"), v.name
+    """docs/fmu.md holds the contract's table as it is (`python build_fmu.py --variables-table`),
+    and the built FMU has exactly the contract's variables."""
+    assert markdown_table() in (ROOT / "docs" / "fmu.md").read_text()
+    rows = {line.split("|")[1].strip() for line in markdown_table().splitlines()[2:]}
+    assert rows == {f"`{v.name}`" for v in model_description.modelVariables}
 
 
 # Equality with the core ---------------------------------------------------------------------------
@@ -243,7 +242,7 @@ def test_two_instances_do_not_interfere(fmu_dir, model_description):
     b = Instance(fmu_dir, model_description, "b")
     # The slave guarded the library copy against PythonFMU's exit-time use-after-free.
     assert os.path.realpath(Path(fmu_dir) / "binaries" / "linux64" / "IceImpact.so") in (
-        slave._GUARDED_LIBRARIES)
+        _GUARDED_LIBRARIES)
     try:
         a.initialize(a_values)
         b.initialize(b_values)
@@ -394,19 +393,21 @@ def test_bad_restitution_during_the_run_is_discarded(fmu_dir, model_description)
         inst.free()
 
 
-def test_fixed_parameter_after_initialization_is_ignored_with_a_warning(fmu_dir,
-                                                                       model_description):
+def test_fixed_parameter_after_initialization_is_refused_and_not_stored(fmu_dir,
+                                                                         model_description):
     inst = Instance(fmu_dir, model_description)
     try:
         inst.initialize({})
         rows = inst.run(500)
         inst.set({"structure.m": 800.0})
+        in_use = inst.fmu.getReal([inst.variables["structure.m"].valueReference])[0]
         rows += inst.run(500, 500)
     finally:
         inst.free()
-    warnings = [m for s, c, m in inst.messages if s == 1 and c == "logStatusWarning"]
-    assert any("structure.m is a fixed parameter: the new value 800.0 is ignored" in m
-               for m in warnings)
+    refusals = [m for s, c, m in inst.messages if s == FMI_ERROR]
+    assert any("structure.m is a fixed parameter: setting it to 800.0 after initialization is "
+               "refused and the value in use, 1600.0, is kept" in m for m in refusals)
+    assert in_use == 1600.0  # fmi2Get gives the value the simulation uses
     expected = reference({}, 1.0)
     assert_outputs_equal(columns(rows), {k: v[1:] for k, v in expected.items()})
 

@@ -9,10 +9,11 @@ conserve momentum with a coefficient of restitution.
     >>> result.impacts["t"][:3]                    # impact times, s
 """
 
+from .contract import VERSION
 from .scene import PARAMETERS, ParameterError, Scene, load_scene
 from .simulator import Result, Simulator, StepReport, run
 from .solvers.base import Impact, SolverError
 
 __all__ = ["PARAMETERS", "Impact", "ParameterError", "Result", "Scene", "Simulator",
            "SolverError", "StepReport", "load_scene", "run"]
-__version__ = "0.2.0"
+__version__ = VERSION

@@ -11,21 +11,34 @@ Names follow the FMU interface (``structure.m`` is ``Scene.structure_m`` and so 
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-LINEAR_DRAG = 1
-QUADRATIC_DRAG = 2
+from .contract import (
+    DETECTION_SIGN,
+    DETECTION_WINDOW,
+    FLOW_INPUT,
+    INPUTS,
+    LINEAR_DRAG,
+    METHOD_EXACT,
+    METHOD_FIXED_STEP,
+    METHOD_ODE,
+    PARAMETERS,
+    QUADRATIC_DRAG,
+    SCENE_VARIABLES,
+    Variable,
+)
 
-METHOD_EXACT = 1
-METHOD_FIXED_STEP = 2
-METHOD_ODE = 3
+__all__ = ["DETECTION_SIGN", "DETECTION_WINDOW", "FLOW_INPUT", "LINEAR_DRAG", "METHOD_EXACT",
+           "METHOD_FIXED_STEP", "METHOD_ODE", "PARAMETERS", "QUADRATIC_DRAG", "SPECS_BY_NAME",
+           "ParameterError", "ParameterSpec", "Scene", "load_scene", "validate", "validate_flow"]
 
-DETECTION_WINDOW = 1
-DETECTION_SIGN = 2
+#: A parameter's row of the contract (kept under its older name).
+ParameterSpec = Variable
 
 
 class ParameterError(ValueError):
@@ -35,95 +48,46 @@ class ParameterError(ValueError):
         self.name = name
         self.value = value
         self.allowed = allowed
-        super().__init__(f"{name} = {value!r} is not allowed: {allowed}")
+        super().__init__(f"{name} = {_value_text(value)} is not allowed: {allowed}")
 
 
-@dataclass(frozen=True)
-class ParameterSpec:
-    """One row of the parameter table: FMI name, unit, meaning and allowed range (as text)."""
-
-    name: str
-    field: str
-    unit: str
-    description: str
-    allowed: str
-    kind: type = float
-    minimum: float | None = None
-    maximum: float | None = None
+def _value_text(value: Any) -> str:
+    """repr of a value, shortened when huge (an integer of 400 digits from a scene file)."""
+    text = repr(value)
+    if len(text) > 80:
+        text = f"{text[:24]}...{text[-8:]} ({len(text)} characters)"
+    return text
 
 
-PARAMETERS: tuple[ParameterSpec, ...] = (
-    ParameterSpec("structure.m", "structure_m", "kg", "structure mass", "> 0", minimum=0.0),
-    ParameterSpec("structure.c", "structure_c", "N.s/m", "structure viscous damping", ">= 0",
-                  minimum=0.0),
-    ParameterSpec("structure.k", "structure_k", "N/m", "structure stiffness", "> 0", minimum=0.0),
-    ParameterSpec("structure.x0", "structure_x0", "m", "initial structure displacement", "finite"),
-    ParameterSpec("structure.v0", "structure_v0", "m/s", "initial structure velocity", "finite"),
-    ParameterSpec("ice.M", "ice_M", "kg", "ice (free) mass", "> 0", minimum=0.0),
-    ParameterSpec("ice.A", "ice_A", "m2", "ice drag area", "> 0", minimum=0.0),
-    ParameterSpec("ice.Cd", "ice_Cd", "1", "ice drag coefficient", ">= 0", minimum=0.0),
-    ParameterSpec("ice.z0", "ice_z0", "m", "initial ice displacement (upstream of the structure)",
-                  "finite and <= structure.x0"),
-    ParameterSpec("ice.v0", "ice_v0", "m/s", "initial ice velocity", "finite"),
-    ParameterSpec("fluid.rho", "fluid_rho", "kg/m3", "fluid density", "> 0", minimum=0.0),
-    ParameterSpec("impact.e", "impact_e", "1", "coefficient of restitution (eq. 13)",
-                  "0 <= e <= 1", minimum=0.0, maximum=1.0),
-    ParameterSpec("drag.model", "drag_model", "", "drag law: 1 = linearised (eq. 4), "
-                  "2 = quadratic (eq. 3)", "1 or 2", kind=int, minimum=1, maximum=2),
-    ParameterSpec("drag.v_lin", "drag_v_lin", "m/s", "linearisation speed of the drag (eq. 5)",
-                  "> 0", minimum=0.0),
-    ParameterSpec("solver.method", "solver_method", "", "1 = exact event-driven, "
-                  "2 = fixed-step (the article's scheme), 3 = ODE (scipy)", "1, 2 or 3",
-                  kind=int, minimum=1, maximum=3),
-    # dt >= 1 ns: a smaller grid needs over 1e9 points per simulated second (minutes of work per
-    # second) and its grid times lose their precision
-    ParameterSpec("solver.dt", "solver_dt", "s", "internal step of method 2", ">= 1e-9",
-                  minimum=1e-9),
-    # rtol >= 1e-13: scipy raises anything below 100 machine epsilons to 2.2e-14 anyway, and
-    # atol = 1e-3 rtol must stay above the rounding of the states
-    ParameterSpec("solver.rtol", "solver_rtol", "1", "relative tolerance of method 3",
-                  "1e-13 <= rtol < 1", minimum=1e-13, maximum=1.0),
-    ParameterSpec("solver.detection", "solver_detection", "", "impact test of method 2: "
-                  "1 = tolerance window (eq. 26), 2 = sign change of the gap", "1 or 2",
-                  kind=int, minimum=1, maximum=2),
-    ParameterSpec("solver.ode_method", "solver_ode_method", "", "integrator of method 3: "
-                  "1 = RK45, 2 = DOP853, 3 = LSODA, 4 = Radau", "1, 2, 3 or 4",
-                  kind=int, minimum=1, maximum=4),
-)
-
-FLOW_INPUT = ParameterSpec("flow.u", "flow_u", "m/s",
-                           "flow speed, positive towards the structure", "finite")
-
-_BY_NAME = {p.name: p for p in PARAMETERS}
 #: Every FMI-named value a scene holds: the parameters and the flow input's start value.
-SPECS_BY_NAME: dict[str, ParameterSpec] = {**_BY_NAME, FLOW_INPUT.name: FLOW_INPUT}
-_BY_FIELD = {p.field: p for p in PARAMETERS}
+SPECS_BY_NAME: dict[str, Variable] = SCENE_VARIABLES
+_START = {v.field: v.start for v in PARAMETERS + INPUTS}
 
 
 @dataclass(frozen=True)
 class Scene:
     """All parameters of one simulation, SI units, defaults = the article's Figure 2 scene."""
 
-    structure_m: float = 1600.0
-    structure_c: float = 200.0
-    structure_k: float = 1.0e6
-    structure_x0: float = 0.0
-    structure_v0: float = 0.0
-    ice_M: float = 1600.0
-    ice_A: float = 1.0
-    ice_Cd: float = 1.0
-    ice_z0: float = -0.01
-    ice_v0: float = 0.01
-    fluid_rho: float = 999.0
-    impact_e: float = 1.0
-    drag_model: int = LINEAR_DRAG
-    drag_v_lin: float = 0.1
-    flow_u: float = 0.1
-    solver_method: int = METHOD_EXACT
-    solver_dt: float = 1.0e-4
-    solver_rtol: float = 1.0e-8
-    solver_detection: int = DETECTION_WINDOW
-    solver_ode_method: int = 2
+    structure_m: float = _START["structure_m"]
+    structure_c: float = _START["structure_c"]
+    structure_k: float = _START["structure_k"]
+    structure_x0: float = _START["structure_x0"]
+    structure_v0: float = _START["structure_v0"]
+    ice_M: float = _START["ice_M"]
+    ice_A: float = _START["ice_A"]
+    ice_Cd: float = _START["ice_Cd"]
+    ice_z0: float = _START["ice_z0"]
+    ice_v0: float = _START["ice_v0"]
+    fluid_rho: float = _START["fluid_rho"]
+    impact_e: float = _START["impact_e"]
+    drag_model: int = _START["drag_model"]
+    drag_v_lin: float = _START["drag_v_lin"]
+    flow_u: float = _START["flow_u"]
+    solver_method: int = _START["solver_method"]
+    solver_dt: float = _START["solver_dt"]
+    solver_rtol: float = _START["solver_rtol"]
+    solver_detection: int = _START["solver_detection"]
+    solver_ode_method: int = _START["solver_ode_method"]
 
     def __post_init__(self) -> None:
         validate(self)
@@ -173,39 +137,52 @@ def _fields(values: dict[str, Any]) -> dict[str, Any]:
     """FMI-named values keyed by Scene field; an unknown name is a ParameterError."""
     fields: dict[str, Any] = {}
     for name, value in values.items():
-        if name not in SPECS_BY_NAME:
-            raise ParameterError(name, value, "no such parameter; known: "
-                                 + ", ".join(sorted(_BY_NAME) + [FLOW_INPUT.name]))
-        fields[SPECS_BY_NAME[name].field] = value
+        spec = SPECS_BY_NAME.get(name)
+        if spec is None:
+            raise ParameterError(name, value, unknown_name_hint(name))
+        fields[spec.field] = value
     return fields
 
 
-def _check_number(spec: ParameterSpec, value: Any) -> None:
+def unknown_name_hint(name: str) -> str:
+    """The 'allowed' text for a name that is no parameter: the closest names, then all."""
+    close = difflib.get_close_matches(str(name), list(SPECS_BY_NAME), n=3, cutoff=0.6)
+    hint = f"did you mean {' or '.join(close)}? " if close else ""
+    return f"no such parameter; {hint}known: " + ", ".join(sorted(SPECS_BY_NAME))
+
+
+def _check_number(spec: Variable, value: Any) -> None:
     if spec.kind is int:
         if (isinstance(value, bool) or not isinstance(value, int | float)
-                or not math.isfinite(value) or value != int(value)):
+                or (isinstance(value, float) and not math.isfinite(value))
+                or value != int(value)):
             raise ParameterError(spec.name, value, f"an integer, {spec.allowed}")
-        if not spec.minimum <= value <= spec.maximum:
+        if not spec.in_range(value):
             raise ParameterError(spec.name, value, spec.allowed)
         return
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ParameterError(spec.name, value, f"a real number, {spec.allowed}")
+    if isinstance(value, int) and not _representable(value):
+        raise ParameterError(spec.name, value, f"a real number within double precision, "
+                             f"{spec.allowed}")
     if not math.isfinite(value):
         raise ParameterError(spec.name, value, f"finite, {spec.allowed}")
-    strict_low = spec.allowed.startswith(">") and not spec.allowed.startswith(">=")
-    if spec.minimum is not None:
-        if value < spec.minimum or (strict_low and value == spec.minimum):
-            raise ParameterError(spec.name, value, spec.allowed)
-    if spec.name == "solver.rtol" and value >= 1.0:
+    if not spec.in_range(value):
         raise ParameterError(spec.name, value, spec.allowed)
-    if spec.maximum is not None and value > spec.maximum:
-        raise ParameterError(spec.name, value, spec.allowed)
+
+
+def _representable(value: int) -> bool:
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def validate_flow(u: Any, scene: Scene | None = None) -> float:
     """Check a flow speed (m/s): a finite real whose drag force and kinetic energy on the ice of
     ``scene`` (if given) are finite numbers. Returns it as float."""
-    if isinstance(u, bool) or not isinstance(u, int | float) or not math.isfinite(u):
+    if (isinstance(u, bool) or not isinstance(u, int | float)
+            or (isinstance(u, int) and not _representable(u)) or not math.isfinite(u)):
         raise ParameterError(FLOW_INPUT.name, u, "a finite real number (m/s)")
     u = float(u)
     if scene is not None:
@@ -234,8 +211,9 @@ def _check_scales(scene: Scene) -> None:
     s = scene
     linear = s.drag_model == LINEAR_DRAG
     b = s.drag_b if linear else 0.0  # the linearised drag constant only matters for drag law 1
-    zeta_together = (s.structure_c + b) / (2.0 * math.sqrt(s.structure_k
-                                                           * (s.structure_m + s.ice_M)))
+    zeta = _ratio(s.structure_c, 2.0 * math.sqrt(s.structure_k * s.structure_m))
+    zeta_together = _ratio(s.structure_c + b,
+                           2.0 * math.sqrt(s.structure_k * (s.structure_m + s.ice_M)))
     checks = [
         ("structure.k / structure.m", s.structure_k / s.structure_m,
          "omega_n^2 = k/m (1/s^2) finite and > 0", True),
@@ -243,7 +221,7 @@ def _check_scales(scene: Scene) -> None:
         ("fluid.rho * ice.Cd * ice.A / 2", s.drag_B, "the drag constant B (kg/m) finite", False),
         ("B / ice.M", s.drag_B / s.ice_M, "the drag rate B/M (1/m) finite", False),
         ("B * drag.v_lin / ice.M", b / s.ice_M, "the drag rate b/M (1/s) finite", False),
-        ("zeta^2 = (structure.c / (2 sqrt(k m)))^2", s.zeta * s.zeta,
+        ("zeta^2 = (structure.c / (2 sqrt(k m)))^2", zeta * zeta,
          "the squared damping ratio of the structure finite", False),
         ("zeta^2 = ((structure.c + b) / (2 sqrt(k (m + M))))^2 (bodies in contact)",
          zeta_together * zeta_together,
@@ -258,6 +236,11 @@ def _check_scales(scene: Scene) -> None:
     for name, value, allowed, positive in checks:
         if not math.isfinite(value) or (positive and value <= 0.0):
             raise ParameterError(name, value, f"{allowed}: {_OVERFLOW}")
+
+
+def _ratio(a: float, b: float) -> float:
+    """a / b, inf where b underflowed to 0 (the scale is then out of double precision)."""
+    return a / b if b != 0.0 else (math.inf if a != 0.0 else 0.0)
 
 
 def validate(scene: Scene) -> None:
@@ -296,17 +279,29 @@ def load_scene(path: str | Path) -> Scene:
 
     Unknown keys are an error (a typo must not silently fall back to a default).
     """
-    with open(path, "rb") as fh:
-        data = tomllib.load(fh)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError("scene file", str(path), f"a TOML file ({exc})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ParameterError("scene file", str(path), f"a readable TOML file ({exc})") from None
     flat: dict[str, Any] = {}
+    spelled: dict[str, str] = {}
 
-    def walk(prefix: str, table: dict[str, Any]) -> None:
+    def walk(prefix: str, table: dict[str, Any], spelling: str) -> None:
         for key, value in table.items():
             name = f"{prefix}.{key}" if prefix else key
+            how = f"{spelling}{key!r}" if not spelling else f"{spelling} {key!r}"
             if isinstance(value, dict):
-                walk(name, value)
+                walk(name, value, f"[{name}]" if not spelling else f"{spelling}.{key}")
+            elif name in flat:
+                raise ParameterError(name, value, f"given once: the scene file gives it twice, "
+                                     f"as {spelled[name]} = {flat[name]!r} and as {how} = "
+                                     f"{value!r}")
             else:
                 flat[name] = value
+                spelled[name] = how
 
-    walk("", data)
+    walk("", data, "")
     return Scene.from_fmi(flat)

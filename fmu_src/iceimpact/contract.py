@@ -1,0 +1,218 @@
+"""The FMI contract of IceImpact.fmu: every variable, its unit, range, start value and meaning.
+
+This table is the one home of the FMU's interface (docs/fmu.md lists it; a test checks that the
+page and the built modelDescription.xml agree with it). Everything else draws from it:
+
+- :mod:`iceimpact.scene` validates parameters against the ranges here and takes its defaults
+  from the start values here;
+- the slave (``fmu_src/IceImpact.py``) registers exactly these variables, with these
+  causalities and variabilities;
+- ``build_fmu.py`` writes units, min/max, descriptions and the default experiment from it;
+- the CLI resolves ``--set`` / ``--vary`` names against it.
+
+Adding a variable: one row here, plus the physics that uses it (a :class:`~iceimpact.Scene`
+field for a parameter or input, a :class:`~iceimpact.StepReport` field for an output).
+This module imports nothing from the package: it is the bottom layer.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+#: Version of the model core and of the FMU (pyproject.toml reads it from here).
+VERSION = "0.3.0"
+
+MODEL_IDENTIFIER = "IceImpact"
+AUTHOR = "IceImpact contributors"
+LICENSE = "MIT"
+DESCRIPTION = ("Flow-driven repeated ice impacts on a flexible structure: a damped SDOF structure "
+               "struck by an ice floe pushed by the current")
+
+
+@dataclass(frozen=True)
+class DefaultExperiment:
+    """The FMU's DefaultExperiment: the article's Figure 2 run (400 s) at 1 ms steps."""
+
+    start_time: float = 0.0   # s
+    stop_time: float = 400.0  # s
+    step_size: float = 1e-3   # s
+
+
+DEFAULT_EXPERIMENT = DefaultExperiment()
+
+# Causalities and variabilities, as FMI 2.0 spells them.
+PARAMETER, INPUT, OUTPUT = "parameter", "input", "output"
+FIXED, TUNABLE, CONTINUOUS, DISCRETE = "fixed", "tunable", "continuous", "discrete"
+
+# Enumerations of the Integer parameters (named so that the physics never compares with 1, 2, 3).
+LINEAR_DRAG, QUADRATIC_DRAG = 1, 2                        # drag.model
+METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE = 1, 2, 3     # solver.method
+DETECTION_WINDOW, DETECTION_SIGN = 1, 2                   # solver.detection
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI variable.
+
+    ``field`` is the :class:`~iceimpact.Scene` field of a parameter or input, the
+    :class:`~iceimpact.StepReport` field of an output. ``minimum``/``maximum`` bound the allowed
+    values (``min_exclusive``/``max_exclusive`` make a bound strict); ``allowed`` is the range as
+    a reader sees it in error messages and docs.
+    """
+
+    name: str
+    field: str
+    causality: str
+    kind: type                 # float (Real), int (Integer) or bool (Boolean)
+    unit: str                  # SI, as in modelDescription.xml; "" for Integer and Boolean
+    description: str
+    start: float | int | bool | None = None
+    allowed: str = "finite"
+    minimum: float | None = None
+    maximum: float | None = None
+    min_exclusive: bool = False
+    max_exclusive: bool = False
+    variability: str = FIXED
+    choices: dict[int, str] = field(default_factory=dict)  # Integer enumerations
+
+    @property
+    def tunable(self) -> bool:
+        return self.variability == TUNABLE
+
+    def in_range(self, value: float) -> bool:
+        """True if the finite number ``value`` lies within [minimum, maximum] (strict where
+        marked); the allowed set of an Integer enumeration is its ``choices``."""
+        if self.choices:
+            return value in self.choices
+        if self.minimum is not None and (value < self.minimum
+                                         or (self.min_exclusive and value == self.minimum)):
+            return False
+        if self.maximum is not None and (value > self.maximum
+                                         or (self.max_exclusive and value == self.maximum)):
+            return False
+        return True
+
+
+def _real(name: str, unit: str, description: str, start: float, allowed: str = "finite",
+          **kw) -> Variable:
+    return Variable(name, name.replace(".", "_"), PARAMETER, float, unit, description, start,
+                    allowed, **kw)
+
+
+def _enum(name: str, description: str, start: int, choices: dict[int, str]) -> Variable:
+    keys = [str(k) for k in choices]
+    allowed = (", ".join(keys[:-1]) + " or " + keys[-1] + " ("
+               + "; ".join(f"{k} = {v}" for k, v in choices.items()) + ")")
+    return Variable(name, name.replace(".", "_"), PARAMETER, int, "", description, start,
+                    allowed, minimum=min(choices), maximum=max(choices), choices=choices)
+
+
+_POSITIVE = {"allowed": "> 0", "minimum": 0.0, "min_exclusive": True}
+_NON_NEGATIVE = {"allowed": ">= 0", "minimum": 0.0}
+
+#: Parameters, in the order of their value references (append new ones at the end).
+PARAMETERS: tuple[Variable, ...] = (
+    _real("structure.m", "kg", "structure mass", 1600.0, **_POSITIVE),
+    _real("structure.c", "N.s/m", "structure viscous damping", 200.0, **_NON_NEGATIVE),
+    _real("structure.k", "N/m", "structure stiffness", 1.0e6, **_POSITIVE),
+    _real("structure.x0", "m", "initial structure displacement", 0.0),
+    _real("structure.v0", "m/s", "initial structure velocity", 0.0),
+    _real("ice.M", "kg", "ice (free) mass", 1600.0, **_POSITIVE),
+    _real("ice.A", "m2", "ice drag area", 1.0, **_POSITIVE),
+    _real("ice.Cd", "1", "ice drag coefficient", 1.0, **_NON_NEGATIVE),
+    _real("ice.z0", "m", "initial ice displacement (upstream of the structure)", -0.01,
+          allowed="finite and <= structure.x0"),
+    _real("ice.v0", "m/s", "initial ice velocity", 0.01),
+    _real("fluid.rho", "kg/m3", "fluid density", 999.0, **_POSITIVE),
+    _real("impact.e", "1", "coefficient of restitution (eq. 13)", 1.0, allowed="0 <= e <= 1",
+          minimum=0.0, maximum=1.0, variability=TUNABLE),
+    _enum("drag.model", "drag law: 1 = linearised (eq. 4), 2 = quadratic (eq. 3)", LINEAR_DRAG,
+          {LINEAR_DRAG: "linearised", QUADRATIC_DRAG: "quadratic"}),
+    _real("drag.v_lin", "m/s", "linearisation speed of the drag (eq. 5)", 0.1, **_POSITIVE),
+    _enum("solver.method", "1 = exact event-driven, 2 = fixed-step (the article's scheme), "
+          "3 = ODE (scipy)", METHOD_EXACT,
+          {METHOD_EXACT: "exact", METHOD_FIXED_STEP: "fixed-step", METHOD_ODE: "ODE"}),
+    # dt >= 1 ns: a smaller grid needs over 1e9 points per simulated second (minutes of work per
+    # second) and its grid times lose their precision
+    _real("solver.dt", "s", "internal step of method 2", 1.0e-4, allowed=">= 1e-9",
+          minimum=1e-9),
+    # rtol >= 1e-13: scipy raises anything below 100 machine epsilons to 2.2e-14 anyway, and
+    # atol = 1e-3 rtol must stay above the rounding of the states
+    _real("solver.rtol", "1", "relative tolerance of method 3", 1.0e-8,
+          allowed="1e-13 <= rtol < 1", minimum=1e-13, maximum=1.0, max_exclusive=True),
+    _enum("solver.detection", "impact test of method 2: 1 = tolerance window (eq. 26), "
+          "2 = sign change of the gap", DETECTION_WINDOW,
+          {DETECTION_WINDOW: "window", DETECTION_SIGN: "sign"}),
+    _enum("solver.ode_method", "integrator of method 3: 1 = RK45, 2 = DOP853, 3 = LSODA, "
+          "4 = Radau", 2, {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}),
+)
+
+#: Inputs, held constant within a communication step (zero-order hold).
+INPUTS: tuple[Variable, ...] = (
+    Variable("flow.u", "flow_u", INPUT, float, "m/s",
+             "flow speed, positive towards the structure", 0.1, variability=CONTINUOUS),
+)
+FLOW_INPUT = INPUTS[0]
+
+
+def _out(name: str, field: str, kind: type, unit: str, description: str,
+         variability: str = CONTINUOUS, **kw) -> Variable:
+    if kind is not float:
+        variability = DISCRETE
+    return Variable(name, field, OUTPUT, kind, unit, description, variability=variability,
+                    allowed="", **kw)
+
+
+#: Outputs: values at the end of the last communication step. Appended ones keep the value
+#: references of the older ones.
+OUTPUTS: tuple[Variable, ...] = (
+    _out("structure.x", "x", float, "m", "structure displacement"),
+    _out("structure.v", "v", float, "m/s", "structure velocity"),
+    _out("ice.z", "z", float, "m", "ice displacement"),
+    _out("ice.v", "w", float, "m/s", "ice velocity"),
+    _out("contact.gap", "gap", float, "m",
+         "gap x - z between structure and ice, never negative", minimum=0.0),
+    _out("contact.impulse", "impulse", float, "N.s",
+         "impulse delivered to the structure during the last communication step "
+         "(impacts plus sticking contact)"),
+    _out("contact.force", "force", float, "N",
+         "mean contact force over the last communication step: contact.impulse / step size"),
+    _out("contact.count", "impact_count", int, "", "impacts since the start", minimum=0),
+    _out("contact.active", "sticking", bool, "", "true while the bodies stick together"),
+    _out("contact.t_last", "t_last", float, "s",
+         "time of the latest impact (-1 before the first)", variability=DISCRETE),
+    _out("contact.penetration", "penetration", float, "m",
+         "distance the ice is past the structure (z - x > 0), else 0: the fixed-step method's "
+         "grid (solver.method = 2), or the ODE method's integration error (3, of the order of "
+         "its absolute tolerance, 1e-3 solver.rtol m); always 0 with the exact method",
+         minimum=0.0),
+)
+
+#: Every variable, in value-reference order per type as the slave registers them.
+VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS
+BY_NAME: dict[str, Variable] = {v.name: v for v in VARIABLES}
+#: The names a scene holds (parameters and input start values), for scene files and the CLI.
+SCENE_VARIABLES: dict[str, Variable] = {v.name: v for v in PARAMETERS + INPUTS}
+
+
+def number_text(value: float | int) -> str:
+    """A number as modelDescription.xml and the docs write it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if float(value).is_integer() and abs(value) < 1e15:
+        return repr(int(value))
+    return repr(float(value)) if math.isfinite(value) else str(value)
+
+
+def markdown_table() -> str:
+    """The variables as the Markdown table of docs/fmu.md (a test keeps the page in step)."""
+    kinds = {float: "Real", int: "Integer", bool: "Boolean"}
+    rows = ["| name | causality | type | unit | start | allowed | meaning |",
+            "|---|---|---|---|---|---|---|"]
+    for v in VARIABLES:
+        causality = v.causality + (" (tunable)" if v.tunable else "")
+        start = "" if v.start is None else number_text(v.start)
+        rows.append(f"| `{v.name}` | {causality} | {kinds[v.kind]} | {v.unit or '–'} | {start} | "
+                    f"{v.allowed} | {v.description} |")
+    return "\n".join(rows) + "\n"

@@ -1,0 +1,74 @@
+"""Work-arounds for two defects of PythonFMU 0.7.0's native library (binaries/*/IceImpact.so).
+
+Both live here, with their explanation, so that the slave stays FMI plumbing only. Each is a
+no-op where the defect cannot occur.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+from typing import Any
+
+from ..contract import MODEL_IDENTIFIER
+
+# Libraries (paths of loaded copies of binaries/linux64/IceImpact.so) already guarded below.
+_GUARDED_LIBRARIES: set[str] = set()
+
+
+def hold_module_dict(module_globals: dict[str, Any]) -> None:
+    """Give back the reference to the slave module's dictionary that each instantiation steals.
+
+    PythonFMU 0.7.0's native loader (findClass in PySlaveInstance.cpp) runs the slave module's
+    source a second time for every fmi2Instantiate and then calls Py_DECREF on the *borrowed*
+    module dictionary: each instantiation steals one reference from it. Today that is hidden by
+    a leak in the same function (the classes of every re-execution are never released, and
+    their methods keep the dictionary alive); should the leak be fixed alone, the dictionary
+    would be freed while in use after enough instantiations. The slave calls this at module
+    level, so it runs on import and on each re-execution, and it keeps one reference per call.
+    """
+    module_globals.setdefault("_MODULE_DICT_REFS", []).append(module_globals)
+
+
+def guard_native_exit() -> None:
+    """Work around a use-after-free at process exit in PythonFMU 0.7.0's native library.
+
+    The library keeps the embedded interpreter in a static ``std::shared_ptr<PyState>``. At
+    ``exit()`` the C++ static destructor of that pointer runs first (it finalizes Python and frees
+    the PyState), then the library's ``__attribute__((destructor))`` assigns ``nullptr`` to the
+    already destroyed pointer, which decrements a counter inside the freed block and corrupts the
+    malloc free lists. The process then aborts or segfaults in a later ``free`` at exit (with
+    numpy/scipy loaded: in libgfortran's exit-time ``close_units``). The library is never really
+    unloaded (its GNU_UNIQUE symbols make it NODELETE), so this happens at process exit whether or
+    not the host calls ``dlclose``.
+
+    The fix: for each loaded copy of the library, register ``finalizePythonInterpreter`` (exported
+    by the library) with ``__cxa_atexit``. Being registered after the library's static
+    constructors, it runs before the static destructor and releases the PyState while the pointer
+    is still alive; the destructor and the library destructor then find a null pointer. The library
+    is pinned with RTLD_NODELETE so the registered function stays mapped.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    suffix = f"/{MODEL_IDENTIFIER}.so"
+    try:
+        with open("/proc/self/maps") as maps:
+            fields = [line.rstrip("\n").split(None, 5) for line in maps]
+        new = {f[5] for f in fields if len(f) == 6 and f[5].endswith(suffix)}
+        new -= _GUARDED_LIBRARIES
+        if not new:
+            return
+        cxa_atexit = ctypes.CDLL(None).__cxa_atexit
+        cxa_atexit.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+        cxa_atexit.restype = ctypes.c_int
+        for path in sorted(new):
+            _GUARDED_LIBRARIES.add(path)
+            try:
+                lib = ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_NODELETE | os.RTLD_NOW)
+                finalize = ctypes.cast(lib.finalizePythonInterpreter, ctypes.c_void_p).value
+            except (OSError, AttributeError):
+                continue  # not a PythonFMU library after all
+            cxa_atexit(finalize, None, None)
+    except Exception:  # never fail an instantiation over this
+        return
