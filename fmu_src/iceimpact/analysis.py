@@ -10,7 +10,8 @@ FMU's outputs via :func:`impacts_from_counter`, or from anywhere else), SI units
   eq. 43).
 - :func:`lock_in` -- is the impact period ``T`` such that ``omega_n = 2 pi N / T`` for an
   integer ``N`` (the resonance/lock-in condition of the article's Section 5, after eq. 44)?
-- :func:`summarize` / :func:`summarize_arrays` -- all of the above as one flat, CSV-ready
+- :func:`summarize` / :func:`summarize_arrays` -- all of the above and the design loads of
+  :mod:`iceimpact.loads` (extremes, damage-equivalent loads) as one flat, CSV-ready
   ``dict[str, float]`` whose keys and units are listed in :data:`SUMMARY_FIELDS`.
 - :func:`impacts_from_counter` -- impact times and impulses recovered from sampled outputs
   (the FMU's ``contact.count``, ``contact.t_last`` and ``contact.impulse``).
@@ -28,6 +29,8 @@ from typing import Any
 
 import numpy as np
 from scipy.signal import welch
+
+from .loads import LOAD_FIELDS, design_loads, load_columns
 
 #: Default relative tolerance of :func:`lock_in`: ``|ratio - N| / N <= 0.05`` counts as locked.
 LOCK_IN_TOLERANCE = 0.05
@@ -73,6 +76,8 @@ SUMMARY_FIELDS: dict[str, tuple[str, str]] = {
     "sticking_fraction": ("1", "fraction of the window's samples in sticking contact "
                                "(nan if not known)"),
     "sticking_since_s": ("s", "start of the sticking phase that lasts to the end (nan if none)"),
+    # design loads (iceimpact.loads): extremes, damage-equivalent loads, contact force
+    **LOAD_FIELDS,
 }
 
 
@@ -375,10 +380,14 @@ def _uniform_prefix(t: np.ndarray) -> int:
 def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n: float,
                      transient: float = 0.0, sticking: np.ndarray | None = None,
                      sticking_since: float | None = None,
-                     tolerance: float = LOCK_IN_TOLERANCE) -> dict[str, float]:
+                     tolerance: float = LOCK_IN_TOLERANCE, structure_k: float | None = None,
+                     impulse: np.ndarray | None = None) -> dict[str, float]:
     """:func:`summarize` on plain arrays: samples ``t`` (s), ``x`` (m), an impact array as
     accepted by :func:`impact_statistics`, ``omega_n`` (rad/s), optional per-sample sticking
     flags and the start of a final sticking phase (s). Keys and units: :data:`SUMMARY_FIELDS`.
+    The design loads (:mod:`iceimpact.loads`) need the stiffness ``structure_k`` (N/m) for the
+    k x columns and the per-sample ``impulse`` (N.s) for the contact force; without them those
+    columns are nan.
     """
     t = np.asarray(t, dtype=float).ravel()
     x = np.asarray(x, dtype=float).ravel()
@@ -439,6 +448,8 @@ def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n:
         "sticking_fraction": sticking_fraction,
         "sticking_since_s": math.nan if sticking_since is None else float(sticking_since),
     }
+    out.update(load_columns(design_loads(t, x, structure_k, impacts=impacts, impulse=impulse,
+                                         transient=transient)))
     assert out.keys() == SUMMARY_FIELDS.keys()
     return out
 
@@ -451,11 +462,15 @@ def summarize(result: Any, transient: float = 0.0,
     ending at the last sample), displacement peak/mean/RMS, the dominant frequency of the Welch
     spectrum of x, and the lock-in measures of :func:`lock_in` for the impact period T = mean
     interval (Section 5 of the article). Undefined entries are nan (fewer than two impacts, a
-    structure at rest, too few samples for a spectrum, no sticking phase). ``result`` needs
-    ``t``, ``x``, ``impacts`` and ``scene.omega_n``; ``sticking`` and ``sticking_since`` are
-    used when present.
+    structure at rest, too few samples for a spectrum, no sticking phase), and the design
+    loads of :mod:`iceimpact.loads` (extremes and damage-equivalent loads of k x, contact
+    force, impulse percentile). ``result`` needs ``t``, ``x``, ``impacts`` and
+    ``scene.omega_n``; ``sticking``, ``sticking_since``, ``impulse`` and ``scene.structure_k``
+    are used when present.
     """
     return summarize_arrays(result.t, result.x, result.impacts, result.scene.omega_n,
                             transient=transient, sticking=getattr(result, "sticking", None),
                             sticking_since=getattr(result, "sticking_since", None),
-                            tolerance=tolerance)
+                            tolerance=tolerance,
+                            structure_k=getattr(result.scene, "structure_k", None),
+                            impulse=getattr(result, "impulse", None))
