@@ -88,13 +88,13 @@ def plot(rows: list[dict], u: np.ndarray, mass: np.ndarray, m: int, title: str,
         norm = LogNorm(vmin=positive.min(), vmax=positive.max()) if positive.size else None
         mesh = ax.pcolormesh(ue, me, np.where(data > 0.0, data, np.nan), shading="flat",
                              cmap="magma", norm=norm)
-        fig.colorbar(mesh, ax=ax, label=label)
+        fig.colorbar(mesh, ax=ax, label="N")
         for i in range(mass.size):
             for j in range(u.size):
                 if math.isfinite(data[i, j]):
                     ax.text(math.sqrt(ue[j] * ue[j + 1]), math.sqrt(me[i] * me[i + 1]),
                             f"{data[i, j] / 1e3:.2g}", ha="center", va="center", fontsize=7,
-                            color="white" if norm is None or data[i, j] < norm.vmax / 3
+                            color="white" if norm is None or norm(data[i, j]) < 0.6
                             else "black")
         si, sj = np.nonzero(sticking)
         ax.scatter(np.sqrt(ue[sj] * ue[sj + 1]), np.sqrt(me[si] * me[si + 1]) * 1.25, s=6,
