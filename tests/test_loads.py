@@ -115,6 +115,9 @@ def test_degenerate_signals():
         rainflow_cycles(np.array([0.0, math.nan, 1.0]))
     with pytest.raises(ValueError, match="exponent"):
         damage_equivalent_load(none, 0.0, 1.0)
+    # a diverged run: nan loads rather than an exception
+    bad = design_loads(np.arange(4.0), np.array([0.0, 1.0, math.inf, 0.0]), 1.0)
+    assert math.isnan(bad.del_1hz[3]) and math.isnan(load_columns(bad)["del_m10_1e7_N"])
     ext = extremes(np.array([]), np.array([]))
     assert math.isnan(ext.max) and math.isnan(ext.t_min)
     # large ranges and m = 10: no overflow

@@ -235,7 +235,8 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
     structured array with fields ``t`` and ``impulse``); ``impulse`` the per-sample impulse
     (N.s, :attr:`iceimpact.Result.impulse`). Missing inputs give nan for what needs them (k:
     the k x loads; impacts: the impact loads; impulse: the contact force). The window of the
-    contact force is made of the sample intervals that start at or after ``transient``.
+    contact force is made of the sample intervals that start at or after ``transient``. A
+    displacement that is not finite gives nan DELs (no exception).
     """
     from .analysis import impact_statistics
 
@@ -259,9 +260,14 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
         kx = k * x[window]
         kx_ext = extremes(t_w, kx)
         kx_mean = float(np.mean(kx))
-        cycles = rainflow_cycles(kx, half=half)
-        del_1hz = {m: damage_equivalent_load(cycles, m, f_eq * duration) for m in exponents}
-        del_neq = {m: damage_equivalent_load(cycles, m, n_eq) for m in exponents}
+        if np.all(np.isfinite(kx)):
+            cycles = rainflow_cycles(kx, half=half)
+            del_1hz = {m: damage_equivalent_load(cycles, m, f_eq * duration) for m in exponents}
+            del_neq = {m: damage_equivalent_load(cycles, m, n_eq) for m in exponents}
+        else:  # a diverged run: nan loads, not an exception (sweeps write them to CSV)
+            cycles = Cycles(np.zeros(0), np.zeros(0), np.zeros(0))
+            del_1hz = dict.fromkeys(exponents, math.nan)
+            del_neq = dict.fromkeys(exponents, math.nan)
     else:
         kx_ext, kx_mean = nan_extremes, math.nan
         cycles = Cycles(np.zeros(0), np.zeros(0), np.zeros(0))
