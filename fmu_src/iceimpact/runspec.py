@@ -54,8 +54,8 @@ def check_name(name: str, what: str) -> None:
         return
     names = parameter_names()
     close = suggest(name, names)
-    hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
-    raise SpecError(f"{what}: unknown parameter {name!r}{hint} known: " + ", ".join(names))
+    hint = f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+    raise SpecError(f"{what}: unknown parameter {shown(name)}{hint}; known: " + ", ".join(names))
 
 
 def parse_number(text: str, what: str) -> float:
@@ -64,9 +64,9 @@ def parse_number(text: str, what: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise SpecError(f"{what}: {text.strip()!r} is not a number") from None
+        raise SpecError(f"{what}: {shown(text.strip())} is not a number") from None
     if not math.isfinite(value):
-        raise SpecError(f"{what}: {text.strip()!r} is not finite (|value| must be below "
+        raise SpecError(f"{what}: {shown(text.strip())} is not finite (|value| must be below "
                         f"{float.fromhex('0x1.fffffffffffffp+1023'):.4g})")
     return value
 
@@ -88,9 +88,16 @@ def coerce(name: str, value: Any) -> Value:
     return float(value)
 
 
+def shown(spec: str, limit: int = 60) -> str:
+    """``spec`` quoted for an error message, shortened in the middle if longer than ``limit``."""
+    if len(spec) > limit:
+        spec = f"{spec[:limit - 20]}...({len(spec):,} characters)...{spec[-10:]}"
+    return repr(spec)
+
+
 def parse_set(spec: str) -> tuple[str, Value]:
     """``NAME=VALUE`` -> (FMI name, number), a fixed change of the base scene."""
-    what = f"--set {spec!r}"
+    what = f"--set {shown(spec)}"
     name, sep, rhs = spec.partition("=")
     name = name.strip()
     if not sep or not name:

@@ -14,7 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from ..runspec import SpecError, Value, check_name, coerce, parameter_names, parse_number
+from ..runspec import (
+    SpecError,
+    Value,
+    check_name,
+    coerce,
+    parameter_names,
+    parse_number,
+    shown,
+)
 from ..runspec import parse_set as _parse_set
 from .errors import SweepError
 
@@ -42,8 +50,7 @@ def _count(text: str, what: str, max_count: int) -> int:
     try:
         n = int(text)
     except ValueError:  # also an integer of more than 4300 digits
-        shown = text if len(text) <= 40 else text[:20] + "..." + text[-10:]
-        raise SweepError(f"{what}: COUNT {shown!r} is not an integer") from None
+        raise SweepError(f"{what}: COUNT {shown(text, 40)} is not an integer") from None
     if n < 1:
         raise SweepError(f"{what}: COUNT must be >= 1, got {n}")
     if n > max_count:
@@ -72,7 +79,7 @@ def parse_values(text: str, what: str = "values", max_count: int = DEFAULT_MAX_R
     if text.lower().startswith("log:"):
         parts = text[4:].split(":")
         if len(parts) != 3:
-            raise SweepError(f"{what}: expected log:START:STOP:COUNT, got {text!r}")
+            raise SweepError(f"{what}: expected log:START:STOP:COUNT, got {shown(text)}")
         start, stop = _number(parts[0], what), _number(parts[1], what)
         n = _count(parts[2], what, max_count)
         if start == 0.0 or stop == 0.0 or (start > 0.0) != (stop > 0.0):
@@ -85,7 +92,7 @@ def parse_values(text: str, what: str = "values", max_count: int = DEFAULT_MAX_R
     elif ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
-            raise SweepError(f"{what}: expected START:STOP:COUNT, got {text!r}")
+            raise SweepError(f"{what}: expected START:STOP:COUNT, got {shown(text)}")
         start, stop = _number(parts[0], what), _number(parts[1], what)
         n = _count(parts[2], what, max_count)
         with np.errstate(all="ignore"):
@@ -96,7 +103,7 @@ def parse_values(text: str, what: str = "values", max_count: int = DEFAULT_MAX_R
             raise SweepError(f"{what}: {len(items):,} values, more than the {max_count:,} runs "
                              "a sweep may have; raise the limit with --max-runs (max_runs=)")
         if any(not item.strip() for item in items):
-            raise SweepError(f"{what}: empty item in the list {text!r}")
+            raise SweepError(f"{what}: empty item in the list {shown(text)}")
         return [_number(item, what) for item in items]
     if not all(math.isfinite(v) for v in values):
         raise SweepError(f"{what}: the spacing between START and STOP overflows (values are "
@@ -115,7 +122,7 @@ def parse_vary(spec: str, max_count: int = DEFAULT_MAX_RUNS) -> tuple[str, list[
     """``NAME=START:STOP:COUNT``, ``NAME=log:START:STOP:COUNT`` or ``NAME=a,b,c`` -> (name,
     values). NAME is an FMI name (:func:`parameter_names`); errors raise :class:`SweepError`
     naming the argument (an unknown name with the closest known ones)."""
-    what = f"--vary {spec!r}"
+    what = f"--vary {shown(spec)}"
     name, sep, rhs = spec.partition("=")
     name = name.strip()
     if not sep or not name:
@@ -175,10 +182,12 @@ def normalize_grid(grid: Mapping[str, Iterable[Any]], max_runs: int = DEFAULT_MA
             raise _sweep_error(exc) from None
         if isinstance(values, str | bytes) or not isinstance(values, Iterable):
             raise SweepError(f"{name}: expected a sequence of values, got {values!r}")
+        size = values.size if isinstance(values, np.ndarray) else \
+            len(values) if isinstance(values, Sized) else None
+        if size is not None and size > max_runs:
+            raise SweepError(f"{name}: {size:,} values, more than the limit of {max_runs:,} "
+                             "runs; use fewer values, or raise the limit with max_runs=")
         if isinstance(values, np.ndarray):
-            if values.size > max_runs:
-                raise SweepError(f"{name}: {values.size:,} values, more than the limit of "
-                                 f"{max_runs:,} runs; raise it with max_runs=")
             items = values.ravel().tolist()
         else:
             items = list(itertools.islice(values, max_runs + 1))
