@@ -251,7 +251,7 @@ def sample_spacing(t: np.ndarray, name: str = "t") -> float:
     return h
 
 
-def dominant_frequency(f: np.ndarray, psd: np.ndarray) -> float:
+def spectrum_peak(f: np.ndarray, psd: np.ndarray) -> float:
     """Frequency (Hz) of the largest PSD value, f = 0 excluded, refined between bins.
 
     The refinement fits a parabola through the logarithm of the PSD at the peak bin and its two
@@ -284,7 +284,7 @@ def displacement_spectrum(t: np.ndarray, x: np.ndarray, t_start: float = 0.0,
     (``detrend='constant'``), Hann window, 50 % overlap. ``nperseg`` defaults to a quarter of the
     samples (at least 256, or all of them if fewer): about 7 averaged segments and a resolution
     of 4 / (record length) Hz. The dominant frequency is the peak above f = 0 refined by
-    :func:`dominant_frequency`; it is nan when the structure is at rest, i.e. the RMS of
+    :func:`spectrum_peak`; it is nan when the structure is at rest, i.e. the RMS of
     ``x - mean(x)`` is at most :data:`REST_AMPLITUDE` m.
 
     Raises ValueError (naming the argument) for non-uniform sampling, mismatched shapes, fewer
@@ -311,8 +311,25 @@ def displacement_spectrum(t: np.ndarray, x: np.ndarray, t_start: float = 0.0,
     f, psd = welch(x, fs=1.0 / h, window="hann", nperseg=nperseg, detrend="constant",
                    scaling="density")
     at_rest = float(np.std(x)) <= REST_AMPLITUDE
-    dom = math.nan if at_rest else dominant_frequency(f, psd)
+    dom = math.nan if at_rest else spectrum_peak(f, psd)
     return Spectrum(f=f, psd=psd, dominant_frequency=dom)
+
+
+def dominant_frequency(t: np.ndarray, x: np.ndarray, t_start: float = 0.0,
+                       nperseg: int | None = None) -> float:
+    """The frequency (Hz) at which a signal ``x`` sampled uniformly at times ``t`` (s) vibrates
+    most: the peak of its Welch PSD above f = 0 (:func:`displacement_spectrum`, mean removed,
+    Hann window), refined between bins (:func:`spectrum_peak`). nan when ``x`` does not move
+    (its RMS about the mean is at most :data:`REST_AMPLITUDE`). The project's one dominant
+    frequency: the sweep's ``dominant_frequency_hz`` and the benchmarks use it.
+
+    ``t_start`` (s) skips a transient. ``nperseg`` (samples per Welch segment) sets the
+    resolution: the default, a quarter of the record, averages about 7 segments (bins of
+    4 / record length Hz); ``nperseg=len(x)`` is one Hann-windowed periodogram of the whole
+    record (bins of 1 / record length Hz, no averaging). Raises ValueError like
+    :func:`displacement_spectrum` (non-uniform sampling, too few samples, non-finite values).
+    """
+    return displacement_spectrum(t, x, t_start=t_start, nperseg=nperseg).dominant_frequency
 
 
 # Lock-in ---------------------------------------------------------------------------------------
