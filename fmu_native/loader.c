@@ -16,11 +16,15 @@
  *     forwards every message of status fmi2Warning or worse to the host always (FMI 2.0: errors
  *     are reported whatever loggingOn says) and fmi2OK messages only while the host asked for
  *     debug logging (fmi2Instantiate's loggingOn, fmi2SetDebugLogging and its categories).
- *  3. A call during which the slave logged an error returns fmi2Error where PythonFMU would
- *     return fmi2OK or fmi2Warning: a Python slave can only return fmi2OK, fmi2Discard (doStep
- *     returning False) or fmi2Fatal (an exception, which also leaves PythonFMU's instance
- *     half-released), so "log at error level" is how it fails fmi2ExitInitializationMode or
- *     fmi2SetReal cleanly.
+ *  3. A Python slave can only make PythonFMU return fmi2OK, fmi2Discard (do_step returning
+ *     False) or fmi2Fatal (an exception, which also releases PythonFMU's references to the
+ *     instance, so that fmi2FreeInstance releases them twice). To fail a call cleanly the slave
+ *     logs a message with the category FAIL_CATEGORY ("fmi2Error"; iceimpact_fmu_boot.fail_call
+ *     does it): the message reaches the host as an error (category logStatusError) and the call
+ *     returns fmi2Error where PythonFMU would have returned fmi2OK, fmi2Warning or fmi2Discard.
+ *     It is opt-in, per call: libcosim terminates the process on an fmi2Error from
+ *     fmi2ExitInitializationMode, so the slave reports bad parameters there by an error message
+ *     only, and fails the next fmi2DoStep.
  *
  * Every other call is passed through unchanged.
  */
@@ -47,6 +51,9 @@
 #endif
 
 #define EXPORT __attribute__((visibility("default")))
+
+/* Log category with which the slave fails the current call with fmi2Error (see 3. above). */
+#define FAIL_CATEGORY "fmi2Error"
 
 /* The types of fmi2TypesPlatform.h / fmi2FunctionTypes.h (FMI 2.0) used here. */
 typedef void *fmi2Component;
@@ -145,7 +152,7 @@ typedef struct {
     int logging_on;                 /* the host's debug logging switch */
     size_t n_categories;
     char **categories;              /* the host's categories (none: all) */
-    fmi2Status worst;               /* worst status logged during the current call */
+    int failed;                     /* the slave failed the current call (FAIL_CATEGORY) */
 } Instance;
 
 static char *copy_string(const char *s) {
@@ -241,11 +248,15 @@ static int category_enabled(const Instance *inst, fmi2String category) {
     return 0;
 }
 
-/* The logger PythonFMU calls: remember the worst status, forward what the host should see. */
+/* The logger PythonFMU calls: note a failed call, forward what the host should see. */
 static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                         fmi2String category, fmi2String message, ...) {
     Instance *inst = env;
-    if (status > inst->worst) inst->worst = status;
+    if (category && strcmp(category, FAIL_CATEGORY) == 0) {
+        inst->failed = 1;
+        category = "logStatusError";
+        if (status < fmi2Error) status = fmi2Error;
+    }
     if (status == fmi2OK && !category_enabled(inst, category)) return;
     if (!inst->host.logger) return;
     char small[1024];
@@ -266,12 +277,12 @@ static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Statu
 
 static Instance *begin(fmi2Component c) {
     Instance *inst = c;
-    inst->worst = fmi2OK;
+    inst->failed = 0;
     return inst;
 }
 
 static fmi2Status finish(Instance *inst, fmi2Status status) {
-    return (status <= fmi2Warning && inst->worst >= fmi2Error) ? fmi2Error : status;
+    return (inst->failed && status < fmi2Error) ? fmi2Error : status;
 }
 
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }

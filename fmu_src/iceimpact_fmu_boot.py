@@ -13,8 +13,11 @@ call it
    ``<id>`` a digest of the bundled sources), so that a host that imported another ``iceimpact``
    (or another build of this FMU) never makes the FMU run a core it was not built with;
 3. loads the slave (``resources/iceimpact_fmu/IceImpact.py``) under a private name too; while its
-   body runs, ``import iceimpact...`` resolves to the private core (the host's own ``iceimpact``
-   modules, if any, are put back afterwards).
+   body runs, ``import iceimpact...`` resolves to the private core and ``import
+   iceimpact_fmu_boot`` to this module (the host's own modules of these names, if any, are put
+   back afterwards).
+
+:func:`fail_call` is how the slave makes the current FMI call return ``fmi2Error``.
 
 Only the standard library is used here, and no extension module is imported before the
 environment is set up.
@@ -30,6 +33,12 @@ import os
 import sys
 
 CORE = "iceimpact"  # the package name the slave imports
+BOOT = "iceimpact_fmu_boot"  # the name the slave imports this module by
+
+# A message logged with this category fails the current FMI call with fmi2Error: the FMU's loader
+# (fmu_native/loader.c, FAIL_CATEGORY) forwards it to the host as an error (category
+# logStatusError), whether or not the host turned logging on.
+FAIL_CATEGORY = "fmi2Error"
 
 _loaded: dict[str, type] = {}
 
@@ -94,6 +103,21 @@ def _missing_message(name: str, exc: Exception, config: dict, resources: str, sa
             f"{requirements}")
 
 
+def fail_call(slave, message: str) -> None:
+    """Make the FMI call in progress return ``fmi2Error`` and show ``message`` to the host.
+
+    ``slave`` is the :class:`pythonfmu.Fmi2Slave`; ``message`` is the text (FMI loggers treat it
+    as a printf format: escape ``%`` as ``%%``). The slave method then returns normally (for
+    ``do_step``, False or True: the status is fmi2Error either way). Without the loader (a host
+    that loads PythonFMU's library directly) the message is an ordinary error-level log message.
+    Do not use it in ``exit_initialization_mode``: libcosim terminates the process on an fmi2Error
+    from fmi2ExitInitializationMode; log the error there and fail the next ``do_step``.
+    """
+    from pythonfmu.enums import Fmi2Status
+
+    slave.log(message, Fmi2Status.error, FAIL_CATEGORY)
+
+
 class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """While the slave's body runs: ``iceimpact[.x]`` is the private core ``<private>[.x]``."""
 
@@ -101,9 +125,12 @@ class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         self.private = private
 
     def find_spec(self, name, path=None, target=None):
-        if name != CORE and not name.startswith(CORE + "."):
+        if name == BOOT:
+            module = sys.modules[__name__]
+        elif name == CORE or name.startswith(CORE + "."):
+            module = importlib.import_module(self.private + name[len(CORE):])
+        else:
             return None
-        module = importlib.import_module(self.private + name[len(CORE):])
         spec = importlib.util.spec_from_loader(name, self,
                                                is_package=hasattr(module, "__path__"))
         spec.loader_state = (module, module.__spec__)
@@ -131,7 +158,7 @@ def _load(name: str, path: str, package_dir: str | None = None):
 
 def _aliases_removed() -> dict:
     return {k: sys.modules.pop(k) for k in list(sys.modules)
-            if k == CORE or k.startswith(CORE + ".")}
+            if k in (CORE, BOOT) or k.startswith(CORE + ".")}
 
 
 def load_slave(build_id: str, class_name: str = "IceImpact") -> type:
@@ -159,6 +186,7 @@ def load_slave(build_id: str, class_name: str = "IceImpact") -> type:
         try:
             for name in [k for k in sys.modules if k == private or k.startswith(private + ".")]:
                 sys.modules[CORE + name[len(private):]] = sys.modules[name]
+            sys.modules[BOOT] = sys.modules[__name__]
             slave = _load(slave_name, os.path.join(resources, "iceimpact_fmu", "IceImpact.py"))
         finally:
             sys.meta_path.remove(alias)
