@@ -1,8 +1,8 @@
 """Start-up of IceImpact.fmu inside any host: Python environment, private core, slave class.
 
 ``build_fmu.py`` bundles this file as ``resources/iceimpact_fmu/boot.py`` and writes the entry
-module PythonFMU imports (``resources/IceImpact.py``), which calls :func:`load_slave`. On the first
-call it
+module PythonFMU imports (``resources/_iceimpact_<id>_fmu.py``), which calls :func:`load_slave`.
+On the first call it
 
 1. makes the FMU's requirements (numpy, scipy) importable: if the Python of the process cannot find
    them, the site-packages folders recorded at build time (``resources/iceimpact_fmu/python.json``)
