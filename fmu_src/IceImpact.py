@@ -39,6 +39,7 @@ from pythonfmu.enums import Fmi2Status
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError
 from iceimpact.scene import DETECTION_WINDOW, FLOW_INPUT, METHOD_FIXED_STEP, PARAMETERS
+from iceimpact_fmu_boot import fail_call
 
 # PythonFMU 0.7.0's native loader (findClass in PySlaveInstance.cpp) runs this module's source a
 # second time for every fmi2Instantiate and then calls Py_DECREF on the *borrowed* module
@@ -268,7 +269,7 @@ class IceImpact(Fmi2Slave):
             self._pending_e = None
             self._penetration_logged = False
             return True
-        self._log(Fmi2Status.error, self._error + "; the FMU will not step (fmi2Discard) until "
+        self._log(Fmi2Status.error, self._error + "; the FMU will not step (fmi2Error) until "
                   "the parameter is corrected after fmi2Reset")
         return False
 
@@ -281,7 +282,7 @@ class IceImpact(Fmi2Slave):
 
     def _do_step(self, current_time: float, step_size: float) -> bool:
         if self._sim is None and not self._create_simulator("doStep"):
-            self._log(Fmi2Status.error, f"doStep refused: {self._error}")
+            fail_call(self, _fmi_text(f"doStep refused: {self._error}"))  # fmi2Error
             return False
         if not (math.isfinite(step_size) and step_size > 0.0):
             self._log(Fmi2Status.error, f"doStep: communication step size = {step_size!r} s is "
