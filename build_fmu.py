@@ -72,13 +72,20 @@ def base_units(unit: str) -> dict[str, int]:
     return {base: exp for base, exp in exponents.items() if exp != 0}
 
 
+#: What the FMU needs at run time; the versions come from pyproject.toml. (The package's other
+#: dependencies, such as rainflow for design loads, serve studies, not the FMU.)
+FMU_RUNTIME_PACKAGES = ("numpy", "scipy")
+
+
 def requirements() -> str:
-    """The run-time requirements of the FMU: the project's own dependencies (numpy, scipy)."""
+    """The run-time requirements of the FMU: numpy and scipy, as pyproject.toml pins them."""
     import tomllib
 
     with open(ROOT / "pyproject.toml", "rb") as fh:
         deps = tomllib.load(fh)["project"]["dependencies"]
-    return "".join(f"{dep}\n" for dep in deps)
+    wanted = [d for d in deps if re.split(r"[<>=!~;\[ ]", d, maxsplit=1)[0].strip().lower()
+              in FMU_RUNTIME_PACKAGES]
+    return "".join(f"{dep}\n" for dep in wanted)
 
 
 def _number(value: float | int) -> str:
