@@ -10,14 +10,28 @@ PythonFMU writes no units, ranges or initial unknowns, so modelDescription.xml i
 UnitDefinitions, the unit of every Real, min/max, ModelStructure/InitialUnknowns and the
 DefaultExperiment. Units, descriptions, ranges and the default experiment come from the contract
 table ``iceimpact.contract``, never from a second table.
+
+For hosts that are not Python processes (a C master, the ECOS command line, libcosim) the FMU is
+then repackaged (:func:`package_for_native_hosts`): a small loader compiled here from
+``fmu_native/loader.c`` becomes ``binaries/linux64/IceImpact.so`` in front of PythonFMU's library,
+and the Python environment of the build is recorded under ``resources/iceimpact_fmu/``. See
+docs/fmu.md, "What a host needs".
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
+import os
+import platform
 import re
+import shutil
+import subprocess
 import sys
+import sysconfig
 import tempfile
+import warnings
 import zipfile
 from pathlib import Path
 from xml.dom import minidom
@@ -27,6 +41,8 @@ ROOT = Path(__file__).resolve().parent
 FMU_SRC = ROOT / "fmu_src"
 SLAVE_NAME = "IceImpact"
 PACKAGE_NAME = "iceimpact"
+BOOT_MODULE = FMU_SRC / "iceimpact_fmu_boot.py"
+LOADER_SOURCE = ROOT / "fmu_native" / "loader.c"
 
 # SI base-unit exponents of the symbols that unit strings are written with ("N.s/m", "kg/m3").
 _SYMBOLS = {
@@ -54,13 +70,20 @@ def base_units(unit: str) -> dict[str, int]:
     return {base: exp for base, exp in exponents.items() if exp != 0}
 
 
+#: What the FMU needs at run time; the versions come from pyproject.toml. (The package's other
+#: dependencies, such as rainflow for design loads, serve studies, not the FMU.)
+FMU_RUNTIME_PACKAGES = ("numpy", "scipy")
+
+
 def requirements() -> str:
-    """The run-time requirements of the FMU: the project's own dependencies (numpy, scipy)."""
+    """The run-time requirements of the FMU: numpy and scipy, as pyproject.toml pins them."""
     import tomllib
 
     with open(ROOT / "pyproject.toml", "rb") as fh:
         deps = tomllib.load(fh)["project"]["dependencies"]
-    return "".join(f"{dep}\n" for dep in deps)
+    wanted = [d for d in deps if re.split(r"[<>=!~;\[ ]", d, maxsplit=1)[0].strip().lower()
+              in FMU_RUNTIME_PACKAGES]
+    return "".join(f"{dep}\n" for dep in wanted)
 
 
 def complete_model_description(xml: bytes) -> bytes:
@@ -163,7 +186,174 @@ def build(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) ->
         )
     fmu = Path(fmu)
     _rewrite_model_description(fmu)
+    package_for_native_hosts(fmu)
     return fmu
+
+
+# Native hosts -----------------------------------------------------------------------------------
+# PythonFMU's binaries/linux64/IceImpact.so does not link libpython, and it runs whatever module
+# named IceImpact / iceimpact the host process already has. The FMU is repackaged so that it loads
+# in any FMI host with an empty environment and always runs its own code:
+#
+#   binaries/linux64/IceImpact.so            our loader (fmu_native/loader.c, compiled here)
+#   binaries/linux64/pythonfmu/IceImpact.so  PythonFMU's library, loaded by the loader
+#   resources/_iceimpact_<id>_fmu.py         entry module that PythonFMU imports (generated, named
+#                                            in resources/slavemodule.txt)
+#   resources/iceimpact_fmu/IceImpact.py     the slave, loaded under a private name
+#   resources/iceimpact_fmu/boot.py          fmu_src/iceimpact_fmu_boot.py
+#   resources/iceimpact_fmu/python.json      the build's Python: version, libpython, site folders
+
+NATIVE_PLATFORM = "linux64"
+PYTHONFMU_LIBRARY = "pythonfmu/IceImpact.so"  # relative to binaries/linux64 (loader.c knows it)
+
+ENTRY_MODULE = '''"""IceImpact.fmu: the module PythonFMU imports (written by build_fmu.py).
+
+resources/slavemodule.txt names this module, so PythonFMU imports it under this private name and
+never picks up a module the host imported. PythonFMU 0.7.0 also executes this source again at
+every fmi2Instantiate to find the slave class, and drops one reference to the module's dictionary
+each time: so the file stays small (nothing is defined again per instance), gives the reference
+back, and takes the class from iceimpact_fmu/boot.py, which loads the slave and the model core
+once, under private names.
+"""
+globals().setdefault("_MODULE_DICT_REFS", []).append(globals())
+import importlib.util as _util  # noqa: E402
+import os as _os  # noqa: E402
+import sys as _sys  # noqa: E402
+
+_BOOT = "_iceimpact_{build_id}_boot"
+if _BOOT not in _sys.modules:
+    _spec = _util.spec_from_file_location(
+        _BOOT, _os.path.join(_os.path.dirname(__file__), "iceimpact_fmu", "boot.py"))
+    _sys.modules[_BOOT] = _util.module_from_spec(_spec)
+    _spec.loader.exec_module(_sys.modules[_BOOT])
+IceImpact = _sys.modules[_BOOT].load_slave("{build_id}")
+'''
+
+
+class NativeBuildError(RuntimeError):
+    """The native loader cannot be built on this machine (the message says what is missing)."""
+
+
+def python_version() -> str:
+    return "{}.{}".format(*sys.version_info[:2])
+
+
+def libpython() -> tuple[Path | None, str]:
+    """The shared libpython of the building Python (None if it has none) and its soname.
+
+    Warns when there is none, or when the Python was relocated after it was built (an embedded
+    interpreter started from the library then needs PYTHONHOME).
+    """
+    version = python_version()
+    soname = sysconfig.get_config_var("INSTSONAME") or f"libpython{version}.so.1.0"
+    if not soname.startswith("libpython") or ".so" not in soname:
+        soname = f"libpython{version}.so.1.0"
+    path = None
+    if sysconfig.get_config_var("Py_ENABLE_SHARED"):
+        candidate = Path(sysconfig.get_config_var("LIBDIR") or "") / soname
+        path = candidate if candidate.exists() else None
+    if path is None:
+        warnings.warn(
+            f"the Python building the FMU ({sys.base_prefix}) has no shared {soname} (it was built "
+            "without --enable-shared): the FMU runs in Python hosts (FMPy, ecospy), but a native "
+            f"host needs {soname} of a Python {version} installed on the library search path "
+            f"(Debian/Ubuntu: apt-get install libpython{version}) or given with LD_PRELOAD",
+            stacklevel=2)
+    configured = sysconfig.get_config_var("prefix")
+    if configured and Path(configured).resolve() != Path(sys.base_prefix).resolve():
+        warnings.warn(
+            f"this Python was built for {configured} and runs from {sys.base_prefix}: a native "
+            f"host that starts it from {soname} needs PYTHONHOME={sys.base_prefix}",
+            stacklevel=2)
+    return path, soname
+
+
+def python_environment(requirement_lines: list[str], library: Path | None) -> dict:
+    """What resources/iceimpact_fmu/python.json records of the building Python."""
+    import importlib.util
+
+    folders = [sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]]
+    for line in requirement_lines:
+        name = re.split(r"[<>=!~;\[ ]", line.strip(), maxsplit=1)[0]
+        spec = importlib.util.find_spec(name) if name else None
+        if spec is not None and spec.submodule_search_locations:
+            folders.append(str(Path(next(iter(spec.submodule_search_locations))).parent))
+    return {
+        "python": python_version(),
+        "prefix": sys.base_prefix,
+        "libpython": str(library) if library else None,
+        "site": list(dict.fromkeys(str(Path(f).resolve()) for f in folders)),
+        "requirements": [line.strip() for line in requirement_lines if line.strip()],
+    }
+
+
+def compile_loader(dest: Path, library: Path | None, soname: str) -> Path:
+    """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython()."""
+    compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
+    if compiler is None:
+        raise NativeBuildError(
+            "building IceImpact.fmu needs a C compiler for its loader (fmu_native/loader.c): "
+            "none found (cc, gcc, $CC); install one (Debian/Ubuntu: apt-get install gcc, as "
+            "scripts/system-deps.sh does)")
+    defines = {
+        "LIBPYTHON_PATH": str(library) if library else "",
+        "LIBPYTHON_SONAME": soname,
+        "PYTHON_VERSION": python_version(),
+        "PYTHONFMU_LIBRARY": PYTHONFMU_LIBRARY,
+    }
+    command = [compiler, "-shared", "-fPIC", "-O2", "-std=c11", "-Wall", "-Wextra", "-Werror",
+               "-fvisibility=hidden", "-Wl,-z,nodelete", "-o", str(dest), str(LOADER_SOURCE),
+               *(f"-D{k}={json.dumps(v)}" for k, v in defines.items()), "-ldl", "-lpthread"]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise NativeBuildError(f"compiling the FMU's loader failed:\n{' '.join(command)}\n"
+                               f"{done.stderr}")
+    return dest
+
+
+def build_id(files: dict[str, bytes]) -> str:
+    """Digest of the bundled Python sources: the suffix of the private module names."""
+    digest = hashlib.sha256()
+    for name in sorted(files):
+        digest.update(name.encode() + b"\0" + files[name] + b"\0")
+    return digest.hexdigest()[:12]
+
+
+def entry_module_name(ident: str) -> str:
+    return f"_iceimpact_{ident}_fmu"
+
+
+def package_for_native_hosts(fmu: Path) -> None:
+    """Rearrange a PythonFMU-built FMU as described above (Linux x86_64 builds only)."""
+    if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
+        warnings.warn("the native loader is built on Linux x86_64 only: this FMU needs a Python "
+                      "host, or LD_PRELOAD of libpython in native hosts", stacklevel=2)
+        return
+    with zipfile.ZipFile(fmu) as src:
+        entries = {info.filename: src.read(info) for info in src.infolist()}
+    slave = entries.pop(f"resources/{SLAVE_NAME}.py")
+    pythonfmu_library = entries.pop(f"binaries/{NATIVE_PLATFORM}/{SLAVE_NAME}.so")
+    ours = {f"resources/iceimpact_fmu/{SLAVE_NAME}.py": slave,
+            "resources/iceimpact_fmu/boot.py": BOOT_MODULE.read_bytes()}
+    core = {name: data for name, data in entries.items()
+            if name.startswith(f"resources/{PACKAGE_NAME}/")}
+    ident = build_id({**ours, **core})
+    requirement_lines = entries["resources/requirements.txt"].decode().splitlines()
+    library, soname = libpython()
+    ours["resources/iceimpact_fmu/python.json"] = (
+        json.dumps(python_environment(requirement_lines, library), indent=2) + "\n").encode()
+    entry = entry_module_name(ident)
+    ours[f"resources/{entry}.py"] = ENTRY_MODULE.format(build_id=ident).encode()
+    ours["resources/slavemodule.txt"] = entry.encode()
+    ours[f"binaries/{NATIVE_PLATFORM}/{PYTHONFMU_LIBRARY}"] = pythonfmu_library
+    with tempfile.TemporaryDirectory(prefix="iceimpact_loader_") as tmp:
+        loader = compile_loader(Path(tmp) / f"{SLAVE_NAME}.so", library, soname)
+        ours[f"binaries/{NATIVE_PLATFORM}/{SLAVE_NAME}.so"] = loader.read_bytes()
+    tmp_fmu = fmu.with_suffix(".fmu.tmp")
+    with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as dst:
+        for name, data in {**entries, **ours}.items():
+            dst.writestr(name, data)
+    tmp_fmu.replace(fmu)
 
 
 def variables_table(fmu: str | Path) -> str:

@@ -14,12 +14,19 @@ case), impacts recovered from the FMU outputs, the measures the article's text q
 which the motion dies out, amplitudes, impact rates, frequencies), the side-by-side plots and the
 printed tables. SI units throughout; only the printed text uses mm and micrometres
 (:func:`mm`, :func:`um`).
+
+The physics of a run comes from the package, not from here: each run carries its
+:class:`iceimpact.Scene` (``omega_n`` and the fields), the static force is the drag law's force on
+ice at rest (:func:`iceimpact.physics.ice.make_drag`, as the fixed-step pin of eq. 29 computes it),
+and the dominant frequency is :func:`iceimpact.analysis.dominant_frequency` (the peak of the
+Welch spectrum, refined between bins).
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import io
 import json
 import math
 import re
@@ -30,9 +37,16 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from iceimpact import Scene, analysis
+from iceimpact.physics.ice import make_drag
+from iceimpact.scene import SPECS_BY_NAME
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_FMU = ROOT / "dist" / "IceImpact.fmu"
@@ -47,6 +61,12 @@ STEP = 5e-3
 FIXED_DT = 1e-4
 #: Horizon of every case in ``--quick`` mode, s.
 QUICK_STOP = 8.0
+#: Resolution of the plots written to ``--out``, dots per inch.
+PLOT_DPI = 90
+#: Resolution and palette size of the copies written to ``--img-dir`` (the figures embedded in
+#: docs/reproduction.md): 80 dpi, 64 colours (lines on white lose nothing visible), 40-150 kB.
+IMG_DPI = 80
+IMG_COLORS = 64
 
 #: FMU outputs recorded at every communication step.
 OUTPUTS = ("structure.x", "structure.v", "ice.z", "ice.v", "contact.impulse", "contact.count",
@@ -94,7 +114,7 @@ class Run:
 
     case: Case
     solver: str
-    scene: dict[str, float]      # every parameter (FMU defaults + case + solver), SI
+    scene: Scene                 # every parameter (FMU defaults + case + solver), SI
     t: np.ndarray                # s
     x: np.ndarray                # structure displacement, m
     v: np.ndarray                # structure velocity, m/s
@@ -137,8 +157,9 @@ class FmuRunner:
         self.model_description = read_model_description(str(fmu))
         self._tmp = tempfile.mkdtemp(prefix="iceimpact-reproduction-")
         self.unzipdir = extract(str(fmu), unzipdir=self._tmp)
-        self.defaults: dict[str, float] = {
-            v.name: float(v.start) for v in self.model_description.modelVariables
+        self.defaults: dict[str, float | int] = {
+            v.name: SPECS_BY_NAME[v.name].kind(float(v.start))
+            for v in self.model_description.modelVariables
             if v.start is not None and v.causality in ("parameter", "input")}
         self._cache: dict[tuple, Run] = {}
 
@@ -194,7 +215,7 @@ class FmuRunner:
                                start_values=start_values, output=list(OUTPUTS),
                                step_finished=step_finished)
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
-        scene = {**self.defaults, **{k: float(v) for k, v in start_values.items()}}
+        scene = Scene.from_fmi({**self.defaults, **start_values})
         run = Run(case=case, solver=solver, scene=scene, t=res["time"],
                   x=res["structure.x"], v=res["structure.v"], z=res["ice.z"], w=res["ice.v"],
                   impulse=res["contact.impulse"], count=res["contact.count"].astype(int),
@@ -211,23 +232,15 @@ class FmuRunner:
 
 
 # Measures ----------------------------------------------------------------------------------------
-def static_force(scene: Mapping[str, float]) -> float:
-    """Drag on ice at rest, N: b u (linear drag, eq. 5 and 28) or B u |u| (quadratic, eq. 33)."""
-    B = 0.5 * scene["fluid.rho"] * scene["ice.Cd"] * scene["ice.A"]
-    u = scene["flow.u"]
-    if int(scene["drag.model"]) == 1:
-        return B * scene["drag.v_lin"] * u
-    return B * u * abs(u)
+def static_force(scene: Scene) -> float:
+    """Drag on ice at rest, N: b u (linear drag, eq. 5 and 28) or B u |u| (quadratic, eq. 33),
+    from the scene's drag law."""
+    return make_drag(scene).force(0.0, scene.flow_u)
 
 
-def static_deflection(scene: Mapping[str, float]) -> float:
+def static_deflection(scene: Scene) -> float:
     """x = z = F / k, m: the steady state of eq. 29 (bodies at rest in contact)."""
-    return static_force(scene) / scene["structure.k"]
-
-
-def omega_n(scene: Mapping[str, float]) -> float:
-    """Natural circular frequency sqrt(k/m) of the structure, rad/s."""
-    return math.sqrt(scene["structure.k"] / scene["structure.m"])
+    return static_force(scene) / scene.structure_k
 
 
 def amplitude_envelope(run: Run) -> np.ndarray:
@@ -236,7 +249,7 @@ def amplitude_envelope(run: Run) -> np.ndarray:
     ``sqrt((x - x_s)^2 + (v / omega_n)^2)``: the amplitude of the free oscillation (eq. 9) the
     structure would have from this state; smooth, so not sensitive to the sampling.
     """
-    return np.hypot(run.x - static_deflection(run.scene), run.v / omega_n(run.scene))
+    return np.hypot(run.x - static_deflection(run.scene), run.v / run.scene.omega_n)
 
 
 def decay_time(run: Run, fraction: float) -> float | None:
@@ -302,17 +315,18 @@ def impact_rate(run: Run, t0: float, t1: float) -> float:
 
 
 def dominant_frequency(run: Run, t0: float, t1: float) -> float | None:
-    """Frequency (Hz) of the largest peak of the spectrum of x in [t0, t1] (Hann window).
+    """Dominant frequency (Hz) of x in [t0, t1] (s), by
+    :func:`iceimpact.analysis.dominant_frequency`: the peak of the Welch spectrum (Hann segments
+    of a quarter of the window, 50 % overlap), refined between bins.
 
-    None if the window is shorter than 2 s or x does not move (to 1e-12 m).
+    None when the structure is at rest there (RMS of x about its mean at most
+    :data:`iceimpact.analysis.REST_AMPLITUDE`) or the window holds too few samples.
     """
-    xs = run.x[window(run, t0, t1)]
-    if t1 - t0 < 2.0 or np.ptp(xs) < 1e-12:
+    mask = window(run, t0, t1)
+    if np.count_nonzero(mask) < analysis.MIN_SAMPLES:
         return None
-    xs = (xs - xs.mean()) * np.hanning(xs.size)
-    spectrum = np.abs(np.fft.rfft(xs))
-    freqs = np.fft.rfftfreq(xs.size, float(run.t[1] - run.t[0]))
-    return float(freqs[1 + int(np.argmax(spectrum[1:]))])
+    f = analysis.dominant_frequency(run.t[mask], run.x[mask])
+    return None if math.isnan(f) else f
 
 
 def mean_impact_interval(run: Run, t0: float, t1: float) -> float | None:
@@ -440,8 +454,8 @@ def per_solver(runs: Mapping[str, Run], func: Callable[[Run], str]) -> dict[str,
 
 
 # Plots -------------------------------------------------------------------------------------------
-def plot_group(path: Path, title: str, cases: Sequence[Case],
-               runs: Mapping[str, Mapping[str, Run]], zoom: float = 20.0) -> None:
+def plot_group(title: str, cases: Sequence[Case], runs: Mapping[str, Mapping[str, Run]],
+               zoom: float = 20.0) -> Figure:
     """Side-by-side plot of a figure group: one column per solver, three rows per case.
 
     Rows: x(t) and z(t) over the whole run (mm); the first ``zoom`` seconds of the same; the
@@ -504,8 +518,30 @@ def plot_group(path: Path, title: str, cases: Sequence[Case],
                              f"impacts ({run.impacts} impacts)")
             ax_imp.title.set_fontsize(8)
     fig.suptitle(title)
-    fig.savefig(path, dpi=90)
+    return fig
+
+
+def save_figure(fig: Figure, path: Path, img_dir: Path | None = None) -> list[Path]:
+    """Write ``fig`` to ``path`` (:data:`PLOT_DPI`) and, with ``img_dir``, a small copy of the
+    same name there (:data:`IMG_DPI`, a :data:`IMG_COLORS`-colour palette); close it.
+
+    Returns the files written.
+    """
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    written = [path]
+    fig.savefig(path, dpi=PLOT_DPI)
+    if img_dir is not None:
+        buffer = io.BytesIO()
+        fig.savefig(buffer, dpi=IMG_DPI, format="png")
+        buffer.seek(0)
+        small = Image.open(buffer).convert("RGB").quantize(colors=IMG_COLORS,
+                                                          dither=Image.Dither.NONE)
+        small.save(img_dir / path.name, optimize=True)
+        written.append(img_dir / path.name)
     plt.close(fig)
+    return written
 
 
 # Script driver -----------------------------------------------------------------------------------
@@ -519,7 +555,7 @@ class Group:
     png: str                      # file name of its plot
     cases: list[Case]
     report: Callable[[Mapping[str, Mapping[str, Run]]], list[Row]]
-    plot: Callable[[Path, Group, Mapping[str, Mapping[str, Run]]], None] | None = None
+    plot: Callable[[Group, Mapping[str, Mapping[str, Run]]], Figure] | None = None
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -569,12 +605,18 @@ def main(name: str, description: str, groups: Sequence[Group],
                         help=f"communication step, s (default {STEP:g})")
     parser.add_argument("--dt", type=float, default=FIXED_DT,
                         help=f"internal step of the fixed-step scheme, s (default {FIXED_DT:g})")
+    parser.add_argument("--img-dir", type=Path, default=None, metavar="DIR",
+                        help=f"also write a small copy of each figure into DIR ({IMG_DPI} dpi, "
+                             f"{IMG_COLORS} colours; docs/img for the figures of "
+                             "docs/reproduction.md)")
     args = parser.parse_args(argv)
     if not args.fmu.exists():
         print(f"{args.fmu} not found: run `python build_fmu.py` first", file=sys.stderr)
         return 1
     chosen = select_groups(groups, args.only)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.img_dir is not None:
+        args.img_dir.mkdir(parents=True, exist_ok=True)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     summary: dict[str, Any] = {"script": name, "quick": args.quick, "step_s": args.step,
                                "fixed_dt_s": args.dt, "groups": {}}
@@ -591,12 +633,12 @@ def main(name: str, description: str, groups: Sequence[Group],
                         group.solvers, rows)
             for note in group.notes:
                 print(f"  note: {note}")
-            png = args.out / group.png
             if group.plot is not None:
-                group.plot(png, group, runs)
+                fig = group.plot(group, runs)
             else:
-                plot_group(png, f"Figure(s) {group.key}: {group.title}", group.cases, runs)
-            print(f"  wrote {png}")
+                fig = plot_group(f"Figure(s) {group.key}: {group.title}", group.cases, runs)
+            written = save_figure(fig, args.out / group.png, args.img_dir)
+            print(f"  wrote {' and '.join(str(p) for p in written)}")
             summary["groups"][group.key] = {
                 "title": group.title,
                 "table": [{"quantity": q, "article": a, **vals} for q, a, vals in rows],

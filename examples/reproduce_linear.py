@@ -1,7 +1,7 @@
 """Reproduce the linearised-drag figures of the article (Section 4.1) through IceImpact.fmu.
 
     python examples/reproduce_linear.py [--quick] [--only FIG] [--fmu dist/IceImpact.fmu]
-                                        [--out out/reproduction]
+                                        [--out out/reproduction] [--img-dir docs/img]
 
 Every case runs through the FMU with FMPy, with the exact solver (``solver.method = 1``) and the
 article's fixed-step scheme (``solver.method = 2``, ``solver.dt = 1e-4`` s, gap-sign impact
@@ -18,8 +18,9 @@ Figure groups (``--only`` takes a figure number or a group key):
   ("Figures 17 and 18 ... same conditions with Figures 7(a) and 7(b)", captioned e = 0.1 and
   0.5; "e = 0.5, Figure 8(b)"); e = 1 is Figure 2.
 
-Writes one PNG per group and a JSON of every measure into ``--out``, and prints, per group, the
-numbers the article's text quotes next to what each solver gives. Full run: about 2-3 minutes.
+Writes one PNG per group and a JSON of every measure into ``--out`` (and a small copy of each
+PNG into ``--img-dir``), and prints, per group, the numbers the article's text quotes next to
+what each solver gives. Full run: about 1 minute.
 """
 
 from __future__ import annotations

@@ -29,8 +29,9 @@ from pythonfmu.enums import Fmi2Status
 
 from iceimpact import contract
 from iceimpact.fmi import state as fmu_state
-from iceimpact.fmi.adapter import ERROR, FmuModel
+from iceimpact.fmi.adapter import FmuModel
 from iceimpact.fmi.pythonfmu_fixes import guard_native_exit, hold_module_dict
+from iceimpact_fmu_boot import fail_call
 
 hold_module_dict(globals())  # runs at each re-execution of this module by PythonFMU's loader
 
@@ -57,7 +58,7 @@ class IceImpact(Fmi2Slave):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         guard_native_exit()
-        self._model = FmuModel(self._log)
+        self._model = FmuModel(self._log, fail=self._fail)
         for var in contract.VARIABLES:
             output = var.causality == contract.OUTPUT
             self.register_variable(_TYPES[var.kind](
@@ -77,6 +78,10 @@ class IceImpact(Fmi2Slave):
         # FMI loggers treat the message as a printf format string
         self.log(message.replace("%", "%%"), Fmi2Status(status))
 
+    def _fail(self, message: str) -> None:
+        """Log an error and make the FMI call in progress return fmi2Error."""
+        fail_call(self, message.replace("%", "%%"))
+
     # FMI life cycle ------------------------------------------------------------------------------
     def setup_experiment(self, start_time: float, stop_time: float | None,
                          tolerance: float | None) -> None:
@@ -93,7 +98,7 @@ class IceImpact(Fmi2Slave):
         try:
             return self._model.snapshot()
         except Exception as exc:  # reported when this state is set or serialized
-            self._log(ERROR, f"fmi2GetFMUstate failed: {exc!r}")
+            self._fail(f"fmi2GetFMUstate failed: {exc!r}")
             return {"refused": f"fmi2GetFMUstate failed: {exc!r}"}
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
@@ -102,8 +107,7 @@ class IceImpact(Fmi2Slave):
                 raise fmu_state.StateError(state["refused"])
             self._model.restore(fmu_state.check_record(state))
         except Exception as exc:
-            self._log(ERROR, f"fmi2SetFMUstate refused, the instance is unchanged: "
-                      f"{exc}")
+            self._fail(f"fmi2SetFMUstate refused, the instance is unchanged: {exc}")
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:

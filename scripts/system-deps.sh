@@ -1,11 +1,16 @@
 #!/usr/bin/env bash
-# Debian packages the project needs at run time: libtbb12 for ecospy (the second co-simulation
-# master used in the tests). Installed only when missing; needs root or sudo.
+# Debian packages the project needs: libtbb12 for ecospy (the ECOS engine used in the tests),
+# libatomic1 for libcosimpy's libcosimc.so, and a C compiler, with which build_fmu.py compiles
+# the FMU's loader (fmu_native/loader.c) and the tests their C hosts. Installed only when
+# missing; needs root or sudo.
 set -euo pipefail
 missing=()
-for pkg in libtbb12; do
+for pkg in libtbb12 libatomic1; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
 done
+if ! command -v cc >/dev/null && ! command -v gcc >/dev/null; then
+  missing+=(gcc libc6-dev)
+fi
 [ ${#missing[@]} -eq 0 ] && exit 0
 if [ "$(id -u)" -eq 0 ]; then SUDO=""; elif command -v sudo >/dev/null; then SUDO="sudo"; else
   echo "system-deps: missing ${missing[*]} and no root; install them with apt-get" >&2; exit 1

@@ -219,3 +219,16 @@ def test_summarize_never_raises_on_short_or_ragged_runs():
     assert math.isfinite(ragged["dominant_frequency_hz"])
     with pytest.raises(ValueError, match="transient"):
         summarize(run(Scene(), t_end=1.0, dt=1e-2), transient=2.0)
+
+
+def test_dominant_frequency_of_samples():
+    """The one public dominant frequency: Hz from (t, x), nan at rest, the spectrum's peak."""
+    from iceimpact.analysis import dominant_frequency
+
+    t = np.arange(0.0, 20.0, 1e-3)
+    x = 1e-3 * np.sin(2 * np.pi * 3.3 * t) + 0.5   # the mean is removed
+    assert dominant_frequency(t, x) == pytest.approx(3.3, abs=0.05)
+    assert dominant_frequency(t, x, nperseg=t.size) == pytest.approx(3.3, abs=0.01)
+    assert dominant_frequency(t, x) == displacement_spectrum(t, x).dominant_frequency
+    assert math.isnan(dominant_frequency(t, np.full_like(t, 0.2)))
+    assert dominant_frequency(t, x, t_start=10.0) == pytest.approx(3.3, abs=0.1)

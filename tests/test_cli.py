@@ -16,7 +16,7 @@ import pytest
 from iceimpact import Scene, run
 from iceimpact.analysis import summarize
 from iceimpact.cli import main
-from iceimpact.sweep import read_table, sweep
+from iceimpact.sweep import meta_path, read_table, sweep
 
 SCRIPT = Path(sys.executable).with_name("iceimpact")
 FAST = ["--t-end", "4", "--dt", "0.01"]
@@ -91,7 +91,8 @@ def test_simulate_writes_samples_and_prints_the_summary(capsys, tmp_path, scene_
     assert f"{len(result.impacts)} impacts" in text
     assert f"x_peak_m               {summary['x_peak_m']:.6g} m" in text
     samples = rows_of(out)
-    assert samples[0] == ["t", "x", "v", "z", "w", "gap", "impulse", "sticking"]
+    assert samples[0] == ["time", "structure.x", "structure.v", "ice.z", "ice.v", "contact.gap",
+                          "contact.impulse", "contact.active"]
     assert len(samples) == 1 + result.t.size
     assert float(samples[-1][1]) == result.x[-1]
     assert len(rows_of(impacts)) == 1 + len(result.impacts)
@@ -102,11 +103,12 @@ def test_sweep_subcommand_matches_the_api(capsys, tmp_path, scene_file):
     code = main(["sweep", str(scene_file), "--vary", "flow.u=0.1:0.3:2",
                  "--vary", "impact.e=0.5,1.5", *FAST, "--transient", "1", "--out", str(out),
                  "--workers", "2", "--quiet", "--set", "ice.A=2"])
-    assert code == 0
+    assert code == 1  # runs failed
     captured = capsys.readouterr()
     assert "4 runs (2 ok, 2 errors)" in captured.out
     assert "impact.e = 1.5 is not allowed" in captured.out
-    assert captured.err == ""  # --quiet: no progress bar
+    # --quiet: no progress bar, only the failure count
+    assert captured.err.startswith("iceimpact sweep: 2 of 4 runs failed")
     base = Scene(impact_e=0.8, ice_M=800.0, drag_model=2, ice_A=2.0)
     expected = sweep(base, {"flow.u": [0.1, 0.3], "impact.e": [0.5, 1.5]}, t_end=4.0,
                      transient=1.0, dt=0.01, workers=1, progress=False)
@@ -120,7 +122,7 @@ def test_sweep_subcommand_matches_the_api(capsys, tmp_path, scene_file):
     before = out.read_text()
     assert main(["sweep", str(scene_file), "--vary", "flow.u=0.1:0.3:2",
                  "--vary", "impact.e=0.5,1.5", *FAST, "--transient", "1", "--out", str(out),
-                 "--quiet", "--set", "ice.A=2"]) == 0
+                 "--quiet", "--set", "ice.A=2", "--allow-failures"]) == 0
     assert out.read_text() == before
     # a different grid into the same file is refused, then accepted with --overwrite
     err = usage_error(capsys, ["sweep", "--vary", "flow.u=0.1", *FAST, "--out", str(out)])
@@ -200,3 +202,162 @@ def test_interrupt_reports_how_to_resume(tmp_path):
     assert proc.returncode == 130
     assert "rerun the same command to resume" in err
     assert 1 <= len(read_table(out)) < 20
+
+
+# Bad input ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("argv,words", [
+    (["sweep", "--vary", "flow.u=0:1:1000000000", "--out", "x.csv"],
+     "COUNT 1,000,000,000 is more than the 100,000 runs"),
+    (["sweep", "--vary", "flow.u=0:1:1000", "--vary", "ice.M=1:2:1000", "--out", "x.csv"],
+     "the grid has 1,000,000 runs (1,000 x 1,000), more than the limit of 100,000"),
+    (["sweep", "--vary", "flow.u=0:1:20", "--out", "x.csv", "--max-runs", "10"],
+     "COUNT 20 is more than the 10 runs"),
+    (["sweep", "--vary", "flow.u=1", "--out", "x.csv", "--max-runs", "1e400"],
+     "argument --max-runs: '1e400' is not an integer"),
+    (["simulate", "--set", "ice.M=1e400"], "--set 'ice.M=1e400': '1e400' is not finite"),
+    (["sweep", "--vary", "flow.u=0:1e309:3", "--out", "x.csv"], "'1e309' is not finite"),
+    (["simulate", "--t-end", "1e400"], "--t-end: '1e400' must be a finite number > 0"),
+    (["simulate", "--set", "solver.method=1e30"], "solver.method = 1e+30 is not allowed"),
+    (["simulate", "--t-end", "1e6", "--dt", "1e-9"], "samples per run"),
+    (["sweep", "--vary", "flow.u=1", "--out", "x.csv", "--t-end", "1e7", "--dt", "1e-3"],
+     "samples per run"),
+    (["simulate", "--set", "ice.mass=3"], "unknown parameter 'ice.mass' (did you mean 'ice.M'"),
+    (["sweep", "--vary", "impact.E=0,1", "--out", "x.csv"], "(did you mean 'impact.e'?)"),
+])
+def test_hostile_arguments_exit_2_with_a_message(capsys, tmp_path, monkeypatch, argv, words):
+    monkeypatch.chdir(tmp_path)
+    err = usage_error(capsys, argv)
+    assert words in err
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_simulate_titles_the_summary_by_what_was_simulated(capsys, scene_file):
+    assert main(["simulate", *FAST]) == 0
+    assert capsys.readouterr().out.startswith("Figure 2 scene: 4 s simulated")
+    assert main(["simulate", *FAST, "--set", "ice.A=2", "--set", "flow.u=0.2"]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("Figure 2 defaults with ice.A = 2, flow.u = 0.2: ")
+    assert "Figure 2 scene" not in text
+    assert main(["simulate", str(scene_file), *FAST]) == 0
+    assert capsys.readouterr().out.startswith(f"{scene_file}: ")
+    assert main(["simulate", str(scene_file), *FAST, "--set", "ice.A=2"]) == 0
+    assert capsys.readouterr().out.startswith(f"{scene_file} with ice.A = 2: ")
+
+
+def test_simulate_columns_are_the_fmu_output_names():
+    """The sample columns are outputs of the FMU (its OUTPUTS table), plus the time."""
+    pytest.importorskip("pythonfmu")
+    from iceimpact.cli import SAMPLE_COLUMNS
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fmu_src"))
+    try:
+        import IceImpact
+    finally:
+        sys.path.pop(0)
+    fields = {out.name: out.field for out in IceImpact.OUTPUTS}
+    for name, field in SAMPLE_COLUMNS[1:]:
+        assert fields[name] == field, name
+    assert SAMPLE_COLUMNS[0] == ("time", "t")
+
+
+def test_simulate_does_not_import_the_sweep(tmp_path):
+    code = ("import sys\nfrom iceimpact.cli import main\n"
+            "main(['simulate', '--t-end', '1', '--dt', '0.01'])\n"
+            "print('iceimpact.sweep' in sys.modules)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().endswith("False")
+
+
+def test_failed_runs_exit_1_unless_allowed(tmp_path):
+    out = tmp_path / "sweep.csv"
+    argv = [str(SCRIPT), "sweep", "--vary", "impact.e=0.5,1.5,2", *FAST, "--out", str(out),
+            "--workers", "1", "--quiet"]
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1
+    assert "iceimpact sweep: 2 of 3 runs failed" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    proc = subprocess.run([*argv, "--allow-failures"], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "3 runs (1 ok, 2 errors)" in proc.stdout
+
+
+def test_a_damaged_journal_exits_2_and_keeps_the_table(capsys, tmp_path):
+    out = tmp_path / "sweep.csv"
+    argv = ["sweep", "--vary", "flow.u=0.1,0.2,0.3", *FAST, "--out", str(out), "--quiet",
+            "--workers", "1"]
+    assert main(argv) == 0
+    damaged = out.read_text().replace("\n1,", "\n1,,")
+    out.write_text(damaged)
+    err = usage_error(capsys, argv)
+    assert f"{out}: line 3 has" in err and "nothing was changed" in err
+    assert out.read_text() == damaged
+    meta_path(out).write_text('{"format": "iceimpact-sweep", "format_ver')
+    err = usage_error(capsys, argv)
+    assert "sweep.csv.meta.json: is not valid JSON" in err
+    assert out.read_text() == damaged
+
+
+def descendants(pid: int) -> set[int]:
+    """PIDs of the live descendants of ``pid`` (from /proc)."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    found, todo = set(), [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            if child not in found:
+                found.add(child)
+                todo.append(child)
+    return found
+
+
+def alive(pid: int) -> bool:
+    """Running (not gone, not a zombie waiting to be reaped)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state not in ("Z", "X")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_killed_sweep_leaves_no_workers_and_resumes(tmp_path):
+    """SIGKILL the command while its 2 pool workers run: they die too; a rerun completes."""
+    out = tmp_path / "sweep.csv"
+    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:12", "--t-end", "30", "--dt",
+            "0.002", "--out", str(out), "--workers", "2", "--chunksize", "1", "--quiet"]
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    workers: set[int] = set()
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            workers |= descendants(proc.pid)
+            if len(workers) >= 2 and out.exists() and len(out.read_text().splitlines()) >= 3:
+                break
+            time.sleep(0.02)
+    finally:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    assert len(workers) >= 2, "no pool workers seen"
+    partial = read_table(out)
+    assert 2 <= len(partial) < 12, "the sweep finished before it could be killed"
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and any(alive(pid) for pid in workers):
+        time.sleep(0.05)
+    assert not [pid for pid in workers if alive(pid)], "orphan workers survived"
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr
+    rows = read_table(out)
+    assert [r["run"] for r in rows] == list(range(12))
+    assert all(r["status"] == "ok" for r in rows)
+    for old in partial:  # rows written before the kill are kept as they were
+        new = rows[old["run"]]
+        assert new.keys() == old.keys()
+        assert all(new[k] == v or (v != v and new[k] != new[k]) for k, v in old.items())

@@ -1,4 +1,5 @@
-"""The reproduction scripts (examples/reproduce_*.py) run end to end in their quick mode.
+"""The example scripts run end to end: the reproduction scripts (examples/reproduce_*.py) in
+their quick mode, the demo (examples/demo.py) over 20 s.
 
 Each script is run as a user would, in a subprocess, with ``--quick`` (every case shortened to a
 few seconds, still through IceImpact.fmu with FMPy, both solvers): it must exit with status 0,
@@ -13,6 +14,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -71,3 +73,49 @@ def test_only_selects_one_figure_group(fmu: Path, tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.glob("*.png")) == ["fig07-09_restitution_linear.png"]
     summary = json.loads((tmp_path / "linear_quick_only_7-9.json").read_text())
     assert list(summary["groups"]) == ["7-9"]
+
+
+def _read_csv(path: Path) -> dict[str, np.ndarray]:
+    """The columns of a CSV written by examples/demo.py, by output name."""
+    with path.open() as f:
+        names = f.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {name: data[:, i] for i, name in enumerate(names)}
+
+
+def test_demo_csv_is_decimated_and_keeps_the_impulses(fmu: Path, tmp_path: Path) -> None:
+    """``examples/demo.py`` writes every output every 10 ms by default: a CSV of a reasonable
+    size whose impulses are the sums of the 1 ms steps' impulses (``--full-rate``), and whose
+    cumulative and state columns are the full-rate values at the same times."""
+    stop = 20.0
+    tables = {}
+    for mode, extra in (("default", []), ("full", ["--full-rate"])):
+        out = tmp_path / mode
+        proc = subprocess.run(
+            [sys.executable, str(ROOT / "examples" / "demo.py"), "--fmu", str(fmu),
+             "--stop-time", str(stop), "--out", str(out)] + extra,
+            capture_output=True, text=True, cwd=ROOT, timeout=300)
+        assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+        assert (out / "demo.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        tables[mode] = (_read_csv(out / "demo.csv"), (out / "demo.csv").stat().st_size)
+    (dec, dec_size), (full, full_size) = tables["default"], tables["full"]
+
+    assert len(full["time"]) == round(stop / 1e-3) + 1
+    assert len(dec["time"]) == round(stop / 1e-2) + 1
+    np.testing.assert_allclose(np.diff(dec["time"]), 1e-2, rtol=1e-9)
+    # reasonable: a tenth of the full-rate file, under 10 MB for the default 400 s
+    assert dec_size < 0.15 * full_size
+    assert dec_size * 400.0 / stop < 10e6
+
+    # impulses: every 10 ms row holds the sum over its ten 1 ms steps
+    assert full["contact.count"][-1] >= 2  # the first impacts happen within 20 s
+    assert full["contact.impulse"].sum() > 0.0
+    np.testing.assert_allclose(dec["contact.impulse"].sum(), full["contact.impulse"].sum(),
+                               rtol=1e-9)
+    np.testing.assert_allclose(np.cumsum(dec["contact.impulse"]),
+                               np.cumsum(full["contact.impulse"])[::10], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(dec["contact.force"][1:], dec["contact.impulse"][1:] / 1e-2,
+                               rtol=1e-9, atol=1e-9)
+    # cumulative and state outputs: the full-rate values at the row's time
+    for name in ("contact.count", "contact.t_last", "structure.x", "ice.z", "contact.active"):
+        np.testing.assert_array_equal(dec[name], full[name][::10], err_msg=name)

@@ -12,6 +12,7 @@ import math
 import os
 import shutil
 import subprocess
+import sys
 import sysconfig
 import zipfile
 from pathlib import Path
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
+from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 
 from fmu_host import (
@@ -35,7 +37,6 @@ from fmu_host import (
 )
 from iceimpact import Scene, Simulator, run
 from iceimpact.contract import FLOW_INPUT, PARAMETERS, markdown_table
-from iceimpact.fmi.pythonfmu_fixes import _GUARDED_LIBRARIES
 
 # Scenes of the equality tests (FMI names -> values) and their horizons (s).
 SCENES = {
@@ -135,11 +136,16 @@ def test_fmu_bundles_the_core_and_its_requirements(fmu):
     with zipfile.ZipFile(fmu) as z:
         names = set(z.namelist())
         requirements = z.read("resources/requirements.txt").decode()
+        entry = z.read("resources/slavemodule.txt").decode()
     core = ROOT / "fmu_src" / "iceimpact"
     for path in core.rglob("*.py"):
         assert f"resources/iceimpact/{path.relative_to(core).as_posix()}" in names
-    assert "resources/IceImpact.py" in names
-    assert "binaries/linux64/IceImpact.so" in names
+    # the slave and its boot module, the private entry module PythonFMU imports (build_fmu.py)
+    assert {"resources/iceimpact_fmu/IceImpact.py", "resources/iceimpact_fmu/boot.py",
+            "resources/iceimpact_fmu/python.json", f"resources/{entry}.py"} <= names
+    assert entry.startswith("_iceimpact_") and "resources/IceImpact.py" not in names
+    # the loader and PythonFMU's library behind it
+    assert {"binaries/linux64/IceImpact.so", "binaries/linux64/pythonfmu/IceImpact.so"} <= names
     assert not any("__pycache__" in n for n in names)
     assert "numpy" in requirements and "scipy" in requirements
 
@@ -240,9 +246,12 @@ def test_two_instances_do_not_interfere(fmu_dir, model_description):
     a_values, b_values = {}, {"ice.M": 800.0, "impact.e": 0.5, "drag.model": 2}
     a = Instance(fmu_dir, model_description, "a")
     b = Instance(fmu_dir, model_description, "b")
-    # The slave guarded the library copy against PythonFMU's exit-time use-after-free.
-    assert os.path.realpath(Path(fmu_dir) / "binaries" / "linux64" / "IceImpact.so") in (
-        _GUARDED_LIBRARIES)
+    # The slave (the FMU's own copy of the core, under its private name) guarded PythonFMU's
+    # library against its exit-time use-after-free.
+    fixes = next(m for n, m in sys.modules.items()
+                 if n.startswith("_iceimpact_") and n.endswith(".fmi.pythonfmu_fixes"))
+    library = Path(fmu_dir) / "binaries" / "linux64" / "pythonfmu" / "IceImpact.so"
+    assert os.path.realpath(library) in fixes._GUARDED_LIBRARIES
     try:
         a.initialize(a_values)
         b.initialize(b_values)
@@ -352,10 +361,11 @@ def test_bad_parameter_is_reported_and_the_instance_survives(fmu_dir, model_desc
                                                              value, message):
     inst = Instance(fmu_dir, model_description)
     try:
-        assert inst.initialize({name: value}) == FMI_OK  # PythonFMU cannot fail it cleanly
-        assert message in errors(inst)  # ... so the error is logged at exitInitializationMode
+        # OK (libcosim terminates the process on fmi2Error here): the error is logged ...
+        assert inst.initialize({name: value}) == FMI_OK
+        assert message in errors(inst)
         assert any(s == FMI_ERROR and c == "logStatusError" for s, c, _ in inst.messages)
-        assert inst.step(0.0, DT) == FMI_DISCARD
+        assert inst.step(0.0, DT) == FMI_ERROR  # ... and every step fails (fail_call)
         assert f"doStep refused: exitInitializationMode: {message}" in errors(inst)
         assert_outputs_finite(inst)
         inst.fmu.terminate()
@@ -399,7 +409,9 @@ def test_fixed_parameter_after_initialization_is_refused_and_not_stored(fmu_dir,
     try:
         inst.initialize({})
         rows = inst.run(500)
-        inst.set({"structure.m": 800.0})
+        with pytest.raises(FMICallException) as refused:  # fmi2SetReal returns fmi2Error
+            inst.set({"structure.m": 800.0})
+        assert refused.value.status == FMI_ERROR
         in_use = inst.fmu.getReal([inst.variables["structure.m"].valueReference])[0]
         rows += inst.run(500, 500)
     finally:
@@ -515,7 +527,7 @@ def test_c_host_reports_bad_parameter_and_exits_cleanly(c_host):
     done = run_host(c_host, "-n", "10", "-s", "ice.M=-1")
     assert done.returncode == 4, done.stderr  # the host's code for a non-OK doStep
     assert "ice.M = -1.0 is not allowed: > 0" in done.stderr
-    assert "fmi2DoStep at t = 0 returned 2" in done.stderr
+    assert "fmi2DoStep at t = 0 returned 3" in done.stderr
 
 
 @pytest.mark.parametrize("keep_loaded", [False, True], ids=["dlclose", "no-dlclose"])

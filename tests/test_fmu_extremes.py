@@ -20,6 +20,7 @@ import pytest
 from extremes import CELLS, scene_of
 from fmu_host import (
     FMI_DISCARD,
+    FMI_ERROR,
     FMI_OK,
     OUTPUTS,
     REAL_OUTPUTS,
@@ -109,7 +110,7 @@ def _bad_values(spec) -> list:
 def test_every_bad_parameter_value_is_reported_before_initialization(fmu_dir, model_description,
                                                                      spec):
     """Values the core refuses give an error log naming variable, value and range, and doStep
-    is refused (fmi2Discard) until fmi2Reset; values it accepts (zero or negative x0, v0, ...)
+    is refused (fmi2Error) until fmi2Reset; values it accepts (zero or negative x0, v0, ...)
     run. Either way the outputs stay finite and the instance can be reset and freed."""
     inst = Instance(fmu_dir, model_description)
     try:
@@ -132,10 +133,10 @@ def test_every_bad_parameter_value_is_reported_before_initialization(fmu_dir, mo
             # default ice.z0 downstream)
             assert spec.name in expected
             assert expected in errors(inst), (spec.name, value, errors(inst))
-            assert status == FMI_DISCARD
+            assert status == FMI_ERROR
             # a call after the error: refused again with the same reason, nothing changes
             before = inst.outputs()
-            assert inst.step(0.0, 1e-3) == FMI_DISCARD
+            assert inst.step(0.0, 1e-3) == FMI_ERROR
             assert errors(inst).count(expected) >= 2
             assert inst.outputs() == before
         # after all that, a valid initialization runs normally

@@ -10,7 +10,8 @@ FMU's outputs via :func:`impacts_from_counter`, or from anywhere else), SI units
   eq. 43).
 - :func:`lock_in` -- is the impact period ``T`` such that ``omega_n = 2 pi N / T`` for an
   integer ``N`` (the resonance/lock-in condition of the article's Section 5, after eq. 44)?
-- :func:`summarize` / :func:`summarize_arrays` -- all of the above as one flat, CSV-ready
+- :func:`summarize` / :func:`summarize_arrays` -- all of the above and the design loads of
+  :mod:`iceimpact.loads` (extremes, damage-equivalent loads) as one flat, CSV-ready
   ``dict[str, float]`` whose keys and units are listed in :data:`SUMMARY_FIELDS`.
 - :func:`impacts_from_counter` -- impact times and impulses recovered from sampled outputs
   (the FMU's ``contact.count``, ``contact.t_last`` and ``contact.impulse``).
@@ -28,6 +29,8 @@ from typing import Any
 
 import numpy as np
 from scipy.signal import welch
+
+from .loads import LOAD_FIELDS, design_loads, load_columns
 
 #: Default relative tolerance of :func:`lock_in`: ``|ratio - N| / N <= 0.05`` counts as locked.
 LOCK_IN_TOLERANCE = 0.05
@@ -73,6 +76,8 @@ SUMMARY_FIELDS: dict[str, tuple[str, str]] = {
     "sticking_fraction": ("1", "fraction of the window's samples in sticking contact "
                                "(nan if not known)"),
     "sticking_since_s": ("s", "start of the sticking phase that lasts to the end (nan if none)"),
+    # design loads (iceimpact.loads): extremes, damage-equivalent loads, contact force
+    **LOAD_FIELDS,
 }
 
 
@@ -246,7 +251,7 @@ def sample_spacing(t: np.ndarray, name: str = "t") -> float:
     return h
 
 
-def dominant_frequency(f: np.ndarray, psd: np.ndarray) -> float:
+def spectrum_peak(f: np.ndarray, psd: np.ndarray) -> float:
     """Frequency (Hz) of the largest PSD value, f = 0 excluded, refined between bins.
 
     The refinement fits a parabola through the logarithm of the PSD at the peak bin and its two
@@ -279,7 +284,7 @@ def displacement_spectrum(t: np.ndarray, x: np.ndarray, t_start: float = 0.0,
     (``detrend='constant'``), Hann window, 50 % overlap. ``nperseg`` defaults to a quarter of the
     samples (at least 256, or all of them if fewer): about 7 averaged segments and a resolution
     of 4 / (record length) Hz. The dominant frequency is the peak above f = 0 refined by
-    :func:`dominant_frequency`; it is nan when the structure is at rest, i.e. the RMS of
+    :func:`spectrum_peak`; it is nan when the structure is at rest, i.e. the RMS of
     ``x - mean(x)`` is at most :data:`REST_AMPLITUDE` m.
 
     Raises ValueError (naming the argument) for non-uniform sampling, mismatched shapes, fewer
@@ -306,8 +311,25 @@ def displacement_spectrum(t: np.ndarray, x: np.ndarray, t_start: float = 0.0,
     f, psd = welch(x, fs=1.0 / h, window="hann", nperseg=nperseg, detrend="constant",
                    scaling="density")
     at_rest = float(np.std(x)) <= REST_AMPLITUDE
-    dom = math.nan if at_rest else dominant_frequency(f, psd)
+    dom = math.nan if at_rest else spectrum_peak(f, psd)
     return Spectrum(f=f, psd=psd, dominant_frequency=dom)
+
+
+def dominant_frequency(t: np.ndarray, x: np.ndarray, t_start: float = 0.0,
+                       nperseg: int | None = None) -> float:
+    """The frequency (Hz) at which a signal ``x`` sampled uniformly at times ``t`` (s) vibrates
+    most: the peak of its Welch PSD above f = 0 (:func:`displacement_spectrum`, mean removed,
+    Hann window), refined between bins (:func:`spectrum_peak`). nan when ``x`` does not move
+    (its RMS about the mean is at most :data:`REST_AMPLITUDE`). The project's one dominant
+    frequency: the sweep's ``dominant_frequency_hz`` and the benchmarks use it.
+
+    ``t_start`` (s) skips a transient. ``nperseg`` (samples per Welch segment) sets the
+    resolution: the default, a quarter of the record, averages about 7 segments (bins of
+    4 / record length Hz); ``nperseg=len(x)`` is one Hann-windowed periodogram of the whole
+    record (bins of 1 / record length Hz, no averaging). Raises ValueError like
+    :func:`displacement_spectrum` (non-uniform sampling, too few samples, non-finite values).
+    """
+    return displacement_spectrum(t, x, t_start=t_start, nperseg=nperseg).dominant_frequency
 
 
 # Lock-in ---------------------------------------------------------------------------------------
@@ -375,10 +397,14 @@ def _uniform_prefix(t: np.ndarray) -> int:
 def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n: float,
                      transient: float = 0.0, sticking: np.ndarray | None = None,
                      sticking_since: float | None = None,
-                     tolerance: float = LOCK_IN_TOLERANCE) -> dict[str, float]:
+                     tolerance: float = LOCK_IN_TOLERANCE, structure_k: float | None = None,
+                     impulse: np.ndarray | None = None) -> dict[str, float]:
     """:func:`summarize` on plain arrays: samples ``t`` (s), ``x`` (m), an impact array as
     accepted by :func:`impact_statistics`, ``omega_n`` (rad/s), optional per-sample sticking
     flags and the start of a final sticking phase (s). Keys and units: :data:`SUMMARY_FIELDS`.
+    The design loads (:mod:`iceimpact.loads`) need the stiffness ``structure_k`` (N/m) for the
+    k x columns and the per-sample ``impulse`` (N.s) for the contact force; without them those
+    columns are nan.
     """
     t = np.asarray(t, dtype=float).ravel()
     x = np.asarray(x, dtype=float).ravel()
@@ -439,6 +465,8 @@ def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n:
         "sticking_fraction": sticking_fraction,
         "sticking_since_s": math.nan if sticking_since is None else float(sticking_since),
     }
+    out.update(load_columns(design_loads(t, x, structure_k, impacts=impacts, impulse=impulse,
+                                         transient=transient)))
     assert out.keys() == SUMMARY_FIELDS.keys()
     return out
 
@@ -451,11 +479,15 @@ def summarize(result: Any, transient: float = 0.0,
     ending at the last sample), displacement peak/mean/RMS, the dominant frequency of the Welch
     spectrum of x, and the lock-in measures of :func:`lock_in` for the impact period T = mean
     interval (Section 5 of the article). Undefined entries are nan (fewer than two impacts, a
-    structure at rest, too few samples for a spectrum, no sticking phase). ``result`` needs
-    ``t``, ``x``, ``impacts`` and ``scene.omega_n``; ``sticking`` and ``sticking_since`` are
-    used when present.
+    structure at rest, too few samples for a spectrum, no sticking phase), and the design
+    loads of :mod:`iceimpact.loads` (extremes and damage-equivalent loads of k x, contact
+    force, impulse percentile). ``result`` needs ``t``, ``x``, ``impacts`` and
+    ``scene.omega_n``; ``sticking``, ``sticking_since``, ``impulse`` and ``scene.structure_k``
+    are used when present.
     """
     return summarize_arrays(result.t, result.x, result.impacts, result.scene.omega_n,
                             transient=transient, sticking=getattr(result, "sticking", None),
                             sticking_since=getattr(result, "sticking_since", None),
-                            tolerance=tolerance)
+                            tolerance=tolerance,
+                            structure_k=getattr(result.scene, "structure_k", None),
+                            impulse=getattr(result, "impulse", None))

@@ -7,6 +7,12 @@
 Scenes are TOML files with the FMU's parameter names (:func:`iceimpact.load_scene`); without one
 the article's Figure 2 scene is used. ``--set`` changes single parameters of it. Runs use the core
 (:func:`iceimpact.run`), not the FMU. See docs/sweeps.md.
+
+Exit status: 0 success; 1 a sweep with failed runs (unless ``--allow-failures``) or a worker
+process that died; 2 an argument error (bad option, grid, scene file, output table that cannot
+be resumed), with a message and no traceback; 130 interrupted (Ctrl-C, SIGTERM).
+
+``simulate`` does not import the sweep package: what both need is in :mod:`iceimpact.runspec`.
 """
 
 from __future__ import annotations
@@ -19,12 +25,27 @@ import signal
 import sys
 import time
 from collections.abc import Sequence
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
+from .runspec import DEFAULT_DT, SpecError, apply, check_samples, parse_set
 from .scene import ParameterError, Scene, load_scene
 from .simulator import Result, run
-from .sweep import DEFAULT_DT, SweepError, apply, output_format, parse_set, parse_vary, sweep
+
+#: Columns of ``simulate --out``: the FMU's output names for the sampled states (SI units),
+#: with the Result field each comes from. ``contact.active`` is 1 while the bodies stick.
+SAMPLE_COLUMNS: tuple[tuple[str, str], ...] = (
+    ("time", "t"),
+    ("structure.x", "x"),
+    ("structure.v", "v"),
+    ("ice.z", "z"),
+    ("ice.v", "w"),
+    ("contact.gap", "gap"),
+    ("contact.impulse", "impulse"),
+    ("contact.active", "sticking"),
+)
+
+#: Exit status of a sweep with failed runs (without --allow-failures).
+EXIT_RUNS_FAILED = 1
 
 
 def _finite(text: str, allow_zero: bool) -> float:
@@ -49,8 +70,9 @@ def _non_negative(text: str) -> float:
 def _count(text: str) -> int:
     try:
         value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    except ValueError:  # also more than 4300 digits
+        shown = text if len(text) <= 40 else text[:20] + "..."
+        raise argparse.ArgumentTypeError(f"{shown!r} is not an integer") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"{text!r} must be >= 1")
     return value
@@ -84,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
                                      "states as CSV and print the summary measures.")
     _add_scene_options(sim)
     sim.add_argument("--out", type=Path, default=None, metavar="CSV",
-                     help="samples: t, x, v, z, w, gap, impulse, sticking (SI units)")
+                     help="samples, one column per FMU output: "
+                          + ", ".join(name for name, _ in SAMPLE_COLUMNS) + " (SI units)")
     sim.add_argument("--impacts", type=Path, default=None, metavar="CSV",
                      help="impact list: one row per impact, fields of iceimpact.Impact")
     sim.set_defaults(handler=_simulate, subparser=sim)
@@ -113,6 +136,10 @@ def build_parser() -> argparse.ArgumentParser:
                          "(pip install 'iceimpact[dask]')")
     sw.add_argument("--overwrite", action="store_true",
                     help="replace an output table written by a different sweep")
+    sw.add_argument("--max-runs", type=_count, default=None, metavar="N",
+                    help="refuse grids of more than N runs (default 100000)")
+    sw.add_argument("--allow-failures", action="store_true",
+                    help="exit 0 even when some runs failed (default: exit status 1)")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     sw.set_defaults(handler=_sweep, subparser=sw)
     return parser
@@ -131,7 +158,7 @@ def _base_scene(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Sc
             name, value = parse_set(spec)
             changes[name] = value
         return apply(base, changes)
-    except (SweepError, ParameterError) as exc:
+    except (SpecError, ParameterError) as exc:
         parser.error(str(exc))
 
 
@@ -140,6 +167,20 @@ def _check_times(parser: argparse.ArgumentParser, args: argparse.Namespace) -> N
         parser.error(f"--transient {args.transient:g} must be less than --t-end {args.t_end:g}")
     if args.dt > args.t_end:
         parser.error(f"--dt {args.dt:g} must not exceed --t-end {args.t_end:g}")
+    try:
+        check_samples(args.t_end, args.dt)
+    except SpecError as exc:
+        parser.error(str(exc))
+
+
+def _title(args: argparse.Namespace) -> str:
+    """What was simulated: the Figure 2 scene only if nothing was changed, else the scene file
+    and/or the --set changes."""
+    changes = ", ".join(" = ".join(p.strip() for p in spec.partition("=")[::2])
+                        for spec in args.sets)
+    if args.scene is None:
+        return f"Figure 2 defaults with {changes}" if changes else "Figure 2 scene"
+    return f"{args.scene} with {changes}" if changes else str(args.scene)
 
 
 def _format_value(value: float) -> str:
@@ -150,11 +191,10 @@ def _write_samples(path: Path, result: Result) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", encoding="utf-8", newline="") as fh:
         writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow(["t", "x", "v", "z", "w", "gap", "impulse", "sticking"])
-        for row in zip(result.t.tolist(), result.x.tolist(), result.v.tolist(),
-                       result.z.tolist(), result.w.tolist(), result.gap.tolist(),
-                       result.impulse.tolist(), result.sticking.astype(int).tolist(),
-                       strict=True):
+        writer.writerow([name for name, _ in SAMPLE_COLUMNS])
+        columns = [getattr(result, field) for _, field in SAMPLE_COLUMNS]
+        columns = [c.astype(int) if c.dtype == bool else c for c in columns]
+        for row in zip(*(c.tolist() for c in columns), strict=True):
             writer.writerow(row)
 
 
@@ -174,15 +214,19 @@ def _simulate(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     scene = _base_scene(parser, args)
     _check_times(parser, args)
     t0 = time.perf_counter()
-    result = run(scene, args.t_end, dt=args.dt)
+    try:
+        result = run(scene, args.t_end, dt=args.dt)
+    except MemoryError:
+        print(f"iceimpact simulate: not enough memory for {args.t_end / args.dt:.3g} samples; "
+              "raise --dt or lower --t-end", file=sys.stderr)
+        return 1
     wall = time.perf_counter() - t0
     summary = summarize(result, args.transient)
     if args.out is not None:
         _write_samples(args.out, result)
     if args.impacts is not None:
         _write_impacts(args.impacts, result)
-    source = str(args.scene) if args.scene is not None else "Figure 2 scene"
-    print(f"{source}: {args.t_end:g} s simulated in {wall:.3f} s wall, "
+    print(f"{_title(args)}: {args.t_end:g} s simulated in {wall:.3f} s wall, "
           f"{len(result.impacts)} impacts")
     print(f"summary over t >= {args.transient:g} s:")
     width = max(map(len, summary))
@@ -201,19 +245,25 @@ def _terminate(signum: int, frame: object) -> None:
 
 
 def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    from concurrent.futures.process import BrokenProcessPool
+
+    from .sweep import DEFAULT_MAX_RUNS, SweepError, check_grid_size, output_format, parse_vary
+    from .sweep import sweep as run_sweep
+
     base = _base_scene(parser, args)
     _check_times(parser, args)
+    max_runs = DEFAULT_MAX_RUNS if args.max_runs is None else args.max_runs
     grid: dict[str, list] = {}
     try:
         for spec in args.vary:
-            name, values = parse_vary(spec)
+            name, values = parse_vary(spec, max_count=max_runs)
             if name in grid:
                 raise SweepError(f"--vary {spec!r}: {name} is already varied")
             grid[name] = values
+        n_runs = check_grid_size(grid, max_runs)  # before the grid's points are made
         output_format(args.out, args.format)  # a missing pyarrow is reported before anything runs
     except SweepError as exc:
         parser.error(str(exc))
-    n_runs = math.prod(len(v) for v in grid.values())
     if not args.quiet:
         axes = " x ".join(f"{n} ({len(v)})" for n, v in grid.items())
         print(f"sweep: {n_runs} runs over {axes}, t_end {args.t_end:g} s, dt {args.dt:g} s "
@@ -221,10 +271,10 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     previous = signal.signal(signal.SIGTERM, _terminate)  # stop like Ctrl-C: workers too
     try:
-        rows = sweep(base, grid, t_end=args.t_end, transient=args.transient, dt=args.dt,
-                     out=args.out, workers=args.workers, progress=not args.quiet,
-                     dask_address=args.dask, fmt=args.format, overwrite=args.overwrite,
-                     chunksize=args.chunksize)
+        rows = run_sweep(base, grid, t_end=args.t_end, transient=args.transient, dt=args.dt,
+                         out=args.out, workers=args.workers, progress=not args.quiet,
+                         dask_address=args.dask, fmt=args.format, overwrite=args.overwrite,
+                         chunksize=args.chunksize, max_runs=max_runs)
     except SweepError as exc:
         parser.error(str(exc))
     except KeyboardInterrupt:
@@ -244,6 +294,11 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         print(f"  run {row['run']}: {row['status']}")
     if len(errors) > 5:
         print(f"  ... and {len(errors) - 5} more (status column)")
+    if errors and not args.allow_failures:
+        print(f"iceimpact sweep: {len(errors)} of {len(rows)} runs failed (see the status "
+              f"column of {args.out}); exit status {EXIT_RUNS_FAILED} (--allow-failures: 0)",
+              file=sys.stderr)
+        return EXIT_RUNS_FAILED
     return 0
 
 

@@ -13,7 +13,9 @@ them, and the rules of the FMI life cycle:
   :mod:`iceimpact.fmi.state`.
 
 Messages go to the ``log(status, text)`` callback given at construction, with the FMI status
-codes below; the slave (``fmu_src/IceImpact.py``) only forwards them to PythonFMU.
+codes below; ``fail(text)`` reports an error that must make the FMI call in progress return
+``fmi2Error`` (the instance cannot step with its parameters, a fixed parameter set after
+initialization). The slave (``fmu_src/IceImpact.py``) only forwards both to the FMI library.
 """
 
 from __future__ import annotations
@@ -45,8 +47,10 @@ _OUTPUT_FIELDS = {o.name: o.field for o in OUTPUTS}
 class FmuModel:
     """One FMU instance's values, simulator and life-cycle rules (no FMI library involved)."""
 
-    def __init__(self, log: Callable[[int, str], None]):
+    def __init__(self, log: Callable[[int, str], None],
+                 fail: Callable[[str], None] | None = None):
         self._log = log
+        self._fail = fail if fail is not None else (lambda text: log(ERROR, text))
         self.values: dict[str, float | int] = {v.name: v.start for v in PARAMETERS}
         self.flow_u = float(FLOW_INPUT.start)
         self.sim: Simulator | None = None
@@ -78,9 +82,9 @@ class FmuModel:
         elif SCENE_VARIABLES[name].tunable:
             self.pending[name] = value  # validated and applied by the next doStep
         else:
-            self._log(ERROR, f"{name} is a fixed parameter: setting it to {value!r} after "
-                      "initialization is refused and the value in use, "
-                      f"{self.values[name]!r}, is kept (use fmi2Reset to change it)")
+            self._fail(f"{name} is a fixed parameter: setting it to {value!r} after "
+                       "initialization is refused and the value in use, "
+                       f"{self.values[name]!r}, is kept (use fmi2Reset to change it)")
 
     # life cycle ----------------------------------------------------------------------------------
     def setup_experiment(self, start_time: Any) -> None:
@@ -106,7 +110,7 @@ class FmuModel:
             self.pending.clear()
             self.penetration_logged = False
             return True
-        self._log(ERROR, self.error + "; the FMU will not step (fmi2Discard) until the "
+        self._log(ERROR, self.error + "; the FMU will not step (fmi2Error) until the "
                   "parameter is corrected after fmi2Reset")
         return False
 
@@ -120,7 +124,7 @@ class FmuModel:
 
     def _do_step(self, current_time: float, step_size: float) -> bool:
         if self.sim is None and not self.initialize("doStep"):
-            self._log(ERROR, f"doStep refused: {self.error}")
+            self._fail(f"doStep refused: {self.error}")
             return False
         if not (math.isfinite(step_size) and step_size > 0.0):
             self._log(ERROR, f"doStep: communication step size = {step_size!r} s is not "

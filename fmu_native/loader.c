@@ -1,0 +1,443 @@
+/*
+ * binaries/linux64/IceImpact.so: the FMI 2.0 library of IceImpact.fmu, compiled by build_fmu.py.
+ *
+ * PythonFMU 0.7.0's library (shipped beside this one as binaries/linux64/pythonfmu/IceImpact.so)
+ * calls the Python C API but has no NEEDED entry for libpython, so a host that is not itself a
+ * Python process fails to load it ("undefined symbol: _Py_NoneStruct"), and it forwards log
+ * messages to the host only when the host turned debug logging on, errors included. This library
+ * sits in front of it:
+ *
+ *  1. At the first fmi2Instantiate, if the process has no Python yet, it loads the libpython the
+ *     FMU was built with (LIBPYTHON_PATH, else LIBPYTHON_SONAME from the library search path)
+ *     with RTLD_GLOBAL, so that PythonFMU's library and every extension module (numpy, scipy)
+ *     find the Python symbols; then it loads PythonFMU's library. What is missing is reported
+ *     through the host's logger (and stderr) and fmi2Instantiate returns NULL.
+ *  2. It instantiates PythonFMU's component with debug logging on and its own logger, which
+ *     forwards every message of status fmi2Warning or worse to the host always (FMI 2.0: errors
+ *     are reported whatever loggingOn says) and fmi2OK messages only while the host asked for
+ *     debug logging (fmi2Instantiate's loggingOn, fmi2SetDebugLogging and its categories).
+ *  3. A Python slave can only make PythonFMU return fmi2OK, fmi2Discard (do_step returning
+ *     False) or fmi2Fatal (an exception, which also releases PythonFMU's references to the
+ *     instance, so that fmi2FreeInstance releases them twice). To fail a call cleanly the slave
+ *     logs a message with the category FAIL_CATEGORY ("fmi2Error"; iceimpact_fmu_boot.fail_call
+ *     does it): the message reaches the host as an error (category logStatusError) and the call
+ *     returns fmi2Error where PythonFMU would have returned fmi2OK, fmi2Warning or fmi2Discard.
+ *     It is opt-in, per call: libcosim terminates the process on an fmi2Error from
+ *     fmi2ExitInitializationMode, so the slave reports bad parameters there by an error message
+ *     only, and fails the next fmi2DoStep.
+ *
+ * Every other call is passed through unchanged.
+ */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef LIBPYTHON_PATH
+#define LIBPYTHON_PATH ""
+#endif
+#ifndef LIBPYTHON_SONAME
+#define LIBPYTHON_SONAME "libpython3.so"
+#endif
+#ifndef PYTHON_VERSION
+#define PYTHON_VERSION "3"
+#endif
+#ifndef PYTHONFMU_LIBRARY
+#define PYTHONFMU_LIBRARY "pythonfmu/IceImpact.so"
+#endif
+
+#define EXPORT __attribute__((visibility("default")))
+
+/* Log category with which the slave fails the current call with fmi2Error (see 3. above). */
+#define FAIL_CATEGORY "fmi2Error"
+
+/* The types of fmi2TypesPlatform.h / fmi2FunctionTypes.h (FMI 2.0) used here. */
+typedef void *fmi2Component;
+typedef void *fmi2ComponentEnvironment;
+typedef void *fmi2FMUstate;
+typedef unsigned int fmi2ValueReference;
+typedef double fmi2Real;
+typedef int fmi2Integer;
+typedef int fmi2Boolean;
+typedef char fmi2Char;
+typedef const fmi2Char *fmi2String;
+typedef char fmi2Byte;
+typedef enum { fmi2OK, fmi2Warning, fmi2Discard, fmi2Error, fmi2Fatal, fmi2Pending } fmi2Status;
+typedef enum { fmi2ModelExchange, fmi2CoSimulation } fmi2Type;
+typedef enum {
+    fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime, fmi2Terminated
+} fmi2StatusKind;
+
+typedef void (*fmi2CallbackLogger)(fmi2ComponentEnvironment, fmi2String, fmi2Status, fmi2String,
+                                   fmi2String, ...);
+typedef struct {
+    fmi2CallbackLogger logger;
+    void *(*allocateMemory)(size_t, size_t);
+    void (*freeMemory)(void *);
+    void (*stepFinished)(fmi2ComponentEnvironment, fmi2Status);
+    fmi2ComponentEnvironment componentEnvironment;
+} fmi2CallbackFunctions;
+
+/* PythonFMU's functions, resolved once. */
+static struct {
+    fmi2Component (*Instantiate)(fmi2String, fmi2Type, fmi2String, fmi2String,
+                                 const fmi2CallbackFunctions *, fmi2Boolean, fmi2Boolean);
+    void (*FreeInstance)(fmi2Component);
+    fmi2Status (*SetupExperiment)(fmi2Component, fmi2Boolean, fmi2Real, fmi2Real, fmi2Boolean,
+                                  fmi2Real);
+    fmi2Status (*EnterInitializationMode)(fmi2Component);
+    fmi2Status (*ExitInitializationMode)(fmi2Component);
+    fmi2Status (*Terminate)(fmi2Component);
+    fmi2Status (*Reset)(fmi2Component);
+    fmi2Status (*GetReal)(fmi2Component, const fmi2ValueReference *, size_t, fmi2Real *);
+    fmi2Status (*GetInteger)(fmi2Component, const fmi2ValueReference *, size_t, fmi2Integer *);
+    fmi2Status (*GetBoolean)(fmi2Component, const fmi2ValueReference *, size_t, fmi2Boolean *);
+    fmi2Status (*GetString)(fmi2Component, const fmi2ValueReference *, size_t, fmi2String *);
+    fmi2Status (*SetReal)(fmi2Component, const fmi2ValueReference *, size_t, const fmi2Real *);
+    fmi2Status (*SetInteger)(fmi2Component, const fmi2ValueReference *, size_t,
+                             const fmi2Integer *);
+    fmi2Status (*SetBoolean)(fmi2Component, const fmi2ValueReference *, size_t,
+                             const fmi2Boolean *);
+    fmi2Status (*SetString)(fmi2Component, const fmi2ValueReference *, size_t,
+                            const fmi2String *);
+    fmi2Status (*GetFMUstate)(fmi2Component, fmi2FMUstate *);
+    fmi2Status (*SetFMUstate)(fmi2Component, fmi2FMUstate);
+    fmi2Status (*FreeFMUstate)(fmi2Component, fmi2FMUstate *);
+    fmi2Status (*SerializedFMUstateSize)(fmi2Component, fmi2FMUstate, size_t *);
+    fmi2Status (*SerializeFMUstate)(fmi2Component, fmi2FMUstate, fmi2Byte *, size_t);
+    fmi2Status (*DeSerializeFMUstate)(fmi2Component, const fmi2Byte *, size_t, fmi2FMUstate *);
+    fmi2Status (*GetDirectionalDerivative)(fmi2Component, const fmi2ValueReference *, size_t,
+                                           const fmi2ValueReference *, size_t, const fmi2Real *,
+                                           fmi2Real *);
+    fmi2Status (*SetRealInputDerivatives)(fmi2Component, const fmi2ValueReference *, size_t,
+                                          const fmi2Integer *, const fmi2Real *);
+    fmi2Status (*GetRealOutputDerivatives)(fmi2Component, const fmi2ValueReference *, size_t,
+                                           const fmi2Integer *, fmi2Real *);
+    fmi2Status (*DoStep)(fmi2Component, fmi2Real, fmi2Real, fmi2Boolean);
+    fmi2Status (*CancelStep)(fmi2Component);
+    fmi2Status (*GetStatus)(fmi2Component, fmi2StatusKind, fmi2Status *);
+    fmi2Status (*GetRealStatus)(fmi2Component, fmi2StatusKind, fmi2Real *);
+    fmi2Status (*GetIntegerStatus)(fmi2Component, fmi2StatusKind, fmi2Integer *);
+    fmi2Status (*GetBooleanStatus)(fmi2Component, fmi2StatusKind, fmi2Boolean *);
+    fmi2Status (*GetStringStatus)(fmi2Component, fmi2StatusKind, fmi2String *);
+} real;
+
+static const char *const function_names[] = {
+    "fmi2Instantiate", "fmi2FreeInstance", "fmi2SetupExperiment",
+    "fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset",
+    "fmi2GetReal", "fmi2GetInteger", "fmi2GetBoolean", "fmi2GetString", "fmi2SetReal",
+    "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString", "fmi2GetFMUstate", "fmi2SetFMUstate",
+    "fmi2FreeFMUstate", "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate",
+    "fmi2DeSerializeFMUstate", "fmi2GetDirectionalDerivative", "fmi2SetRealInputDerivatives",
+    "fmi2GetRealOutputDerivatives", "fmi2DoStep", "fmi2CancelStep", "fmi2GetStatus",
+    "fmi2GetRealStatus", "fmi2GetIntegerStatus", "fmi2GetBooleanStatus", "fmi2GetStringStatus",
+};
+
+_Static_assert(sizeof real == sizeof function_names / sizeof *function_names * sizeof(void *),
+               "one name per function pointer of `real`");
+
+static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
+static int loaded = 0;
+
+/* One instance: PythonFMU's component and what the host gave us. */
+typedef struct {
+    fmi2Component component;
+    fmi2CallbackFunctions host;     /* the host's callbacks */
+    fmi2CallbackFunctions ours;     /* given to PythonFMU: our logger, environment = this */
+    char *name;
+    int logging_on;                 /* the host's debug logging switch */
+    size_t n_categories;
+    char **categories;              /* the host's categories (none: all) */
+    int failed;                     /* the slave failed the current call (FAIL_CATEGORY) */
+} Instance;
+
+static char *copy_string(const char *s) {
+    size_t n = strlen(s ? s : "") + 1;
+    char *copy = malloc(n);
+    if (copy) memcpy(copy, s ? s : "", n);
+    return copy;
+}
+
+static void clear_categories(Instance *inst) {
+    for (size_t i = 0; i < inst->n_categories; i++) free(inst->categories[i]);
+    free(inst->categories);
+    inst->categories = NULL;
+    inst->n_categories = 0;
+}
+
+/* Report a failure to load: through the host's logger and on stderr. */
+static void report(const fmi2CallbackFunctions *f, fmi2String name, const char *fmt, ...) {
+    char text[4096];
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(text, sizeof text, fmt, args);
+    va_end(args);
+    fprintf(stderr, "IceImpact.fmu: %s\n", text);
+    if (f && f->logger) f->logger(f->componentEnvironment, name, fmi2Fatal, "logStatusFatal", "%s",
+                                  text);
+}
+
+/* Load Python (if the process has none) and PythonFMU's library; 1 on success. */
+static int load(const fmi2CallbackFunctions *f, fmi2String name) {
+    pthread_mutex_lock(&load_lock);
+    if (loaded) {
+        pthread_mutex_unlock(&load_lock);
+        return 1;
+    }
+    int ok = 0;
+    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
+        /* No Python symbols in the global scope: a native host. RTLD_GLOBAL, because numpy's
+           and scipy's extension modules do not link libpython either. */
+        void *py = NULL;
+        char first_error[1024] = "";
+        if (LIBPYTHON_PATH[0]) {
+            py = dlopen(LIBPYTHON_PATH, RTLD_NOW | RTLD_GLOBAL);
+            if (!py) snprintf(first_error, sizeof first_error, "%s", dlerror());
+        }
+        if (!py) py = dlopen(LIBPYTHON_SONAME, RTLD_NOW | RTLD_GLOBAL);
+        if (!py) {
+            report(f, name,
+                   "needs the shared library of Python " PYTHON_VERSION " (" LIBPYTHON_SONAME
+                   "), which this process has not loaded and which was not found: %s%s%s. "
+                   "Install Python " PYTHON_VERSION " as a shared library (Debian/Ubuntu: "
+                   "apt-get install libpython" PYTHON_VERSION ") with the FMU's requirements "
+                   "(resources/requirements.txt), or start the host with "
+                   "LD_PRELOAD=/path/to/" LIBPYTHON_SONAME ".",
+                   first_error, first_error[0] ? "; " : "", dlerror());
+            goto done;
+        }
+    }
+    Dl_info self;
+    if (!dladdr((void *)&load, &self) || !self.dli_fname) {
+        report(f, name, "cannot locate its own library (dladdr failed)");
+        goto done;
+    }
+    char path[4096];
+    const char *slash = strrchr(self.dli_fname, '/');
+    int dir_len = slash ? (int)(slash - self.dli_fname) : 1;
+    snprintf(path, sizeof path, "%.*s/%s", dir_len, slash ? self.dli_fname : ".",
+             PYTHONFMU_LIBRARY);
+    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
+    if (!lib) {
+        report(f, name, "cannot load PythonFMU's library %s: %s", path, dlerror());
+        goto done;
+    }
+    void **slots = (void **)&real;
+    for (size_t i = 0; i < sizeof function_names / sizeof *function_names; i++) {
+        slots[i] = dlsym(lib, function_names[i]);
+        if (!slots[i]) {
+            report(f, name, "%s lacks the FMI function %s", path, function_names[i]);
+            goto done;
+        }
+    }
+    loaded = ok = 1;
+done:
+    pthread_mutex_unlock(&load_lock);
+    return ok;
+}
+
+static int category_enabled(const Instance *inst, fmi2String category) {
+    if (!inst->logging_on) return 0;
+    if (inst->n_categories == 0) return 1;
+    for (size_t i = 0; i < inst->n_categories; i++)
+        if (category && strcmp(category, inst->categories[i]) == 0) return 1;
+    return 0;
+}
+
+/* The logger PythonFMU calls: note a failed call, forward what the host should see. */
+static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
+                        fmi2String category, fmi2String message, ...) {
+    Instance *inst = env;
+    if (category && strcmp(category, FAIL_CATEGORY) == 0) {
+        inst->failed = 1;
+        category = "logStatusError";
+        if (status < fmi2Error) status = fmi2Error;
+    }
+    if (status == fmi2OK && !category_enabled(inst, category)) return;
+    if (!inst->host.logger) return;
+    char small[1024];
+    char *text = small;
+    va_list args;
+    va_start(args, message);
+    int n = vsnprintf(small, sizeof small, message ? message : "", args);
+    va_end(args);
+    if (n >= (int)sizeof small && (text = malloc((size_t)n + 1))) {
+        va_start(args, message);
+        vsnprintf(text, (size_t)n + 1, message, args);
+        va_end(args);
+    }
+    inst->host.logger(inst->host.componentEnvironment, name, status, category, "%s",
+                      text ? text : small);
+    if (text != small) free(text);
+}
+
+static Instance *begin(fmi2Component c) {
+    Instance *inst = c;
+    inst->failed = 0;
+    return inst;
+}
+
+static fmi2Status finish(Instance *inst, fmi2Status status) {
+    return (inst->failed && status < fmi2Error) ? fmi2Error : status;
+}
+
+EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
+
+EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
+
+EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid,
+                                     fmi2String resources, const fmi2CallbackFunctions *functions,
+                                     fmi2Boolean visible, fmi2Boolean loggingOn) {
+    if (!load(functions, name)) return NULL;
+    Instance *inst = calloc(1, sizeof *inst);
+    if (!inst) return NULL;
+    if (functions) inst->host = *functions;
+    inst->ours = inst->host;
+    inst->ours.logger = forward_log;
+    inst->ours.componentEnvironment = inst;
+    inst->name = copy_string(name);
+    inst->logging_on = loggingOn;
+    inst->component = real.Instantiate(name, type, guid, resources, &inst->ours, visible, 1);
+    if (!inst->component) {
+        free(inst->name);
+        free(inst);
+        return NULL;
+    }
+    return inst;
+}
+
+EXPORT void fmi2FreeInstance(fmi2Component c) {
+    if (!c) return;
+    Instance *inst = c;
+    real.FreeInstance(inst->component);
+    clear_categories(inst);
+    free(inst->name);
+    free(inst);
+}
+
+EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
+                                      const fmi2String categories[]) {
+    Instance *inst = c;
+    clear_categories(inst);
+    inst->logging_on = loggingOn;
+    if (loggingOn && n > 0 && categories) {
+        inst->categories = calloc(n, sizeof *inst->categories);
+        if (!inst->categories) return fmi2Error;
+        for (size_t i = 0; i < n; i++) inst->categories[i] = copy_string(categories[i]);
+        inst->n_categories = n;
+    }
+    return fmi2OK;
+}
+
+/* Pass-through functions: C is PythonFMU's component, status upgraded by finish(). */
+#define C (inst->component)
+#define PASS(call) \
+    Instance *inst = begin(c); \
+    return finish(inst, real.call)
+
+EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
+                                      fmi2Real tolerance, fmi2Real startTime,
+                                      fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    PASS(SetupExperiment(C, toleranceDefined, tolerance, startTime, stopTimeDefined, stopTime));
+}
+EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    PASS(EnterInitializationMode(C));
+}
+EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    PASS(ExitInitializationMode(C));
+}
+EXPORT fmi2Status fmi2Terminate(fmi2Component c) { PASS(Terminate(C)); }
+EXPORT fmi2Status fmi2Reset(fmi2Component c) { PASS(Reset(C)); }
+EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                              fmi2Real value[]) {
+    PASS(GetReal(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 fmi2Integer value[]) {
+    PASS(GetInteger(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 fmi2Boolean value[]) {
+    PASS(GetBoolean(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                fmi2String value[]) {
+    PASS(GetString(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                              const fmi2Real value[]) {
+    PASS(SetReal(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 const fmi2Integer value[]) {
+    PASS(SetInteger(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                 const fmi2Boolean value[]) {
+    PASS(SetBoolean(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                const fmi2String value[]) {
+    PASS(SetString(C, vr, nvr, value));
+}
+EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    PASS(GetFMUstate(C, state));
+}
+EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
+    PASS(SetFMUstate(C, state));
+}
+EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
+    PASS(FreeFMUstate(C, state));
+}
+EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
+    PASS(SerializedFMUstateSize(C, state, size));
+}
+EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
+                                        size_t size) {
+    PASS(SerializeFMUstate(C, state, bytes, size));
+}
+EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size,
+                                          fmi2FMUstate *state) {
+    PASS(DeSerializeFMUstate(C, bytes, size, state));
+}
+EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
+                                               size_t nu, const fmi2ValueReference z[], size_t nz,
+                                               const fmi2Real dv[], fmi2Real dz[]) {
+    PASS(GetDirectionalDerivative(C, u, nu, z, nz, dv, dz));
+}
+EXPORT fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                              size_t nvr, const fmi2Integer order[],
+                                              const fmi2Real value[]) {
+    PASS(SetRealInputDerivatives(C, vr, nvr, order, value));
+}
+EXPORT fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                               size_t nvr, const fmi2Integer order[],
+                                               fmi2Real value[]) {
+    PASS(GetRealOutputDerivatives(C, vr, nvr, order, value));
+}
+EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
+    PASS(DoStep(C, t, h, noSetPrior));
+}
+EXPORT fmi2Status fmi2CancelStep(fmi2Component c) { PASS(CancelStep(C)); }
+EXPORT fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    PASS(GetStatus(C, s, value));
+}
+EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    PASS(GetRealStatus(C, s, value));
+}
+EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s,
+                                       fmi2Integer *value) {
+    PASS(GetIntegerStatus(C, s, value));
+}
+EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s,
+                                       fmi2Boolean *value) {
+    PASS(GetBooleanStatus(C, s, value));
+}
+EXPORT fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s,
+                                      fmi2String *value) {
+    PASS(GetStringStatus(C, s, value));
+}

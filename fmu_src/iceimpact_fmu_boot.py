@@ -1,0 +1,196 @@
+"""Start-up of IceImpact.fmu inside any host: Python environment, private core, slave class.
+
+``build_fmu.py`` bundles this file as ``resources/iceimpact_fmu/boot.py`` and writes the entry
+module PythonFMU imports (``resources/_iceimpact_<id>_fmu.py``), which calls :func:`load_slave`.
+On the first call it
+
+1. makes the FMU's requirements (numpy, scipy) importable: if the Python of the process cannot find
+   them, the site-packages folders recorded at build time (``resources/iceimpact_fmu/python.json``)
+   are put on ``sys.path``, as long as the Python has the recorded minor version; if they still
+   cannot be imported, it raises ImportError with a message that names what is missing, where it
+   was looked for and how to install it;
+2. loads the model core from ``resources/iceimpact`` under a private name (``_iceimpact_<id>``,
+   ``<id>`` a digest of the bundled sources), so that a host that imported another ``iceimpact``
+   (or another build of this FMU) never makes the FMU run a core it was not built with;
+3. loads the slave (``resources/iceimpact_fmu/IceImpact.py``) under a private name too; while its
+   body runs, ``import iceimpact...`` resolves to the private core and ``import
+   iceimpact_fmu_boot`` to this module (the host's own modules of these names, if any, are put
+   back afterwards).
+
+:func:`fail_call` is how the slave makes the current FMI call return ``fmi2Error``.
+
+Only the standard library is used here, and no extension module is imported before the
+environment is set up.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.abc
+import importlib.util
+import json
+import os
+import sys
+
+CORE = "iceimpact"  # the package name the slave imports
+BOOT = "iceimpact_fmu_boot"  # the name the slave imports this module by
+
+# A message logged with this category fails the current FMI call with fmi2Error: the FMU's loader
+# (fmu_native/loader.c, FAIL_CATEGORY) forwards it to the host as an error (category
+# logStatusError), whether or not the host turned logging on.
+FAIL_CATEGORY = "fmi2Error"
+
+_loaded: dict[str, type] = {}
+
+
+def _resources() -> str:
+    return os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _requirement_names(requirements: list[str]) -> list[str]:
+    names = []
+    for requirement in requirements:
+        name = requirement.split(";")[0].strip()
+        for mark in "<>=!~[ ":
+            name = name.split(mark)[0]
+        if name:
+            names.append(name)
+    return names
+
+
+def _tidy_sys_path(resources: str) -> None:
+    """PythonFMU puts ``resources`` first on sys.path at every instantiation: keep one."""
+    while sys.path.count(resources) > 1:
+        sys.path.reverse()
+        sys.path.remove(resources)
+        sys.path.reverse()
+
+
+def prepare_environment(config: dict, resources: str) -> None:
+    """Make the FMU's requirements importable, or raise ImportError saying what is missing."""
+    _tidy_sys_path(resources)
+    names = _requirement_names(config.get("requirements", []))
+    version = config.get("python", "")
+    same_python = version == "{}.{}".format(*sys.version_info[:2])
+    recorded = [d for d in config.get("site", []) if os.path.isdir(d)]
+    if same_python and any(importlib.util.find_spec(n) is None for n in names):
+        position = sys.path.index(resources) + 1 if resources in sys.path else 0
+        sys.path[position:position] = [d for d in recorded if d not in sys.path]
+    for name in names:
+        try:
+            importlib.import_module(name)
+        except Exception as exc:
+            raise ImportError(_missing_message(name, exc, config, resources, same_python,
+                                               recorded)) from exc
+
+
+def _missing_message(name: str, exc: Exception, config: dict, resources: str, same_python: bool,
+                     recorded: list[str]) -> str:
+    version = config.get("python", "?")
+    here = "{}.{}".format(*sys.version_info[:2])
+    if not same_python:
+        where = (f"this process runs Python {here}, the FMU was built with Python {version}: its "
+                 f"recorded environment is not used")
+    elif not recorded:
+        where = ("the environment recorded when the FMU was built is not on this machine "
+                 f"({', '.join(config.get('site', [])) or 'none recorded'})")
+    else:
+        where = f"looked in sys.path, which includes the recorded {', '.join(recorded)}"
+    requirements = os.path.join(resources, "requirements.txt")
+    return (f"IceImpact.fmu needs {', '.join(config.get('requirements', [name]))} in the Python "
+            f"of the host process (Python {here}, {sys.prefix}): cannot import {name} ({exc!r}); "
+            f"{where}. Install them for Python {here}: python{here} -m pip install -r "
+            f"{requirements}")
+
+
+def fail_call(slave, message: str) -> None:
+    """Make the FMI call in progress return ``fmi2Error`` and show ``message`` to the host.
+
+    ``slave`` is the :class:`pythonfmu.Fmi2Slave`; ``message`` is the text (FMI loggers treat it
+    as a printf format: escape ``%`` as ``%%``). The slave method then returns normally (for
+    ``do_step``, False or True: the status is fmi2Error either way). Without the loader (a host
+    that loads PythonFMU's library directly) the message is an ordinary error-level log message.
+    Do not use it in ``exit_initialization_mode``: libcosim terminates the process on an fmi2Error
+    from fmi2ExitInitializationMode; log the error there and fail the next ``do_step``.
+    """
+    from pythonfmu.enums import Fmi2Status
+
+    slave.log(message, Fmi2Status.error, FAIL_CATEGORY)
+
+
+class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """While the slave's body runs: ``iceimpact[.x]`` is the private core ``<private>[.x]``."""
+
+    def __init__(self, private: str):
+        self.private = private
+
+    def find_spec(self, name, path=None, target=None):
+        if name == BOOT:
+            module = sys.modules[__name__]
+        elif name == CORE or name.startswith(CORE + "."):
+            module = importlib.import_module(self.private + name[len(CORE):])
+        else:
+            return None
+        spec = importlib.util.spec_from_loader(name, self,
+                                               is_package=hasattr(module, "__path__"))
+        spec.loader_state = (module, module.__spec__)
+        return spec
+
+    def create_module(self, spec):
+        return spec.loader_state[0]
+
+    def exec_module(self, module):
+        module.__spec__ = module.__spec__.loader_state[1]  # the import system replaced it
+
+
+def _load(name: str, path: str, package_dir: str | None = None):
+    spec = importlib.util.spec_from_file_location(
+        name, path, submodule_search_locations=[package_dir] if package_dir else None)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        sys.modules.pop(name, None)
+        raise
+    return module
+
+
+def _aliases_removed() -> dict:
+    return {k: sys.modules.pop(k) for k in list(sys.modules)
+            if k in (CORE, BOOT) or k.startswith(CORE + ".")}
+
+
+def load_slave(build_id: str, class_name: str = "IceImpact") -> type:
+    """The slave class of this FMU build, loaded once per process (see the module docstring)."""
+    key = f"{build_id}.{class_name}"
+    if key in _loaded:
+        _tidy_sys_path(_resources())
+        return _loaded[key]
+    resources = _resources()
+    with open(os.path.join(resources, "iceimpact_fmu", "python.json")) as fh:
+        config = json.load(fh)
+    prepare_environment(config, resources)
+
+    private = f"_{CORE}_{build_id}"
+    if private not in sys.modules:
+        core_dir = os.path.join(resources, CORE)
+        _load(private, os.path.join(core_dir, "__init__.py"), core_dir)
+
+    slave_name = f"{private}_slave"
+    slave = sys.modules.get(slave_name)
+    if slave is None:
+        hosts = _aliases_removed()
+        alias = _Alias(private)
+        sys.meta_path.insert(0, alias)
+        try:
+            for name in [k for k in sys.modules if k == private or k.startswith(private + ".")]:
+                sys.modules[CORE + name[len(private):]] = sys.modules[name]
+            sys.modules[BOOT] = sys.modules[__name__]
+            slave = _load(slave_name, os.path.join(resources, "iceimpact_fmu", "IceImpact.py"))
+        finally:
+            sys.meta_path.remove(alias)
+            _aliases_removed()
+            sys.modules.update(hosts)
+    _loaded[key] = getattr(slave, class_name)
+    return _loaded[key]

@@ -1,0 +1,322 @@
+"""IceImpact.fmu in native FMI hosts started with an empty environment, and in one shared process.
+
+Native hosts (a plain C master, the ECOS command line, libcosim's C API) run with ``env={}``:
+no LD_PRELOAD, PYTHONPATH or PYTHONHOME. The FMU's loader (fmu_native/loader.c) brings in the
+libpython it was built with and the boot module (fmu_src/iceimpact_fmu_boot.py) the Python
+environment recorded in resources/ (see docs/fmu.md, "What a host needs"). Also here: the FMU
+runs its own core whatever the host imported, errors reach a default host call, instances do not
+leak, and several FMUs share a process.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+from fmpy.fmi1 import FMICallException
+
+from fmu_host import DT, FMI_ERROR, OUTPUTS, ROOT, Instance, build_module, columns, errors
+from iceimpact import Scene, Simulator
+
+C_HOST = ROOT / "tests" / "c_host"
+VALUES = {"ice.M": 800.0}  # impacts within the first second
+N_STEPS = 2000
+
+
+def run_empty_env(command: list[str], cwd: Path | None = None,
+                  timeout: float = 120) -> subprocess.CompletedProcess:
+    """Run ``command`` like ``env -i``: no environment variable at all."""
+    return subprocess.run(command, env={}, cwd=cwd, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def core(values: dict, n: int, step) -> dict[str, np.ndarray]:
+    """The core stepped n times with ``step(k)`` seconds: outputs after every step."""
+    scene = Scene.from_fmi(values)
+    sim = Simulator(scene)
+    reports = [sim.advance(step(k), scene.flow_u) for k in range(n)]
+    return {o.name: np.array([getattr(r, o.field) for r in reports]) for o in OUTPUTS}
+
+
+def compiler() -> str:
+    cc = shutil.which("cc") or shutil.which("gcc")
+    assert cc, "no C compiler (scripts/system-deps.sh installs gcc)"
+    return cc
+
+
+def compile_c(source: Path, exe: Path, *flags: str) -> Path:
+    subprocess.run([compiler(), "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
+                    str(source), *flags], check=True)
+    return exe
+
+
+@pytest.fixture(scope="module")
+def c_host(tmp_path_factory) -> Path:
+    return compile_c(C_HOST / "host.c", tmp_path_factory.mktemp("host") / "host", "-ldl")
+
+
+def parse_csv(text: str) -> dict[str, np.ndarray]:
+    lines = text.strip().splitlines()
+    header = lines[0].split(",")
+    data = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
+    return {name: data[:, i] for i, name in enumerate(header)}
+
+
+# 1. Loading with an empty environment ------------------------------------------------------------
+def test_c_host_with_an_empty_environment_equals_fmpy_every_time(fmu, fmu_dir, c_host):
+    args = [str(c_host), fmu_dir, "-n", str(N_STEPS), "-h", str(DT), "-s", "ice.M=800"]
+    runs = [run_empty_env(args) for _ in range(5)]
+    assert [r.returncode for r in runs] == [0] * 5, runs[-1].stderr
+    expected = simulate_fmu(str(fmu), stop_time=N_STEPS * DT, output_interval=DT,
+                            start_values=VALUES)
+    for done in runs:
+        got = parse_csv(done.stdout)
+        np.testing.assert_array_equal(got["time"], expected["time"])
+        for o in OUTPUTS:  # %.17g: the same doubles, to the last bit
+            np.testing.assert_array_equal(got[o.name], expected[o.name], err_msg=o.name)
+        assert "undefined symbol" not in done.stderr
+    assert got["contact.count"][-1] > 0
+
+
+def test_ecos_command_line_with_an_empty_environment_equals_the_core(fmu, tmp_path):
+    ecospy = pytest.importorskip("ecospy")
+    # the wheel installs the engine without the execute bit
+    ecos = tmp_path / "ecos"
+    shutil.copy(Path(ecospy.__file__).parent / "binaries" / "ecos", ecos)
+    ecos.chmod(ecos.stat().st_mode | stat.S_IXUSR)
+    done = run_empty_env([str(ecos), "simulate", "--path", str(fmu), "--stopTime", "2",
+                          "--stepSize", str(DT)], cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    lines = (tmp_path / "IceImpact.csv").read_text().strip().splitlines()
+    header = [h.strip() for h in lines[0].split(",")]
+    data = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
+    assert data.shape[0] == N_STEPS + 1
+    expected = core({}, N_STEPS, lambda k: DT)  # ECOS steps exactly DT
+    for o in OUTPUTS:
+        kind = {float: "REAL", int: "INT", bool: "BOOL"}[o.kind]
+        got = data[1:, header.index(f"instance::{o.name}[{kind}]")]
+        # ECOS writes its CSV with 6 decimals: equal to the last printed digit
+        np.testing.assert_allclose(got, expected[o.name], rtol=0, atol=5.01e-7, err_msg=o.name)
+    assert data[-1, header.index("instance::contact.count[INT]")] > 0
+
+
+@pytest.fixture(scope="module")
+def cosim_host(tmp_path_factory) -> Path:
+    libcosimpy = pytest.importorskip("libcosimpy")
+    libdir = Path(libcosimpy.__file__).parent / "libcosimc"
+    return compile_c(C_HOST / "cosim_host.c", tmp_path_factory.mktemp("cosim") / "cosim_host",
+                     f"-L{libdir}", "-lcosimc", f"-Wl,-rpath,{libdir}")
+
+
+def run_cosim(cosim_host: Path, fmu: Path, md, n: int, sets: dict) -> subprocess.CompletedProcess:
+    variables = {v.name: v for v in md.modelVariables}
+    groups = [[o for o in OUTPUTS if o.kind is kind] for kind in (float, int, bool)]
+    lists = [",".join(str(variables[o.name].valueReference) for o in g) or "-" for g in groups]
+    initial = [f"{'i' if variables[k].type == 'Integer' else 'r'}:"
+               f"{variables[k].valueReference}={v!r}" for k, v in sets.items()]
+    return run_empty_env([str(cosim_host), str(fmu), str(n), str(round(DT * 1e9)), *lists,
+                          *initial])
+
+
+def test_libcosim_with_an_empty_environment_equals_the_core(fmu, model_description, cosim_host):
+    done = run_cosim(cosim_host, fmu, model_description, N_STEPS, VALUES)
+    assert done.returncode == 0, done.stderr[-3000:]
+    data = np.loadtxt(done.stdout.splitlines(), delimiter=",", ndmin=2)
+    names = [o.name for kind in (float, int, bool) for o in OUTPUTS if o.kind is kind]
+    # libcosim keeps time in nanoseconds: step k is (k+1)*1e6/1e9 - k*1e6/1e9 seconds
+    ns = round(DT * 1e9)
+    expected = core(VALUES, N_STEPS, lambda k: (k + 1) * ns / 1e9 - k * ns / 1e9)
+    for i, name in enumerate(names, start=1):
+        np.testing.assert_array_equal(data[:, i], expected[name].astype(float), err_msg=name)
+    assert expected["contact.count"][-1] > 0
+
+
+# What a machine must provide is named at load time ------------------------------------------------
+@pytest.fixture
+def fmu_copy(fmu_dir, tmp_path) -> Path:
+    copy = tmp_path / "IceImpact"
+    shutil.copytree(fmu_dir, copy)
+    return copy
+
+
+def edit_python_json(fmu_copy: Path, **changes) -> None:
+    path = fmu_copy / "resources" / "iceimpact_fmu" / "python.json"
+    config = json.loads(path.read_text())
+    config.update(changes)
+    path.write_text(json.dumps(config))
+
+
+def test_recorded_environment_supplies_what_the_base_python_lacks(fmu_copy, c_host):
+    """fmpy is installed in the build's environment only (not in the base Python that an
+    embedded interpreter starts with): required, it is found through python.json."""
+    config = json.loads((fmu_copy / "resources" / "iceimpact_fmu" / "python.json").read_text())
+    edit_python_json(fmu_copy, requirements=[*config["requirements"], "fmpy"])
+    done = run_empty_env([str(c_host), str(fmu_copy), "-n", "3"])
+    assert done.returncode == 0, done.stderr
+    edit_python_json(fmu_copy, site=["/nonexistent/site-packages"])
+    done = run_empty_env([str(c_host), str(fmu_copy), "-n", "3"])
+    assert done.returncode == 3
+    assert "IceImpact.fmu needs numpy>=1.24, scipy>=1.10, fmpy" in done.stderr
+    assert "cannot import fmpy" in done.stderr
+    assert "the environment recorded when the FMU was built is not on this machine" in done.stderr
+    assert "-m pip install -r" in done.stderr and "requirements.txt" in done.stderr
+
+
+def test_missing_libpython_is_named_not_an_undefined_symbol(fmu_copy, c_host, tmp_path):
+    loader = fmu_copy / "binaries" / "linux64" / "IceImpact.so"
+    build_module().compile_loader(loader, Path("/nonexistent/libpython3.11.so.1.0"),
+                                  "libpython3.11-absent.so.1.0")
+    done = run_empty_env([str(c_host), str(fmu_copy), "-n", "3"])
+    assert done.returncode == 3
+    assert "needs the shared library of Python" in done.stderr
+    assert "libpython3.11-absent.so.1.0" in done.stderr and "LD_PRELOAD" in done.stderr
+    assert "undefined symbol" not in done.stderr
+
+
+# 3. Its own core, whatever the host imported ------------------------------------------------------
+def test_fmu_runs_its_own_core_beside_another_iceimpact(fmu_dir, tmp_path):
+    """A host that imported other modules named iceimpact and IceImpact: the FMU ignores them."""
+    fake = tmp_path / "fake"
+    (fake / "iceimpact").mkdir(parents=True)
+    (fake / "iceimpact" / "__init__.py").write_text("Scene = Simulator = None\n")
+    script = textwrap.dedent(f"""
+        import json, sys, types
+        sys.path.insert(0, {str(fake)!r})
+        import iceimpact
+        sys.modules["IceImpact"] = types.ModuleType("IceImpact")
+        from fmpy import simulate_fmu
+        result = simulate_fmu({str(fmu_dir)!r}, stop_time=1.0, output_interval={DT!r},
+                              start_values={VALUES!r})
+        assert sys.modules["iceimpact"] is iceimpact and iceimpact.Scene is None
+        slave = [m for n, m in sys.modules.items() if n.endswith("_slave")][0]
+        print(json.dumps({{"x": result["structure.x"].tolist(), "slave": slave.__file__,
+                          "core": slave.Scene.__module__}}))
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    assert result["slave"].startswith(str(fmu_dir))
+    assert result["core"].startswith("_iceimpact_") and result["core"].endswith(".scene")
+    np.testing.assert_array_equal(result["x"][1:], _grid_core(VALUES, 1000)["structure.x"])
+
+
+def _grid_core(values: dict, n: int) -> dict[str, np.ndarray]:
+    return core(values, n, lambda k: (k + 1) * DT - k * DT)
+
+
+# 4. Errors reach the user of a default call -------------------------------------------------------
+def test_default_fmpy_call_shows_the_bad_parameter_and_raises(fmu, capfd):
+    with pytest.raises(FMICallException) as failed:
+        simulate_fmu(str(fmu), stop_time=1.0, output_interval=DT,
+                     start_values={"structure.m": -1.0})
+    assert failed.value.status == FMI_ERROR
+    out = capfd.readouterr().out
+    assert "[ERROR] exitInitializationMode: structure.m = -1.0 is not allowed: > 0" in out
+    assert "[ERROR] doStep refused" in out
+
+
+def test_libcosim_shows_the_bad_parameter_and_stops_cleanly(fmu, model_description, cosim_host):
+    done = run_cosim(cosim_host, fmu, model_description, 5, {"structure.m": -1.0})
+    assert done.returncode == 3, done.stderr[-3000:]
+    assert "[error" in done.stderr
+    assert "structure.m = -1.0 is not allowed: > 0" in done.stderr
+
+
+# 5. No leak per instance --------------------------------------------------------------------------
+LEAK_SCRIPT = """
+import sys
+sys.path.insert(0, {tests!r})
+from fmu_host import Instance
+from fmpy import read_model_description
+
+def rss_kb():
+    with open("/proc/self/status") as fh:
+        return int(next(line for line in fh if line.startswith("VmRSS")).split()[1])
+
+md = read_model_description({fmu_dir!r})
+
+def cycle():
+    inst = Instance({fmu_dir!r}, md)
+    inst.initialize({{"impact.e": 0.5}})
+    inst.run(5)
+    inst.fmu.terminate()
+    inst.free()
+
+for _ in range(50):
+    cycle()
+before = rss_kb()
+for _ in range({cycles}):
+    cycle()
+print(rss_kb() - before)
+"""
+
+
+def test_instances_do_not_leak(fmu_dir):
+    script = LEAK_SCRIPT.format(tests=str(ROOT / "tests"), fmu_dir=str(fmu_dir), cycles=500)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    growth_kb = int(done.stdout.split()[-1])
+    assert growth_kb <= 3 * 1024, f"RSS grew by {growth_kb} kB over 500 cycles"
+
+
+# 6. Several FMUs in one process -------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def trivial_fmu_dir(tmp_path_factory) -> str:
+    from fmpy import extract
+    from pythonfmu import FmuBuilder
+
+    dest = tmp_path_factory.mktemp("trivial")
+    fmu = FmuBuilder.build_FMU(ROOT / "benchmarks" / "trivial_fmu" / "TrivialSlave.py",
+                               dest=dest)
+    return extract(str(fmu), unzipdir=str(dest / "TrivialSlave"))
+
+
+def test_two_copies_and_another_pythonfmu_fmu_stepped_alternately(fmu, fmu_dir, tmp_path,
+                                                                  model_description,
+                                                                  trivial_fmu_dir):
+    from fmpy import extract, read_model_description
+
+    other_dir = extract(str(fmu), unzipdir=str(tmp_path / "second_copy"))
+    a_values, b_values = VALUES, {"impact.e": 0.5, "drag.model": 2}
+    a = Instance(fmu_dir, model_description, "a")
+    b = Instance(other_dir, model_description, "b")
+    trivial = Instance(trivial_fmu_dir, read_model_description(trivial_fmu_dir), "trivial")
+    n = 1500
+    try:
+        a.initialize(a_values)
+        b.initialize(b_values)
+        trivial.initialize()
+        rows_a, rows_b = [], []
+        for k in range(n):
+            rows_a += a.run(1, k)
+            assert trivial.step(k * DT, DT) == 0
+            rows_b += b.run(1, k)
+    finally:
+        for inst in (a, b, trivial):
+            inst.free()
+    assert not errors(a) and not errors(b)
+    for rows, values in ((rows_a, a_values), (rows_b, b_values)):
+        got, expected = columns(rows), _grid_core(values, n)
+        for o in OUTPUTS:
+            np.testing.assert_array_equal(got[o.name], expected[o.name], err_msg=o.name)
+
+
+def test_the_loader_is_what_hosts_load(fmu_dir):
+    loader = Path(fmu_dir) / "binaries" / "linux64" / "IceImpact.so"
+    symbols = subprocess.run(["nm", "-D", "--defined-only", str(loader)], capture_output=True,
+                             text=True).stdout if shutil.which("nm") else ""
+    if symbols:
+        assert "fmi2DoStep" in symbols and "Py_" not in symbols
+    assert (Path(fmu_dir) / "binaries" / "linux64" / "pythonfmu" / "IceImpact.so").exists()
+    assert os.path.getsize(loader) < 100_000
