@@ -7,12 +7,14 @@ FMPy's exceptions for non-OK statuses back into status codes, so that tests can 
 from __future__ import annotations
 
 import importlib.util
+import itertools
 import math
+import weakref
 from ctypes import byref
 from pathlib import Path
 
 import numpy as np
-from fmpy.fmi1 import FMICallException
+from fmpy.fmi1 import FMICallException, printLogMessage
 from fmpy.fmi2 import (
     FMU2Slave,
     fmi2CallbackAllocateMemoryTYPE,
@@ -38,23 +40,47 @@ def build_module():
     return module
 
 
+# FMPy's logger proxy (fmpy.logging.addLoggerProxy: a C function that formats the printf-style
+# message, which a ctypes callback cannot) holds ONE Python logger for the whole process. Each call
+# replaces it, and every proxied callback structure, FMPy's own default one that simulate_fmu uses
+# included, forwards to the latest. A logger closure per Instance was therefore left dangling once
+# its Instance was collected: the next message of any FMU run through FMPy's proxy (a warning of a
+# later simulate_fmu, which the FMU reports whatever loggingOn says) jumped into freed memory and
+# crashed the process; meanwhile every Instance's messages went to the newest Instance. So there is
+# one logger, alive as long as the process, which finds the Instance by the componentEnvironment
+# of its callbacks and prints anything else the way FMPy's default logger does.
+_INSTANCES: weakref.WeakValueDictionary[int, Instance] = weakref.WeakValueDictionary()
+_INSTANCE_KEYS = itertools.count(1)
+
+
+def _log(env, instance, status, category, message):
+    target = _INSTANCES.get(env) if env else None
+    if target is None:
+        printLogMessage(env, instance, status, category, message)
+    else:
+        target.messages.append((status, (category or b"").decode(), message.decode()))
+
+
+_LOGGER = fmi2CallbackLoggerTYPE(_log)  # never freed: FMPy's proxy may call it at any time
+
+
 class Instance:
     """An FMU2Slave stepped by hand, with a logger that keeps (status, category, message)."""
 
     def __init__(self, fmu_dir: str, md, name: str = "instance"):
         self.messages: list[tuple[int, str, str]] = []
 
-        def log(env, instance, status, category, message):
-            self.messages.append((status, (category or b"").decode(), message.decode()))
-
         from fmpy import calloc, free
         from fmpy.logging import addLoggerProxy
 
+        key = next(_INSTANCE_KEYS)
+        _INSTANCES[key] = self
         callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(log)
+        callbacks.logger = _LOGGER
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        addLoggerProxy(byref(callbacks))
+        callbacks.componentEnvironment = key
+        addLoggerProxy(byref(callbacks))  # makes _LOGGER FMPy's one logger (again)
         self._callbacks = callbacks  # must outlive the instance
         self.variables = {v.name: v for v in md.modelVariables}
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmu_dir,

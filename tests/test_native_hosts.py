@@ -312,6 +312,56 @@ def test_two_copies_and_another_pythonfmu_fmu_stepped_alternately(fmu, fmu_dir, 
             np.testing.assert_array_equal(got[o.name], expected[o.name], err_msg=o.name)
 
 
+
+def test_fmpy_logs_safely_after_hand_stepped_instances_are_freed(fmu, fmu_dir, tmp_path,
+                                                                 trivial_fmu_dir):
+    """The sequence that crashed the suite (exit 139 in fmi2DoStep of a later simulate_fmu).
+
+    Two copies of the FMU and the TrivialSlave FMU stepped by hand (fmu_host.Instance), freed and
+    collected, then a simulate_fmu whose FMU logs a warning: FMPy's logger proxy is one per
+    process, so that warning went to the logger of a collected Instance (see fmu_host). Run in a
+    child process, so that a crash fails this test instead of ending pytest. Each Instance also
+    keeps its own messages only.
+    """
+    script = textwrap.dedent(f"""
+        import gc, sys
+        sys.path.insert(0, {str(ROOT / "tests")!r})
+        from fmpy import extract, read_model_description, simulate_fmu
+        from fmu_host import DT, Instance, errors
+
+        fmu, fmu_dir, trivial_dir = {str(fmu)!r}, {str(fmu_dir)!r}, {str(trivial_fmu_dir)!r}
+        md = read_model_description(fmu)
+        other_dir = extract(fmu, unzipdir={str(tmp_path / "second_copy")!r})
+        a = Instance(fmu_dir, md, "a")
+        b = Instance(other_dir, md, "b")
+        trivial = Instance(trivial_dir, read_model_description(trivial_dir), "trivial")
+        a.initialize({{"solver.method": 2, "ice.M": 800.0}})  # warns at t = 0.816 s
+        b.initialize({VALUES!r})
+        trivial.initialize()
+        for k in range(1000):
+            a.run(1, k)
+            assert trivial.step(k * DT, DT) == 0
+            b.run(1, k)
+        for inst in (a, b, trivial):
+            inst.free()
+        warned = [m for s, _, m in a.messages if s == 1 and "contact.penetration" in m]
+        assert len(warned) == 1, a.messages
+        assert not b.messages and not trivial.messages and not errors(a), (b.messages,
+                                                                            trivial.messages)
+        del a, b, trivial, inst
+        gc.collect()
+        result = simulate_fmu(fmu, stop_time=3.0, output_interval=DT,
+                              start_values={{"solver.method": 2, "ice.M": 800.0}})
+        print("steps", len(result))
+    """)
+    done = subprocess.run([sys.executable, "-X", "faulthandler", "-c", script],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-4000:]
+    # the warning of the last run, printed by FMPy's default logger
+    assert "[WARNING] doStep at t = 0.816" in done.stdout, done.stdout
+    assert "steps 3001" in done.stdout
+
+
 def test_the_loader_is_what_hosts_load(fmu_dir):
     loader = Path(fmu_dir) / "binaries" / "linux64" / "IceImpact.so"
     symbols = subprocess.run(["nm", "-D", "--defined-only", str(loader)], capture_output=True,
