@@ -211,9 +211,10 @@ class Simulator:
                 "report": {name: getattr(report, name) for name in _REPORT_FIELDS},
                 "reported_impacts": self._n_reported, "failed": self.failed}
 
-    def _read(self, snapshot: Any) -> tuple[Scene, StepReport, int, str | None, Any]:
-        """Validate a saved state but its solver part (which the solver's own restore checks);
-        the parts to install. Nothing is changed here."""
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Return to a state from :meth:`save` (the snapshot stays reusable; any simulator can
+        take it, its scene included). A malformed snapshot raises :class:`StateError` naming
+        the field, and the simulator is unchanged."""
         rec = Record(snapshot, "")
         rec.expect_keys(_SAVE_KEYS)
         check_version(rec)
@@ -221,24 +222,18 @@ class Simulator:
         report = _read_report(rec.record("report"))
         reported = rec.integer("reported_impacts", low=0)
         failed = rec.text("failed", allow_none=True)
-        solver = rec.record("solver")
-        count, t = solver.data.get("impact_count"), solver.data.get("t")
-        if type(count) is int and reported > count:
-            raise StateError("reported_impacts", reported, f"<= solver.impact_count = {count}")
-        if type(t) is float and report.t != t:
-            raise StateError("report.t", report.t, f"the solver's time, {t!r} s")
-        return scene, report, reported, failed, solver.data
-
-    def restore(self, snapshot: dict[str, Any]) -> None:
-        """Return to a state from :meth:`save` (the snapshot stays reusable; any simulator can
-        take it, its scene included). A malformed snapshot raises :class:`StateError` naming
-        the field, and the simulator is unchanged."""
-        scene, report, reported, failed, solver_state = self._read(snapshot)
         if _without_e(scene) == _without_e(self.scene):
             solver = self.solver  # keeps its impact list where the history is the same
         else:
             solver = make_solver(scene, self.record_impacts)
-        solver.restore(solver_state)  # checks every field before it changes anything
+        solver_state = rec.raw("solver")
+        apply = solver.read_snapshot(solver_state)  # checks every field, changes nothing
+        if reported > solver_state["impact_count"]:
+            raise StateError("reported_impacts", reported,
+                             f"<= solver.impact_count = {solver_state['impact_count']}")
+        if report.t != solver_state["t"]:
+            raise StateError("report.t", report.t, f"the solver's time, {solver_state['t']!r} s")
+        apply()
         self.scene, self.solver = scene, solver
         self.report, self._n_reported, self.failed = report, reported, failed
 

@@ -120,6 +120,11 @@ class Solver:
 
         The impact list keeps its entries before the snapshot's impact count if they are the
         same history (rolling back in the same run); otherwise it starts empty from there."""
+        self.read_snapshot(snapshot)()
+
+    def read_snapshot(self, snapshot: dict[str, Any]) -> Callable[[], None]:
+        """Check every field of a :meth:`snapshot` (:class:`StateError` if one is malformed)
+        without changing anything; return the function that restores it."""
         rec = Record(snapshot, "solver")
         rec.expect_keys(self._BASE_KEYS + self._KEYS)
         check_version(rec)
@@ -136,18 +141,21 @@ class Solver:
         if (since is None) == sticking:
             raise StateError("solver.sticking_since", since,
                              "a time <= t while sticking, null otherwise")
-        apply = self._read(rec, t)  # validates the method's fields, changes nothing yet
-        self.state = State(t, x, v, z, w)
-        self.e = e
-        kept = count - self.impacts_base
-        if not (0 <= kept <= len(self.impacts)
-                and (kept == 0 or self.impacts[kept - 1].t == t_last)):
-            self.impacts.clear()
-            self.impacts_base, kept = count, 0
-        del self.impacts[kept:]
-        self.impact_count, self.t_last = count, t_last
-        self.sticking, self.sticking_since = sticking, since
-        apply()
+        apply_method = self._read(rec, t)  # validates the method's fields, changes nothing yet
+
+        def apply() -> None:
+            self.state = State(t, x, v, z, w)
+            self.e = e
+            kept = count - self.impacts_base
+            if not (0 <= kept <= len(self.impacts)
+                    and (kept == 0 or self.impacts[kept - 1].t == t_last)):
+                self.impacts.clear()
+                self.impacts_base, kept = count, 0
+            del self.impacts[kept:]
+            self.impact_count, self.t_last = count, t_last
+            self.sticking, self.sticking_since = sticking, since
+            apply_method()
+        return apply
 
     def _snapshot(self) -> dict[str, Any]:
         return {}

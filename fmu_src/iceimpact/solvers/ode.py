@@ -329,7 +329,7 @@ class OdeSolver(Solver):
         if event is not None:
             ev = Record({"t": event[0], "y": event[1]} if isinstance(event, list | tuple)
                         and len(event) == 2 else event, rec.field("event"))
-            event = (ev.real("t", low=start), np.array(ev.reals("y", size)))
+            event = (ev.real("t", low=t_hi, high=t_hi), np.array(ev.reals("y", size)))
 
         def apply() -> None:
             self.u = u
