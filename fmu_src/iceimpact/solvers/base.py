@@ -1,9 +1,11 @@
 """The one interface every solver method implements, and the records they produce.
 
 A solver owns the state of both bodies and marches it: ``advance_to(t_end, u)`` moves from its
-current time to ``t_end`` with the flow speed u held constant, appends every impact to
-``impacts`` and returns the impulse delivered to the structure on the way. The simulator above it
-knows nothing of how a method marches; a method knows nothing of FMI or scene files.
+current time to ``t_end`` with the flow speed u held constant, counts every impact (and lists it
+in ``impacts`` if asked to) and returns the impulse delivered to the structure on the way.
+``snapshot()`` gives the state that determines the future as plain data, ``restore()`` takes it
+back after checking every field. The simulator above it knows nothing of how a method marches; a
+method knows nothing of FMI or scene files.
 """
 
 from __future__ import annotations
