@@ -103,11 +103,14 @@ class IceImpact(Fmi2Slave):
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         try:
-            if "refused" in state:
-                raise fmu_state.StateError(state["refused"])
-            self._model.restore(fmu_state.check_record(state))
+            if "refused" in state:  # a blob that fmi2DeSerializeFMUstate could not read
+                reason = state["refused"]
+            else:
+                self._model.restore(fmu_state.check_record(state))
+                return
         except Exception as exc:
-            self._fail(f"fmi2SetFMUstate refused, the instance is unchanged: {exc}")
+            reason = str(exc)
+        self._fail(f"fmi2SetFMUstate refused, the instance is unchanged: {reason}")
 
     @staticmethod
     def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:

@@ -289,9 +289,11 @@ def test_two_copies_and_another_pythonfmu_fmu_stepped_alternately(fmu, fmu_dir, 
 
     other_dir = extract(str(fmu), unzipdir=str(tmp_path / "second_copy"))
     a_values, b_values = VALUES, {"impact.e": 0.5, "drag.model": 2}
+    # the other PythonFMU library is loaded first, so that IceImpact's instantiations guard it
+    # against PythonFMU's exit-time use-after-free too (iceimpact.fmi.pythonfmu_fixes)
+    trivial = Instance(trivial_fmu_dir, read_model_description(trivial_fmu_dir), "trivial")
     a = Instance(fmu_dir, model_description, "a")
     b = Instance(other_dir, model_description, "b")
-    trivial = Instance(trivial_fmu_dir, read_model_description(trivial_fmu_dir), "trivial")
     n = 1500
     try:
         a.initialize(a_values)

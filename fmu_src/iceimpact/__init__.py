@@ -12,8 +12,8 @@ conserve momentum with a coefficient of restitution.
 from .contract import VERSION
 from .scene import PARAMETERS, ParameterError, Scene, load_scene
 from .simulator import Result, Simulator, StepReport, run
-from .solvers.base import Impact, SolverError
+from .solvers.base import Impact, SolverError, StateError
 
 __all__ = ["PARAMETERS", "Impact", "ParameterError", "Result", "Scene", "Simulator",
-           "SolverError", "StepReport", "load_scene", "run"]
+           "SolverError", "StateError", "StepReport", "load_scene", "run"]
 __version__ = VERSION

@@ -3,16 +3,18 @@
 Two levels, like FMPy's ``simulate_fmu`` over ``FMU2Slave``:
 
 - :class:`Simulator`: ``advance(h, u)`` over one communication step with the flow speed held
-  constant (zero-order hold), returning a :class:`StepReport`; ``save``/``restore`` for roll-back.
+  constant (zero-order hold), returning a :class:`StepReport`; ``save``/``restore`` for roll-back
+  (a small record of plain data, see :meth:`Simulator.save`). A step the method refuses changes
+  nothing.
 - :func:`run`: a whole simulation at constant flow, returning a :class:`Result` with the impact
   list and the states sampled at requested times, as numpy arrays.
 """
 
 from __future__ import annotations
 
-import copy
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 
@@ -21,6 +23,7 @@ from .solvers.base import Impact, Solver, SolverError
 from .solvers.event import EventSolver
 from .solvers.fixed_step import FixedStepSolver
 from .solvers.ode import OdeSolver
+from .solvers.state import STATE_VERSION, Record, StateError, check_version
 
 _SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STEP: FixedStepSolver,
                                      METHOD_ODE: OdeSolver}
@@ -29,14 +32,14 @@ _SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STE
 GAP_ROUNDING = 1e-12
 
 
-def make_solver(scene: Scene) -> Solver:
-    """The solver object for ``scene.solver_method``."""
+def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
+    """The solver object for ``scene.solver_method`` (``record_impacts``: keep the impact list)."""
     try:
         cls = _SOLVERS[scene.solver_method]
     except KeyError:
         raise ParameterError("solver.method", scene.solver_method,
                              "1 (exact), 2 (fixed-step) or 3 (ODE)") from None
-    return cls(scene)
+    return cls(scene, record_impacts)
 
 
 @dataclass(frozen=True)
@@ -58,14 +61,38 @@ class StepReport:
     sticking: bool       # bodies stick together at the end of the step
 
 
-class Simulator:
-    """Marches one scene step by step: ``advance(h, u)`` is one communication step."""
+_REPORT_FIELDS = tuple(f.name for f in fields(StepReport))
+_REPORT_COUNTS = ("impacts", "impact_count")
+_SAVE_KEYS = ("version", "scene", "solver", "report", "reported_impacts", "failed")
 
-    def __init__(self, scene: Scene):
+
+def _read_report(rec: Record) -> StepReport:
+    """A validated :class:`StepReport` from its record in a saved state."""
+    rec.expect_keys(_REPORT_FIELDS)
+    values: dict[str, Any] = {}
+    for name in _REPORT_FIELDS:
+        if name in _REPORT_COUNTS:
+            values[name] = rec.integer(name, low=0)
+        elif name == "sticking":
+            values[name] = rec.flag(name)
+        else:  # outputs only: any real number, the future does not depend on them
+            values[name] = rec.real(name, finite=False)
+    return StepReport(**values)
+
+
+class Simulator:
+    """Marches one scene step by step: ``advance(h, u)`` is one communication step.
+
+    ``record_impacts=False`` keeps no impact list (``impacts`` stays empty; the counters and
+    the reports are unchanged), so that memory stays flat over any number of steps.
+    """
+
+    def __init__(self, scene: Scene, record_impacts: bool = True):
         self.scene = scene
-        self.solver = make_solver(scene)
+        self.record_impacts = record_impacts
+        self.solver = make_solver(scene, record_impacts)
         self._n_reported = 0  # impacts already reported (an impact at t = 0 goes to step 1)
-        self.failed: str | None = None  # why the run stopped (a SolverError), if it did
+        self.failed: str | None = None  # why the latest step was refused by the method, if it was
         self.report = self._report(0.0, 0.0)
 
     @property
@@ -74,30 +101,70 @@ class Simulator:
 
     @property
     def impacts(self) -> list[Impact]:
+        """The impacts recorded (all of them for a simulator that recorded from the start)."""
         return self.solver.impacts
+
+    @property
+    def impact_count(self) -> int:
+        return self.solver.impact_count
+
+    @property
+    def penetration_cause(self) -> str:
+        """Why the method can leave the ice past the structure (see StepReport.penetration)."""
+        return self.solver.penetration_cause
+
+    @property
+    def sticking(self) -> bool:
+        return self.solver.sticking
+
+    @property
+    def sticking_since(self) -> float | None:
+        """Start of the current sticking phase, s (None while the bodies are apart)."""
+        return self.solver.sticking_since
 
     def advance(self, h: float, u: float | None = None) -> StepReport:
         """Advance by the communication step ``h`` (s) with flow speed ``u`` (m/s) held constant.
 
         ``u`` defaults to the scene's ``flow.u``. Raises :class:`ParameterError` for a step that
-        is not a positive finite number or a flow speed that is not finite (nothing changes), and
-        :class:`SolverError` when the method cannot continue; the run then stays stopped, and
-        every later call raises the same error.
+        is not a positive finite number, too small to advance the time (t + h == t), or a flow
+        speed that is not finite, and :class:`SolverError` when the method cannot go on. Either
+        way the simulator is exactly as before the call: a later step from the same time
+        reports the whole impulse of its interval. A step the method refused is refused again
+        for the same input.
         """
         if isinstance(h, bool) or not isinstance(h, int | float) or not (math.isfinite(h)
                                                                           and h > 0.0):
             raise ParameterError("communication step", h, "a finite number > 0 (s)")
+        t = self.solver.t
+        t_end = t + h
+        if not t_end > t:
+            raise ParameterError("communication step", h, f"a step that advances the time "
+                                 f"t = {t!r} s: t + h > t (smaller steps are lost to rounding)")
+        return self._step(t_end, h, u)
+
+    def advance_to(self, t_end: float, u: float | None = None) -> StepReport:
+        """Advance to the communication point ``t_end`` (s, > t), as :meth:`advance`."""
+        t = self.solver.t
+        if (isinstance(t_end, bool) or not isinstance(t_end, int | float)
+                or not (math.isfinite(t_end) and t_end > t)):
+            raise ParameterError("communication point", t_end, f"a finite time > t = {t!r} s")
+        return self._step(float(t_end), t_end - t, u)
+
+    def _step(self, t_end: float, h: float, u: float | None) -> StepReport:
         u = self.scene.flow_u if u is None else validate_flow(u, self.scene)
-        if self.failed is not None:
-            raise SolverError(self.failed)
-        t_end = self.solver.t + h
+        checkpoint = self.solver.snapshot()
         try:
             impulse = self.solver.advance_to(t_end, u)
-        except SolverError as exc:  # the state is not trustworthy any more: stop the run
-            self.failed = f"the run stopped: {exc}"
-            raise SolverError(self.failed) from exc
+        except BaseException as exc:
+            self.solver.restore(checkpoint)  # a refused step changes nothing
+            if isinstance(exc, SolverError):
+                self.failed = (f"the run stopped at t = {checkpoint['t']!r} s (the step to "
+                               f"{t_end!r} s was refused; the state is as before it): {exc}")
+                raise SolverError(self.failed) from exc
+            raise
+        self.failed = None
         self.report = self._report(impulse, h)
-        self._n_reported = len(self.solver.impacts)
+        self._n_reported = self.solver.impact_count
         return self.report
 
     def _report(self, impulse: float, h: float) -> StepReport:
@@ -112,12 +179,13 @@ class Simulator:
         if gap < 0.0:
             penetration = -gap if gap <= -GAP_ROUNDING else 0.0
             gap = 0.0
-        impacts = self.solver.impacts
+        count = self.solver.impact_count
+        t_last = self.solver.t_last
         return StepReport(
             t=s.t, x=s.x, v=s.v, z=s.z, w=s.w, gap=gap, penetration=penetration, impulse=impulse,
-            force=impulse / h if h > 0.0 else 0.0, impacts=len(impacts) - self._n_reported,
-            impact_count=len(impacts),
-            t_last=impacts[-1].t if impacts else -1.0, sticking=self.solver.sticking)
+            force=impulse / h if h > 0.0 else 0.0, impacts=count - self._n_reported,
+            impact_count=count, t_last=-1.0 if t_last is None else t_last,
+            sticking=self.solver.sticking)
 
     def set_restitution(self, e: float) -> None:
         """Change ``impact.e`` (tunable) for impacts from now on; 0 <= e <= 1."""
@@ -127,13 +195,77 @@ class Simulator:
         self.scene = self.scene.replace(impact_e=float(e))
         self.solver.set_restitution(float(e))
 
-    def save(self) -> object:
-        """A deep copy of the whole internal state (for FMI get/set FMU state)."""
-        return copy.deepcopy((self.scene, self.solver, self.report, self._n_reported))
+    # saved states -------------------------------------------------------------------------------
+    def save(self) -> dict[str, Any]:
+        """The whole state as plain JSON-compatible data, a few kB at any run length (for FMI
+        get/set/serialize FMU state; no impact history)::
 
-    def restore(self, snapshot: object) -> None:
-        """Return to a state from :meth:`save` (the snapshot stays reusable)."""
-        self.scene, self.solver, self.report, self._n_reported = copy.deepcopy(snapshot)
+            {"version": 1,
+             "scene": {"structure.m": ..., ...},        # Scene.to_fmi()
+             "solver": {...},                           # the method's snapshot
+             "report": {"t": ..., ..., "sticking": ...},  # the last StepReport
+             "reported_impacts": int,                   # impacts reported so far
+             "failed": str | None}                      # why the latest step was refused
+
+        ``json.loads(json.dumps(sim.save()))`` given to :meth:`restore` or :meth:`from_snapshot`
+        continues exactly as this simulator would, to the last bit.
+        """
+        report = self.report
+        return {"version": STATE_VERSION, "scene": self.scene.to_fmi(),
+                "solver": self.solver.snapshot(),
+                "report": {name: getattr(report, name) for name in _REPORT_FIELDS},
+                "reported_impacts": self._n_reported, "failed": self.failed}
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Return to a state from :meth:`save` (the snapshot stays reusable; any simulator can
+        take it, its scene included). A malformed snapshot raises :class:`StateError` naming
+        the field, and the simulator is unchanged."""
+        rec = Record(snapshot, "")
+        rec.expect_keys(_SAVE_KEYS)
+        check_version(rec)
+        scene = _read_scene(rec)
+        report = _read_report(rec.record("report"))
+        reported = rec.integer("reported_impacts", low=0)
+        failed = rec.text("failed", allow_none=True)
+        if _without_e(scene) == _without_e(self.scene):
+            solver = self.solver  # keeps its impact list where the history is the same
+        else:
+            solver = make_solver(scene, self.record_impacts)
+        solver_state = rec.raw("solver")
+        apply = solver.read_snapshot(solver_state)  # checks every field, changes nothing
+        if reported > solver_state["impact_count"]:
+            raise StateError("reported_impacts", reported,
+                             f"<= solver.impact_count = {solver_state['impact_count']}")
+        if report.t != solver_state["t"]:
+            raise StateError("report.t", report.t, f"the solver's time, {solver_state['t']!r} s")
+        apply()
+        self.scene, self.solver = scene, solver
+        self.report, self._n_reported, self.failed = report, reported, failed
+
+    @classmethod
+    def from_snapshot(cls, snapshot: dict[str, Any], record_impacts: bool = True) -> Simulator:
+        """A new simulator in the state of a :meth:`save` (validated as :meth:`restore`)."""
+        sim = cls(_read_scene(Record(snapshot, "")), record_impacts)
+        sim.restore(snapshot)
+        return sim
+
+
+def _read_scene(rec: Record) -> Scene:
+    """The scene of a saved state, validated by :meth:`Scene.from_fmi`."""
+    values = rec.raw("scene")
+    if not isinstance(values, dict):
+        raise StateError("scene", values, "a dict of FMI-named parameters")
+    try:
+        return Scene.from_fmi(values)
+    except ParameterError as exc:
+        raise StateError(f"scene.{exc.name}", exc.value, exc.allowed) from exc
+
+
+def _without_e(scene: Scene) -> dict[str, Any]:
+    """The scene's parameters but the tunable restitution (a solver carries its own e)."""
+    values = scene.to_fmi()
+    del values["impact.e"]
+    return values
 
 
 @dataclass
@@ -150,10 +282,8 @@ class Result:
     sticking: np.ndarray       # bool per sample
     impacts: np.ndarray        # structured array, fields of :class:`Impact`
     sticking_since: float | None
-
-    @property
-    def gap(self) -> np.ndarray:
-        return self.x - self.z
+    gap: np.ndarray            # x - z as the simulator reports it, m (>= 0, see StepReport)
+    penetration: np.ndarray    # z - x when the ice is past the structure, else 0, m
 
     @property
     def impact_times(self) -> np.ndarray:
@@ -168,36 +298,54 @@ def impacts_array(impacts: list[Impact]) -> np.ndarray:
     return np.array([tuple(i) for i in impacts], dtype=IMPACT_DTYPE)
 
 
-def run(scene: Scene, t_end: float, dt: float = 1e-2,
-        sample_times: np.ndarray | None = None) -> Result:
-    """Simulate ``scene`` at its constant flow speed from 0 to ``t_end`` (s).
-
-    States are sampled every ``dt`` (s), or at ``sample_times`` (increasing, in (0, t_end]).
-    Sampling does not change the trajectory: flights stay anchored at their events.
-    """
-    if not (math.isfinite(t_end) and t_end > 0.0):
-        raise ParameterError("t_end", t_end, "a finite number > 0 (s)")
+def _sample_times(t_end: float, dt: float, sample_times: Any) -> np.ndarray:
+    """The sampling times of :func:`run`, checked: finite, strictly increasing, in (0, t_end]."""
     if sample_times is None:
         if not (math.isfinite(dt) and dt > 0.0):
             raise ParameterError("dt", dt, "a finite number > 0 (s)")
         n = int(math.floor(t_end / dt + 1e-9))
-        sample_times = dt * np.arange(1, n + 1)
-        if n == 0 or sample_times[-1] < t_end * (1 - 1e-12):
-            sample_times = np.append(sample_times, t_end)
-    sample_times = np.asarray(sample_times, dtype=float)
-    if sample_times.size and (np.any(np.diff(sample_times) <= 0) or sample_times[0] <= 0.0):
-        raise ParameterError("sample_times", "...", "strictly increasing and > 0")
+        times = dt * np.arange(1, n + 1)
+        if n == 0 or times[-1] < t_end * (1 - 1e-12):
+            times = np.append(times, t_end)
+        return times
+    allowed = f"finite times in (0, t_end = {t_end!r}] s, strictly increasing"
+    try:
+        times = np.asarray(sample_times, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError("sample_times", sample_times, allowed) from None
+    if times.ndim != 1:
+        raise ParameterError("sample_times", sample_times, "a 1-d sequence of " + allowed)
+    previous = 0.0
+    for i, t in enumerate(times.tolist()):
+        if not (math.isfinite(t) and previous < t <= t_end):
+            why = allowed if i == 0 or not math.isfinite(t) or t > t_end else (
+                f"{allowed}: > sample_times[{i - 1}] = {previous!r}")
+            raise ParameterError(f"sample_times[{i}]", t, why)
+        previous = t
+    return times
+
+
+def run(scene: Scene, t_end: float, dt: float = 1e-2,
+        sample_times: np.ndarray | None = None) -> Result:
+    """Simulate ``scene`` at its constant flow speed from 0 to ``t_end`` (s).
+
+    States are sampled every ``dt`` (s), or at ``sample_times`` (finite, strictly increasing,
+    in (0, t_end]); each sample is one step of a :class:`Simulator` and carries its report.
+    Sampling does not change the trajectory: flights stay anchored at their events.
+    """
+    if not (math.isfinite(t_end) and t_end > 0.0):
+        raise ParameterError("t_end", t_end, "a finite number > 0 (s)")
+    times = _sample_times(t_end, dt, sample_times)
     sim = Simulator(scene)
-    solver = sim.solver
     u = scene.flow_u
-    s0 = solver.state
-    rows = [(0.0, s0.x, s0.v, s0.z, s0.w, 0.0, solver.sticking)]
-    for t in sample_times:
-        impulse = solver.advance_to(float(t), u)
-        s = solver.state
-        rows.append((s.t, s.x, s.v, s.z, s.w, impulse, solver.sticking))
-    cols = list(zip(*rows, strict=True))
-    return Result(scene=scene, t=np.array(cols[0]), x=np.array(cols[1]), v=np.array(cols[2]),
-                  z=np.array(cols[3]), w=np.array(cols[4]), impulse=np.array(cols[5]),
-                  sticking=np.array(cols[6], dtype=bool), impacts=impacts_array(solver.impacts),
-                  sticking_since=solver.sticking_since)
+    reports = [sim.report]
+    for t in times.tolist():
+        reports.append(sim.advance_to(t, u))
+
+    def column(name: str, dtype: type = float) -> np.ndarray:
+        return np.array([getattr(r, name) for r in reports], dtype=dtype)
+
+    return Result(scene=scene, t=column("t"), x=column("x"), v=column("v"), z=column("z"),
+                  w=column("w"), impulse=column("impulse"), sticking=column("sticking", bool),
+                  impacts=impacts_array(sim.impacts), sticking_since=sim.sticking_since,
+                  gap=column("gap"), penetration=column("penetration"))

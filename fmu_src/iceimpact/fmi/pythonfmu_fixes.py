@@ -11,9 +11,10 @@ import os
 import sys
 from typing import Any
 
-from ..contract import MODEL_IDENTIFIER
-
-# Libraries (paths of loaded copies of binaries/linux64/IceImpact.so) already guarded below.
+# Where FMU libraries lie in an extracted FMU; those that export finalizePythonInterpreter are
+# PythonFMU's.
+_FMU_LIBRARY = "/binaries/linux64/"
+# Libraries (paths of loaded PythonFMU libraries) already guarded below.
 _GUARDED_LIBRARIES: set[str] = set()
 
 
@@ -43,19 +44,23 @@ def guard_native_exit() -> None:
     unloaded (its GNU_UNIQUE symbols make it NODELETE), so this happens at process exit whether or
     not the host calls ``dlclose``.
 
-    The fix: for each loaded copy of the library, register ``finalizePythonInterpreter`` (exported
-    by the library) with ``__cxa_atexit``. Being registered after the library's static
-    constructors, it runs before the static destructor and releases the PyState while the pointer
-    is still alive; the destructor and the library destructor then find a null pointer. The library
-    is pinned with RTLD_NODELETE so the registered function stays mapped.
+    Every PythonFMU library in the process has the defect, ours and those of other FMUs a host
+    loads beside it (an FMU library lies under ``binaries/linux64/``), so every one found is
+    guarded, not only IceImpact's.
+
+    The fix: for each loaded copy of such a library, register ``finalizePythonInterpreter``
+    (exported by the library) with ``__cxa_atexit``. Being registered after the library's static
+    constructors, it runs before the static destructor and releases the PyState while the pointer is
+    still alive; the destructor and the library destructor then find a null pointer. The library is
+    pinned with RTLD_NODELETE so the registered function stays mapped.
     """
     if not sys.platform.startswith("linux"):
         return
-    suffix = f"/{MODEL_IDENTIFIER}.so"
     try:
         with open("/proc/self/maps") as maps:
             fields = [line.rstrip("\n").split(None, 5) for line in maps]
-        new = {f[5] for f in fields if len(f) == 6 and f[5].endswith(suffix)}
+        new = {f[5] for f in fields if len(f) == 6 and _FMU_LIBRARY in f[5]
+               and f[5].endswith(".so")}
         new -= _GUARDED_LIBRARIES
         if not new:
             return

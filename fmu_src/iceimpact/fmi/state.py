@@ -52,30 +52,29 @@ def decode(blob: bytes) -> dict[str, Any]:
     altered blob, another layout or FMU version, a field of the wrong type or out of range.
     """
     if not isinstance(blob, bytes | bytearray):
-        raise StateError(f"an FMU state must be bytes, not {type(blob).__name__}")
+        raise StateError("blob", type(blob).__name__, "bytes")
     if len(blob) > MAX_BYTES:
-        raise StateError(f"FMU state of {len(blob)} bytes refused: a state of IceImpact.fmu "
-                         f"has at most {MAX_BYTES} bytes")
+        raise StateError("blob size", len(blob), f"<= {MAX_BYTES} bytes (a state of "
+                         "IceImpact.fmu has a few kB): refused unread")
     if not blob.startswith(MAGIC):
-        raise StateError("not a state of IceImpact.fmu (its first bytes are "
-                         f"{bytes(blob[:len(MAGIC)])!r}, expected {MAGIC!r})")
+        raise StateError("blob header", bytes(blob[:len(MAGIC)]),
+                         f"{MAGIC!r}: this is not a state of IceImpact.fmu")
     try:
         doc = json.loads(bytes(blob[len(MAGIC):]).decode("utf-8"),
                          object_pairs_hook=_no_duplicates, parse_constant=_infinity)
     except StateError:
         raise
     except (ValueError, RecursionError) as exc:  # truncated, altered or not UTF-8
-        raise StateError(f"FMU state is damaged (truncated or altered): {exc}") from None
+        raise StateError("blob", f"{len(blob)} bytes", f"UTF-8 JSON after the header; it is "
+                         f"damaged (truncated or altered): {exc}") from None
     if not isinstance(doc, dict) or set(doc) != {"format", "fmu_version", "state"}:
-        raise StateError("FMU state has not the layout of IceImpact.fmu (keys format, "
-                         "fmu_version, state)")
+        raise StateError("layout", sorted(doc) if isinstance(doc, dict) else doc,
+                         "an object with the keys format, fmu_version and state")
     if doc["format"] != FORMAT or isinstance(doc["format"], bool):
-        raise StateError(f"FMU state layout format = {doc['format']!r} is not supported: "
-                         f"this FMU reads format {FORMAT}")
+        raise StateError("format", doc["format"], f"{FORMAT}, the layout this FMU reads")
     if doc["fmu_version"] != VERSION:
-        raise StateError(f"FMU state written by IceImpact.fmu {doc['fmu_version']!r} cannot be "
-                         f"restored by version {VERSION}: states are exchanged between equal "
-                         "versions only")
+        raise StateError("fmu_version", doc["fmu_version"], f"{VERSION!r}, the version of "
+                         "this FMU: states are exchanged between equal versions only")
     return check_record(doc["state"])
 
 
@@ -83,42 +82,44 @@ def check_record(record: Any) -> dict[str, Any]:
     """Check the instance part of a state (the simulator part is checked when restored)."""
     if not isinstance(record, dict) or set(record) != _RECORD_KEYS:
         got = sorted(record) if isinstance(record, dict) else type(record).__name__
-        raise StateError(f"FMU state record has keys {got}, expected {sorted(_RECORD_KEYS)}")
+        raise StateError("state", got, f"an object with the keys {sorted(_RECORD_KEYS)}")
     values = record["values"]
     if not isinstance(values, dict) or set(values) != _PARAMETER_NAMES:
-        raise StateError("FMU state field values must hold every parameter, and only those")
+        raise StateError("state.values", sorted(values) if isinstance(values, dict) else values,
+                         "an object holding every parameter of the FMU, and only those")
     for name, value in values.items():
-        _number(f"values[{name!r}]", value)
+        _number(f"state.values[{name!r}]", value)
     pending = record["pending"]
     if not isinstance(pending, dict) or not set(pending) <= _TUNABLE_NAMES:
-        raise StateError(f"FMU state field pending = {pending!r}: tunable parameters only "
+        raise StateError("state.pending", pending, "an object of tunable parameters only "
                          f"({', '.join(sorted(_TUNABLE_NAMES))})")
     for name, value in pending.items():
-        _number(f"pending[{name!r}]", value, finite=False)  # refused at the next step if bad
-    _number(FLOW_INPUT.name, record["flow_u"], finite=False)  # likewise
-    _number("start_time", record["start_time"])
-    _number("time", record["time"])
+        _number(f"state.pending[{name!r}]", value, finite=False)  # refused at the next step if bad
+    _number(f"state.flow_u ({FLOW_INPUT.name})", record["flow_u"], finite=False)  # likewise
+    _number("state.start_time", record["start_time"])
+    _number("state.time", record["time"])
     if record["error"] is not None and not isinstance(record["error"], str):
-        raise StateError(f"FMU state field error = {record['error']!r}: text or null")
+        raise StateError("state.error", record["error"], "text or null")
     if not isinstance(record["penetration_logged"], bool):
-        raise StateError("FMU state field penetration_logged must be true or false")
+        raise StateError("state.penetration_logged", record["penetration_logged"],
+                         "true or false")
     if record["simulator"] is not None and not isinstance(record["simulator"], dict):
-        raise StateError("FMU state field simulator must be an object or null")
+        raise StateError("state.simulator", record["simulator"], "an object or null")
     return record
 
 
 def _number(name: str, value: Any, finite: bool = True) -> None:
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise StateError(f"FMU state field {name} = {value!r}: a number")
+        raise StateError(name, value, "a number")
     if finite and isinstance(value, float) and not math.isfinite(value):
-        raise StateError(f"FMU state field {name} = {value!r}: a finite number")
+        raise StateError(name, value, "a finite number")
 
 
 def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in pairs:
         if key in out:
-            raise StateError(f"FMU state is damaged: key {key!r} appears twice")
+            raise StateError(key, value, "given once: the key appears twice (damaged state)")
         out[key] = value
     return out
 
@@ -128,4 +129,4 @@ def _infinity(name: str) -> float:
         return math.inf
     if name == "-Infinity":
         return -math.inf
-    raise StateError(f"FMU state holds {name}, which no field may hold")
+    raise StateError("blob", name, "numbers; NaN is no value any field may hold")

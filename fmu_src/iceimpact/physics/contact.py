@@ -8,6 +8,26 @@ structure, ``lam = F_drag(x') - M x''``, must stay compressive (>= 0).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+
+class Impact(NamedTuple):
+    """One impact (eq. 11-18). Velocities in m/s, impulse on the structure in N.s."""
+
+    t: float              # time, s
+    x: float              # position of contact, m (x = z)
+    v_minus: float        # structure velocity before
+    w_minus: float        # ice velocity before
+    v_plus: float         # structure velocity after
+    w_plus: float         # ice velocity after
+    impulse: float        # m (v+ - v-)
+    restitution: float    # e applied (0 for the plastic impact that closes a Zeno sequence)
+
+    @property
+    def approach_speed(self) -> float:
+        """w- - v-, the closing speed (>= 0)."""
+        return self.w_minus - self.v_minus
+
 
 def impact(v_minus: float, w_minus: float, m: float, M: float, e: float) -> tuple[float, float]:
     """Post-impact velocities (structure v+, ice w+) from pre-impact ones (eq. 16-17).

@@ -1,40 +1,33 @@
 """The one interface every solver method implements, and the records they produce.
 
 A solver owns the state of both bodies and marches it: ``advance_to(t_end, u)`` moves from its
-current time to ``t_end`` with the flow speed u held constant, appends every impact to
-``impacts`` and returns the impulse delivered to the structure on the way. The simulator above it
-knows nothing of how a method marches; a method knows nothing of FMI or scene files.
+current time to ``t_end`` with the flow speed u held constant, counts every impact (and lists it
+in ``impacts`` if asked to) and returns the impulse delivered to the structure on the way.
+``snapshot()`` gives the state that determines the future as plain data, ``restore()`` takes it
+back after checking every field. The simulator above it knows nothing of how a method marches; a
+method knows nothing of FMI or scene files.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any
 
+from ..physics.contact import Impact
 from ..scene import Scene
+from .contact_rules import sticking_start
+from .state import STATE_VERSION, Record, StateError, check_version
+
+__all__ = ["Impact", "Solver", "SolverError", "State", "StateError"]
 
 
 class SolverError(RuntimeError):
     """A method cannot continue the run (an unstable explicit step, a failed integration); the
-    message says why and what to change. The run stops: its state is no longer trustworthy."""
+    message says why and what to change. The simulator keeps its state from before the step.
 
-
-class Impact(NamedTuple):
-    """One impact (eq. 11-18). Velocities in m/s, impulse on the structure in N.s."""
-
-    t: float              # time, s
-    x: float              # position of contact, m (x = z)
-    v_minus: float        # structure velocity before
-    w_minus: float        # ice velocity before
-    v_plus: float         # structure velocity after
-    w_plus: float         # ice velocity after
-    impulse: float        # m (v+ - v-)
-    restitution: float    # e applied (0 for the plastic impact that closes a Zeno sequence)
-
-    @property
-    def approach_speed(self) -> float:
-        """w- - v-, the closing speed (>= 0)."""
-        return self.w_minus - self.v_minus
+    Its sibling :class:`StateError` (a malformed saved state) is defined in
+    :mod:`iceimpact.solvers.state` and exported from here and from :mod:`iceimpact`."""
 
 
 @dataclass
@@ -54,19 +47,36 @@ class State:
 
 
 class Solver:
-    """Base class: parameters, impact list, state. Subclasses implement :meth:`advance_to`."""
+    """Base class: parameters, state, impact count and list, snapshots. Subclasses implement
+    :meth:`advance_to` and the method-specific part of :meth:`snapshot` / :meth:`restore`.
 
-    #: short name used in reports and benchmarks
+    ``impact_count`` and ``t_last`` count every impact; the list ``impacts`` keeps the impacts
+    from ``impacts_base`` on, and only when ``record_impacts`` is true (a long FMU run keeps its
+    memory flat with ``record_impacts=False``). The list is a record beside the state: it is not
+    part of a snapshot.
+    """
+
+    #: short name used in reports, benchmarks and snapshots
     name = "base"
 
-    def __init__(self, scene: Scene):
+    @property
+    def penetration_cause(self) -> str:
+        """Why this method can leave the ice past the structure (z > x), for diagnostics; the
+        exact method never does."""
+        return "rounding"
+
+    def __init__(self, scene: Scene, record_impacts: bool = True):
         self.scene = scene
         self.m = scene.structure_m
         self.c = scene.structure_c
         self.k = scene.structure_k
         self.M = scene.ice_M
         self.e = scene.impact_e
+        self.record_impacts = record_impacts
         self.impacts: list[Impact] = []
+        self.impacts_base = 0           # impacts before the first one listed
+        self.impact_count = 0           # impacts since the start
+        self.t_last: float | None = None  # time of the latest impact, s
         self.state = State(0.0, scene.structure_x0, scene.structure_v0, scene.ice_z0, scene.ice_v0)
         self.sticking = False
         self.sticking_since: float | None = None  # start of the current sticking phase, s
@@ -82,3 +92,82 @@ class Solver:
     def advance_to(self, t_end: float, u: float) -> float:
         """March to ``t_end`` with flow speed u; return the impulse on the structure (N.s)."""
         raise NotImplementedError
+
+    def _record(self, impact: Impact) -> None:
+        """Count an impact (and list it, if impacts are recorded)."""
+        self.impact_count += 1
+        self.t_last = impact.t
+        if self.record_impacts:
+            self.impacts.append(impact)
+
+    def _set_sticking(self, sticking: bool, t: float) -> None:
+        """Enter (at time t, s) or leave the sticking phase."""
+        self.sticking_since = sticking_start(self.sticking, self.sticking_since, sticking, t)
+        self.sticking = sticking
+
+    # snapshots ----------------------------------------------------------------------------------
+    _BASE_KEYS = ("version", "method", "t", "x", "v", "z", "w", "e", "impact_count", "t_last",
+                  "sticking", "sticking_since")
+    #: the method's own snapshot fields (subclasses)
+    _KEYS: tuple[str, ...] = ()
+
+    def snapshot(self) -> dict[str, Any]:
+        """The state that determines the future exactly, as plain JSON-compatible data (no
+        impact history): :meth:`restore` on a solver of the same scene continues identically."""
+        s = self.state
+        data = {"version": STATE_VERSION, "method": self.name, "t": s.t, "x": s.x, "v": s.v,
+                "z": s.z, "w": s.w, "e": self.e, "impact_count": self.impact_count,
+                "t_last": self.t_last, "sticking": self.sticking,
+                "sticking_since": self.sticking_since}
+        data.update(self._snapshot())
+        return data
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Return to a state from :meth:`snapshot`. Every field is checked first: a malformed
+        snapshot raises :class:`StateError` naming the field, and the solver is unchanged.
+
+        The impact list keeps its entries before the snapshot's impact count if they are the
+        same history (rolling back in the same run); otherwise it starts empty from there."""
+        self.read_snapshot(snapshot)()
+
+    def read_snapshot(self, snapshot: dict[str, Any]) -> Callable[[], None]:
+        """Check every field of a :meth:`snapshot` (:class:`StateError` if one is malformed)
+        without changing anything; return the function that restores it."""
+        rec = Record(snapshot, "solver")
+        rec.expect_keys(self._BASE_KEYS + self._KEYS)
+        check_version(rec)
+        rec.text("method", [self.name])
+        t = rec.real("t", low=0.0)
+        x, v, z, w = (rec.real(key) for key in ("x", "v", "z", "w"))
+        e = rec.real("e", low=0.0, high=1.0)
+        count = rec.integer("impact_count", low=0)
+        t_last = rec.real("t_last", low=0.0, high=t, allow_none=True)
+        if (t_last is None) != (count == 0):
+            raise StateError("solver.t_last", t_last, "null exactly when impact_count is 0")
+        sticking = rec.flag("sticking")
+        since = rec.real("sticking_since", low=0.0, high=t, allow_none=True)
+        if (since is None) == sticking:
+            raise StateError("solver.sticking_since", since,
+                             "a time <= t while sticking, null otherwise")
+        apply_method = self._read(rec, t)  # validates the method's fields, changes nothing yet
+
+        def apply() -> None:
+            self.state = State(t, x, v, z, w)
+            self.e = e
+            kept = count - self.impacts_base
+            if not (0 <= kept <= len(self.impacts)
+                    and (kept == 0 or self.impacts[kept - 1].t == t_last)):
+                self.impacts.clear()
+                self.impacts_base, kept = count, 0
+            del self.impacts[kept:]
+            self.impact_count, self.t_last = count, t_last
+            self.sticking, self.sticking_since = sticking, since
+            apply_method()
+        return apply
+
+    def _snapshot(self) -> dict[str, Any]:
+        return {}
+
+    def _read(self, rec: Record, t: float) -> Callable[[], None]:
+        """Validate the method's fields of ``rec``; return the function that applies them."""
+        return lambda: None

@@ -7,8 +7,11 @@ steps never re-base them. Impact times are the first roots of the gap g = x - z,
 :class:`~iceimpact.solvers.rootfind.RootSearch`, which proves the intervals it skips root-free and
 so never misses a grazing touch. Each impact applies eq. 16-17.
 
-A Zeno sequence (e < 1, bodies pressed together) is closed by one plastic impact once the rest of
-the sequence would take less than :data:`ZENO_TIME`; the bodies then stick: linear drag in closed
+The contact rules (impact step, chatter and Zeno closure, degenerate contacts, sticking entry,
+contact force, separation, re-anchoring on a flow change) are those of
+:mod:`iceimpact.solvers.contact_rules`, with its :data:`EXACT_POLICY`. A Zeno sequence (e < 1,
+bodies pressed together) is closed by one plastic impact once the rest of the sequence would take
+less than ``ZENO_TIME``; the bodies then stick: linear drag in closed
 form (a damped oscillator of mass m + M, damping c + b, equilibrium b u / k, cf. eq. 27-29),
 quadratic drag with ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-12). They separate when the
 contact force would turn tensile.
@@ -17,70 +20,36 @@ contact force would turn tensile.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..physics.contact import contact_force, impact, impact_impulse
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..scene import Scene
-from .base import Impact, Solver, SolverError, State
+from .base import Solver, SolverError, State
+from .contact_rules import (
+    EXACT_POLICY,
+    ContactRules,
+    Outcome,
+    Phase,
+    Together,
+    reanchor_on_flow_change,
+    separates,
+    sticking_contact_force,
+)
 from .rootfind import RootSearch
-
-#: A Zeno sequence whose remaining impacts would all happen within this time (s) is closed by
-#: one plastic impact: the motion it skips is below ~ closing speed * ZENO_TIME (sub-nanometre).
-ZENO_TIME = 1e-9
-
-#: Chatter closure: a bounce that would last less than this fraction of the structure's natural
-#: period 2 pi / omega_n ends the bouncing with one plastic impact. With e = 1 the exact model never
-#: stops bouncing: pressed on the structure by the flow, the ice makes ever smaller and faster
-#: bounces (the impact rate doubles every ~25 s in the Figure 2 scene) whose mean force is the
-#: sticking contact force. Closing them bounds the work per simulated second; the motion it skips
-#: is a bounce of height (g'' T^2 / 8) below ~1e-9 m in the Figure 2 scene. The README gives
-#: its measured effect.
-CHATTER_FRACTION = 1e-2
+from .state import Record, StateError
 
 #: Tolerances of the ODE integration of the quadratic-drag sticking phase.
 STICK_RTOL = 1e-12
 STICK_ATOL = (1e-15, 1e-15, 1e-12)  # x (m), v (m/s), drag impulse (N.s)
 
-#: A closing speed below ROUNDING_SPEED * (|v| + |w| + |u| + wn |x|) is rounding, not an impact.
-ROUNDING_SPEED = 1e-12
-#: More than this many contacts with zero closing speed, each within CHATTER_FRACTION of a period
-#: of the previous one, mean a degenerate contact (gap and contact force both zero to rounding,
-#: as right after a separation): the bodies are then held together for DEGENERATE_HOLD (s),
-#: doubling at each further such contact up to the chatter time, so the work stays bounded.
-MAX_DEGENERATE_CONTACTS = 8
-DEGENERATE_HOLD = 1e-9
-
-
-class DegenerateContacts:
-    """The rule for contacts that keep re-forming with no closing speed (methods 1 and 3).
-
-    The gap and the contact force can both be zero to rounding (right after a separation, or
-    with everything at rest and no force): contact then re-forms at every event. After
-    MAX_DEGENERATE_CONTACTS such contacts, each within the chatter time of the previous one, the
-    bodies are held together for DEGENERATE_HOLD, doubling at each further one up to the chatter
-    time, so that the work per simulated second stays bounded.
-    """
-
-    def __init__(self, chatter_time: float):
-        self.chatter_time = chatter_time
-        self.run = 0
-        self.last = -math.inf
-
-    def hold(self, t: float) -> float:
-        """Count a contact with no closing speed at time t (s); how long to hold the bodies
-        together from t (s), 0 while the run of such contacts is short."""
-        if t - self.last > self.chatter_time:
-            self.run = 0
-        self.run += 1
-        self.last = t
-        if self.run <= MAX_DEGENERATE_CONTACTS:
-            return 0.0
-        extra = self.run - MAX_DEGENERATE_CONTACTS
-        return min(DEGENERATE_HOLD * 2.0 ** min(extra, 60), self.chatter_time)
+#: At most this many integration chunks of a quadratic-drag sticking phase are saved in a
+#: snapshot (those the future can ask for: one, or two at a chunk boundary).
+_MAX_CHUNKS = 8
 
 
 def _time_eps(t: float) -> float:
@@ -90,13 +59,14 @@ def _time_eps(t: float) -> float:
 class Flight:
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
-    kind = "flight"
+    phase = Phase.FLIGHT
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
         self.osc = solver.osc
         self.drag = solver.drag
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
+        self.start = start
         self.gap0 = x0 - z0
         self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0))
 
@@ -128,17 +98,39 @@ class Flight:
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
 
+    def snapshot(self, tau: float) -> dict[str, Any]:
+        return {"phase": self.phase.value, "t0": self.t0,
+                "anchor": [self.x0, self.v0, self.z0, self.w0], "start": self.start,
+                "search": self.search.frontier()}
+
+    @classmethod
+    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Flight]:
+        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
+        rec.expect_keys(("phase", "t0", "anchor", "start", "search"))
+        t0 = rec.real("t0", low=0.0)
+        anchor = rec.reals("anchor", 4)
+        start = rec.real("start", low=0.0)
+        frontier = RootSearch.read_frontier(rec.record("search"), start)
+
+        def make() -> Flight:
+            seg = cls(solver, t0, *anchor, u, start)
+            seg.search.set_frontier(frontier)
+            return seg
+        return make
+
 
 class LinearStick:
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k)."""
 
-    kind = "stick"
+    phase = Phase.STICK
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
         self.M = solver.M
+        self.drag = solver.drag
         self.b = solver.drag.b
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
+        self.start = start
         self.osc = Oscillator(solver.m + solver.M, solver.c + self.b, solver.k,
                               offset=self.b * u / solver.k)
         self.search = RootSearch(self.probe, self.force, start, _time_eps(t0))
@@ -150,13 +142,14 @@ class LinearStick:
     def force(self, tau: float) -> float:
         """Contact force on the structure, N: drag on the ice minus its inertia."""
         x, v = self.osc.response(self.x0, self.v0, tau)
-        return -self.b * (v - self.u) - self.M * self.osc.acceleration(x, v)
+        return sticking_contact_force(self.drag.force(v, self.u),
+                                      self.M * self.osc.acceleration(x, v))
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Contact force, its two derivatives, bounds on |lam''| and |lam'''| from here on."""
         x, v = self.osc.response(self.x0, self.v0, tau)
         _, _, a, j, s, s1, s2 = self.osc.derivative_chain(x, v, 6)
-        lam = -self.b * (v - self.u) - self.M * a
+        lam = sticking_contact_force(self.drag.force(v, self.u), self.M * a)
         rate = -self.b * a - self.M * j
         curvature = -self.b * j - self.M * s
         bound = (self.b * self.osc.amplitude_bound(j, s)
@@ -176,63 +169,107 @@ class LinearStick:
         xb, vb = self.osc.response(self.x0, self.v0, tau_b)
         return -self.b * ((xb - xa) - self.u * (tau_b - tau_a)) - self.M * (vb - va)
 
+    def snapshot(self, tau: float) -> dict[str, Any]:
+        return {"phase": self.phase.value, "t0": self.t0, "anchor": [self.x0, self.v0],
+                "start": self.start, "search": self.search.frontier()}
+
+    @classmethod
+    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], LinearStick]:
+        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
+        rec.expect_keys(("phase", "t0", "anchor", "start", "search"))
+        t0 = rec.real("t0", low=0.0)
+        anchor = rec.reals("anchor", 2)
+        start = rec.real("start", low=0.0)
+        frontier = RootSearch.read_frontier(rec.record("search"), start)
+
+        def make() -> LinearStick:
+            seg = cls(solver, t0, *anchor, u, start)
+            seg.search.set_frontier(frontier)
+            return seg
+        return make
+
+
+class _Separation:
+    """Terminal event of the sticking integration: the contact force turns tensile."""
+
+    terminal = True
+    direction = -1
+
+    def __init__(self, together: Together):
+        self.together = together
+
+    def __call__(self, tau: float, y: np.ndarray) -> float:
+        return self.together.contact_force(y)
+
+
+class _Chunk:
+    """One solve_ivp call of a sticking phase: from ``lo`` (state ``y_lo``) to ``hi``. Its dense
+    output ``sol`` is integrated again from (lo, y_lo) when a restored state needs it: the same
+    call gives the same output, to the last bit."""
+
+    __slots__ = ("lo", "hi", "y_lo", "sol")
+
+    def __init__(self, lo: float, hi: float, y_lo: np.ndarray, sol: object | None):
+        self.lo, self.hi, self.y_lo, self.sol = lo, hi, y_lo, sol
+
 
 class QuadraticStick:
     """Bodies together under quadratic drag: DOP853 in fixed chunks from the anchor, separation as
     a terminal event. Chunk limits depend only on the anchor, so results do not depend on the
     communication step."""
 
-    kind = "stick"
+    phase = Phase.STICK
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
         self.m, self.c, self.k, self.M = solver.m, solver.c, solver.k, solver.M
         self.drag = solver.drag
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
+        self.together = Together(self.m, self.c, self.k, self.M, self.drag, u,
+                                 inertia_from_net=False)
+        self._separation_event = _Separation(self.together)
         period = 2.0 * math.pi / math.sqrt(self.k / (self.m + self.M))
         self.chunk = min(max(0.05, 2.0 * period), 5.0)  # s, fixed from the anchor
         self.start = start
         self.hi = 0.0                   # integrated up to here
         self.y_hi = np.array([x0, v0, 0.0])
-        self.chunks: list[tuple[float, float, object]] = []  # (lo, hi, dense solution)
+        self.chunks: list[_Chunk] = []
         self.separation: float | None = None
         self.y_sep: np.ndarray | None = None
         self._recent: dict[float, np.ndarray] = {}  # the last two states asked for, by tau
 
-    def _rhs(self, tau: float, y: np.ndarray) -> list[float]:
-        x, v = y[0], y[1]
-        f = self.drag.force(v, self.u)
-        return [v, (f - self.c * v - self.k * x) / (self.m + self.M), f]
-
-    def _force_event(self, tau: float, y: np.ndarray) -> float:
-        x, v = y[0], y[1]
-        f = self.drag.force(v, self.u)
-        a = (f - self.c * v - self.k * x) / (self.m + self.M)
-        return f - self.M * a
-
-    _force_event.terminal = True
-    _force_event.direction = -1
-
-    def _extend(self) -> None:
-        lo = self.hi
+    def _integrate(self, lo: float, y_lo: np.ndarray):
+        """One chunk from lo: up to the end of a hold (no separation looked for), else a chunk
+        length on, stopping where the contact force turns tensile."""
         if lo < self.start:  # held together: no separation looked for before `start`
             hi, events = self.start, None
         else:
-            hi, events = lo + self.chunk, self._force_event
-            if self._force_event(lo, self.y_hi) < 0.0:  # already tensile (after a hold)
-                self.separation, self.y_sep, self.hi = lo, self.y_hi, lo
-                return
-        res = solve_ivp(self._rhs, (lo, hi), self.y_hi, method="DOP853", rtol=STICK_RTOL,
+            hi, events = lo + self.chunk, self._separation_event
+        res = solve_ivp(self.together, (lo, hi), y_lo, method="DOP853", rtol=STICK_RTOL,
                         atol=STICK_ATOL, dense_output=True, events=events)
         if not res.success:
             raise SolverError(f"sticking-phase integration failed at t = {self.t0 + lo}: "
-                               f"{res.message}")
+                              f"{res.message}")
+        return res, hi
+
+    def _extend(self) -> None:
+        lo = self.hi
+        if lo >= self.start and separates(self.together.contact_force(self.y_hi)):
+            # already tensile (after a hold)
+            self.separation, self.y_sep, self.hi = lo, self.y_hi, lo
+            return
+        res, hi = self._integrate(lo, self.y_hi)
         if res.status == 1:  # terminal event: the contact force turns tensile
             self.separation, self.y_sep = float(res.t_events[0][0]), res.y_events[0][0]
             hi = self.separation
-        self.chunks.append((lo, hi, res.sol))
+        self.chunks.append(_Chunk(lo, hi, self.y_hi, res.sol))
         self.hi = hi
         self.y_hi = self.y_sep if self.separation is not None else res.y[:, -1]
+
+    def _sol(self, chunk: _Chunk):
+        if chunk.sol is None:
+            chunk.sol = self._integrate(chunk.lo, chunk.y_lo)[0].sol
+        return chunk.sol
 
     def _y(self, tau: float) -> np.ndarray:
         # A communication step asks for the state at its end twice (state, impulse) and at its
@@ -247,12 +284,12 @@ class QuadraticStick:
             y = self.y_hi
         else:
             y = None
-            for lo, hi, sol in reversed(self.chunks):
-                if lo <= tau <= hi:
-                    y = sol(tau)
+            for chunk in reversed(self.chunks):
+                if chunk.lo <= tau <= chunk.hi:
+                    y = self._sol(chunk)(tau)
                     break
             if y is None:
-                y = self.y_hi if not self.chunks else self.chunks[0][2](tau)
+                y = self.y_hi if not self.chunks else self._sol(self.chunks[0])(tau)
         if len(self._recent) >= 2:
             del self._recent[next(iter(self._recent))]
         self._recent[tau] = y
@@ -261,7 +298,7 @@ class QuadraticStick:
     def state(self, tau: float) -> tuple[float, float, float, float]:
         y = self._y(tau)
         # the solver never looks back before its current time: drop chunks that end before it
-        while len(self.chunks) > 1 and self.chunks[0][1] < tau:
+        while len(self.chunks) > 1 and self.chunks[0].hi < tau:
             self.chunks.pop(0)
         x, v = float(y[0]), float(y[1])
         return x, v, x, v
@@ -276,8 +313,64 @@ class QuadraticStick:
     def impulse(self, tau_a: float, tau_b: float) -> float:
         if tau_b <= tau_a:
             return 0.0
-        ya, yb = self._y(tau_a), self._y(tau_b)
-        return float((yb[2] - ya[2]) - self.M * (yb[1] - ya[1]))
+        return self.together.impulse(self._y(tau_a), self._y(tau_b))
+
+    def snapshot(self, tau: float) -> dict[str, Any]:
+        # chunks ending before tau are never asked for again
+        chunks = [c for c in self.chunks if c.hi >= tau] or self.chunks[-1:]
+        return {"phase": self.phase.value, "t0": self.t0, "anchor": [self.x0, self.v0],
+                "start": self.start, "hi": self.hi, "y_hi": _floats(self.y_hi),
+                "chunks": [[c.lo, c.hi, _floats(c.y_lo)] for c in chunks],
+                "separation": self.separation,
+                "y_sep": None if self.y_sep is None else _floats(self.y_sep),
+                "recent": [[key, _floats(y)] for key, y in self._recent.items()]}
+
+    @classmethod
+    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], QuadraticStick]:
+        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
+        rec.expect_keys(("phase", "t0", "anchor", "start", "hi", "y_hi", "chunks", "separation",
+                         "y_sep", "recent"))
+        t0 = rec.real("t0", low=0.0)
+        anchor = rec.reals("anchor", 2)
+        start = rec.real("start", low=0.0)
+        hi = rec.real("hi", low=0.0)
+        y_hi = rec.reals("y_hi", 3)
+        chunks = []
+        for i, item in enumerate(rec.items("chunks", _MAX_CHUNKS)):
+            entry = _entry(item, f"{rec.field('chunks')}[{i}]", ("lo", "hi", "y_lo"))
+            lo, chunk_hi = entry.real("lo", low=0.0), entry.real("hi", low=0.0, high=hi)
+            if chunk_hi < lo:
+                raise StateError(entry.field("hi"), chunk_hi, f">= lo = {lo!r}")
+            chunks.append((lo, chunk_hi, entry.reals("y_lo", 3)))
+        separation = rec.real("separation", low=0.0, high=hi, allow_none=True)
+        y_sep = rec.reals("y_sep", 3, allow_none=True)
+        if (y_sep is None) != (separation is None):
+            raise StateError(rec.field("y_sep"), y_sep, "null exactly when separation is null")
+        recent = []
+        for i, item in enumerate(rec.items("recent", 2)):
+            entry = _entry(item, f"{rec.field('recent')}[{i}]", ("tau", "y"))
+            recent.append((entry.real("tau", low=0.0), entry.reals("y", 3)))
+
+        def make() -> QuadraticStick:
+            seg = cls(solver, t0, *anchor, u, start)
+            seg.hi, seg.y_hi = hi, np.array(y_hi)
+            seg.chunks = [_Chunk(lo, c_hi, np.array(y_lo), None) for lo, c_hi, y_lo in chunks]
+            seg.separation = separation
+            seg.y_sep = None if y_sep is None else np.array(y_sep)
+            seg._recent = {key: np.array(y) for key, y in recent}
+            return seg
+        return make
+
+
+def _entry(item: Any, field: str, names: tuple[str, ...]) -> Record:
+    """A list entry [a, b, ...] of a snapshot as a record with the given field names."""
+    if not isinstance(item, list | tuple) or len(item) != len(names):
+        raise StateError(field, item, "[" + ", ".join(names) + "]")
+    return Record(dict(zip(names, item, strict=True)), field)
+
+
+def _floats(y) -> list[float]:
+    return [float(c) for c in y]
 
 
 class EventSolver(Solver):
@@ -285,16 +378,13 @@ class EventSolver(Solver):
 
     name = "exact"
 
-    def __init__(self, scene: Scene):
-        super().__init__(scene)
+    def __init__(self, scene: Scene, record_impacts: bool = True):
+        super().__init__(scene, record_impacts)
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
-        self.mu = self.m * self.M / (self.m + self.M)
-        self.omega_n = scene.omega_n
-        self.chatter_time = CHATTER_FRACTION * 2.0 * math.pi / scene.omega_n
+        self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels, EXACT_POLICY)
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
-        self.degenerate = DegenerateContacts(self.chatter_time)
         self.pending_impulse = 0.0
         s = self.state
         self.seg = None
@@ -308,35 +398,20 @@ class EventSolver(Solver):
         """Start the segment that follows time t from state (x, v, z, w)."""
         self.u = u
         self.tau = 0.0
-        gap = x - z
-        if gap > 0.0:
+        if x - z > 0.0:
             self._fly(t, x, v, z, w, u)
             return
-        closing = w - v
-        speed_scale = abs(v) + abs(w) + abs(u) + self.omega_n * abs(x)
-        if closing != 0.0 and abs(closing) <= ROUNDING_SPEED * speed_scale + 1e-300:
-            # a closing speed at rounding level is no impact: merge the velocities
-            # (momentum kept) and let the contact logic below decide
-            v = w = (self.m * v + self.M * w) / (self.m + self.M)
-            closing = 0.0
-        if closing > 0.0:  # approaching at contact: impact now
-            self._impact(t, x, v, w, u)
-            return
-        if closing == 0.0:
-            hold = self.degenerate.hold(t)
-            if hold > 0.0:  # contact keeps re-forming with no speed: hold the bodies together
-                self._stick(t, x, v, u, hold=hold)
-                return
-        a_x, a_z = self._free_accels(x, v, w, u)
-        lam = contact_force(a_x, a_z, self.m, self.M)
-        if closing == 0.0 and lam >= 0.0:
-            self._stick(t, x, v, u)
+        decision = self.rules.at_contact(t, x, v, w, u)
+        if decision.outcome is Outcome.IMPACT:
+            self._impact(t, x, decision.v, decision.w, u)
+        elif decision.outcome is Outcome.STICK:
+            self._stick(t, x, decision.v, u, hold=decision.hold)
         else:
-            self._fly_from_contact(t, x, v, w, u, lam)
+            self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
 
     def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
         self.seg = Flight(self, t, x, v, z, w, u, start)
-        self._set_contact(False, t)
+        self._set_sticking(False, t)
 
     def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
                           lam: float) -> None:
@@ -363,44 +438,20 @@ class EventSolver(Solver):
         """Bodies together from time t; separation is not looked for before ``t + hold``."""
         cls = QuadraticStick if self.drag.quadratic else LinearStick
         self.seg = cls(self, t, x, v, u, start=hold)
-        self._set_contact(True, t)
-
-    def _set_contact(self, sticking: bool, t: float) -> None:
-        if sticking and not self.sticking:
-            self.sticking_since = t
-        if not sticking:
-            self.sticking_since = None
-        self.sticking = sticking
+        self._set_sticking(True, t)
 
     def _impact(self, t: float, x: float, v_minus: float, w_minus: float, u: float) -> None:
-        """Apply eq. 16-17 at time t; close a Zeno sequence with a plastic impact."""
-        m, M, e = self.m, self.M, self.e
-        v_plus, w_plus = impact(v_minus, w_minus, m, M, e)
-        if e > 0.0:
-            a_x, a_z = self._free_accels(x, v_plus, w_plus, u)
-            lam = contact_force(a_x, a_z, m, M)
-            if lam > 0.0:
-                # next bounce lasts ~ 2 s / |g''| (opening speed s, |g''| = lam / mu); a Zeno
-                # sequence (e < 1) ends after ~ that / (1 - e)
-                bounce = 2.0 * (v_plus - w_plus) * self.mu / lam
-                if bounce < self.chatter_time or bounce < ZENO_TIME * (1.0 - e):
-                    e = 0.0
-                    v_plus, w_plus = impact(v_minus, w_minus, m, M, 0.0)
-        if e == 0.0:
-            w_plus = v_plus  # exactly together
-        impulse = impact_impulse(v_minus, v_plus, m)
-        self.impacts.append(Impact(t, x, v_minus, w_minus, v_plus, w_plus, impulse, e))
-        self.pending_impulse += impulse
-        self._begin(t, x, v_plus, x, w_plus, u)
+        """The impact step (eq. 16-18, chatter and Zeno closure) at time t; what follows."""
+        impact = self.rules.impact(t, x, v_minus, w_minus, self.e, u)
+        self._record(impact)
+        self.pending_impulse += impact.impulse
+        self._begin(t, x, impact.v_plus, x, impact.w_plus, u)
 
     # marching -----------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
         if u != self.u:  # zero-order hold: a new flow speed re-anchors the closed forms here
-            x, v, z, w = self.seg.state(self.tau)
-            if self.seg.kind == "stick":
-                z, w = x, v
-            elif x - z < 0.0:  # rounding below contact at the old anchor: treat as contact
-                z = x
+            x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
+                                                 self.seg.phase is Phase.STICK)
             self._begin(self.state.t, x, v, z, w, u)
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
@@ -415,13 +466,42 @@ class EventSolver(Solver):
             impulse += seg.impulse(self.tau, tau_event)
             x, v, z, w = seg.state(tau_event)
             t_event = seg.t0 + tau_event
-            if seg.kind == "flight":
+            if seg.phase is Phase.FLIGHT:
                 self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
             else:  # contact force turns tensile: separate with equal velocities
-                a_x, a_z = self._free_accels(x, v, v, u)
-                self._fly_from_contact(t_event, x, v, v, u, contact_force(a_x, a_z, self.m, self.M))
+                self._fly_from_contact(t_event, x, v, v, u,
+                                       self.rules.free_contact_force(x, v, v, u))
             impulse += self.pending_impulse
             self.pending_impulse = 0.0
         x, v, z, w = self.seg.state(self.tau)
         self.state = State(t_end, x, v, z, w)
         return impulse
+
+    # snapshots ----------------------------------------------------------------------------------
+    _KEYS = ("u", "tau", "pending_impulse", "degenerate", "segment")
+
+    def _snapshot(self) -> dict[str, Any]:
+        return {"u": self.u, "tau": self.tau, "pending_impulse": self.pending_impulse,
+                "degenerate": self.rules.degenerate.snapshot(),
+                "segment": self.seg.snapshot(self.tau)}
+
+    def _read(self, rec: Record, t: float) -> Callable[[], None]:
+        u = rec.real("u")
+        tau = rec.real("tau", low=0.0)
+        pending = rec.real("pending_impulse")
+        degenerate = self.rules.degenerate.read(rec.record("degenerate"))
+        seg_rec = rec.record("segment")
+        phase = seg_rec.text("phase", [p.value for p in Phase])
+        if (phase == Phase.STICK.value) != rec.data["sticking"]:
+            raise StateError(seg_rec.field("phase"), phase, "stick exactly when sticking is true")
+        if phase == Phase.FLIGHT.value:
+            cls = Flight
+        else:
+            cls = QuadraticStick if self.drag.quadratic else LinearStick
+        make_segment = cls.read(self, seg_rec, u)
+
+        def apply() -> None:
+            self.seg = make_segment()
+            self.u, self.tau, self.pending_impulse = u, tau, pending
+            self.rules.degenerate.set(degenerate)
+        return apply

@@ -44,14 +44,17 @@ the number of grid points.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..physics.contact import impact, impact_impulse
+from ..physics.contact import Impact, impact, impact_impulse
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..scene import DETECTION_WINDOW, EULER_STABILITY_LIMIT, Scene
-from .base import Impact, Solver, SolverError, State
+from .base import Solver, SolverError, State
+from .state import Record, StateError
 
 #: Tolerance window of eq. 26: Delta = WINDOW_FRACTION * min(|v dt|, |w dt|).
 WINDOW_FRACTION = 0.1
@@ -70,14 +73,36 @@ CHUNK_MAX = 16384
 #: A time within this fraction of dt of a grid point is that grid point (rounding of t / dt).
 GRID_SLACK = 1e-9
 
+Grid = tuple[float, float, float, float]  # (x, v, z, w) at a grid point
+
+
+class GridChunk(NamedTuple):
+    """Grid points n0 + 1 ... n0 + count evaluated ahead (:meth:`FixedStepSolver._fill`)."""
+
+    ns: np.ndarray          # grid point numbers, from the anchor
+    x: np.ndarray           # structure displacement, m
+    v: np.ndarray           # structure velocity, m/s
+    z: np.ndarray           # ice displacement, m
+    w: np.ndarray           # ice velocity, m/s
+    first_event: int | None  # index of the first impact or steady state, if any
+    hit: np.ndarray         # impact detected (eq. 26 window or sign change), per point
+    v_prev: np.ndarray      # velocities at the previous grid point (backward differences of
+    w_prev: np.ndarray      # the steady-state test (iii))
+
 
 class FixedStepSolver(Solver):
     """The article's fixed-step scheme (method 2)."""
 
     name = "fixed-step"
 
-    def __init__(self, scene: Scene):
-        super().__init__(scene)
+    @property
+    def penetration_cause(self) -> str:
+        return ("the fixed-step method tests impacts on its grid points only"
+                + (" and its eq. 26 window (solver.detection = 1) misses impacts"
+                   if self.window else ""))
+
+    def __init__(self, scene: Scene, record_impacts: bool = True):
+        super().__init__(scene, record_impacts)
         self.dt = scene.solver_dt
         self.window = scene.solver_detection == DETECTION_WINDOW
         self.osc = Oscillator(self.m, self.c, self.k)
@@ -90,42 +115,39 @@ class FixedStepSolver(Solver):
         s = self.state
         self._anchor(0.0, s.x, s.v, s.z, s.w)
 
-    def __getstate__(self) -> dict:
-        """Snapshots (FMU get/set state) leave out the look-ahead chunk: it is recomputed, equal."""
-        state = self.__dict__.copy()
-        state["_buf"] = None
-        return state
-
     # grid bookkeeping ----------------------------------------------------------------------------
     def _anchor(self, t: float, x: float, v: float, z: float, w: float) -> None:
         """Restart the closed forms (and the Euler recursion) at time t: local time 0."""
         self.t_a = t
         self.anchor = (x, v, z, w)
         self.n = 0                      # last grid point processed, counted from the anchor
-        self._buf = None                # grid points evaluated ahead of n (see _fill)
-        self.grid = (x, v, z, w)        # state at that grid point (post-impact)
+        self._buf: GridChunk | None = None  # grid points evaluated ahead of n (see _fill)
+        # where the look-ahead chunk starts: grid point and its state (None: no chunk)
+        self._buf_start: tuple[int, Grid] | None = None
+        self.grid: Grid = (x, v, z, w)  # state at that grid point (post-impact)
 
     def _pin(self, t: float) -> None:
         """Steady state of eq. 27-29: k x = F_drag(0)."""
         self.pinned = True
         self.pin_x = self.drag.force(0.0, self.u) / self.k
-        self.sticking, self.sticking_since = True, t
+        self._set_sticking(True, t)
 
     def _release(self, t: float) -> None:
         self.pinned = False
-        self.sticking, self.sticking_since = False, None
+        self._set_sticking(False, t)
         self._anchor(t, self.pin_x, 0.0, self.pin_x, 0.0)
 
     # marching ------------------------------------------------------------------------------------
-    def _euler(self, count: int) -> tuple[np.ndarray, np.ndarray]:
-        """Ice at the next ``count`` grid points by explicit Euler (eq. 34 and 36)."""
-        _, _, z, w = self.grid
+    def _euler(self, n0: int, grid: Grid, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """Ice at the ``count`` grid points after n0 (state ``grid``) by explicit Euler (eq. 34
+        and 36)."""
+        _, _, z, w = grid
         u, dt, q = self.u, self.dt, self.drag.beta * self.dt
         zs, ws = [], []
         for i in range(count):
             r = w - u
             if q * abs(r) > EULER_STABILITY_LIMIT:
-                self._unstable(r, self.n + i)
+                self._unstable(r, n0 + i)
             z = z + w * dt             # eq. 34
             w = w - q * abs(r) * r     # eq. 36
             zs.append(z)
@@ -157,19 +179,20 @@ class FixedStepSolver(Solver):
         return (abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
                 and abs(v - v_prev) < lim * self.dt and abs(w - w_prev) < lim * self.dt)
 
-    def _fill(self) -> None:
-        """Evaluate the next chunk of grid points after ``n`` and find its first event.
+    def _fill(self, n0: int, grid: Grid) -> None:
+        """Evaluate the chunk of grid points after n0 (state ``grid``) and find its first event.
 
         The grid does not depend on the communication step, so the chunk is computed ahead and
-        consumed by as many ``advance_to`` calls as it spans.
+        consumed by as many ``advance_to`` calls as it spans. A snapshot keeps where the chunk
+        starts, so a restored solver computes the same chunk with the same arithmetic.
         """
         dt = self.dt
         x_a, v_a, z_a, w_a = self.anchor
-        ns = np.arange(self.n + 1, self.n + self._chunk + 1)
+        ns = np.arange(n0 + 1, n0 + self._chunk + 1)
         tau = ns * dt
         x, v = self.osc.response_array(x_a, v_a, tau)
         if self.drag.quadratic:
-            z, w = self._euler(ns.size)
+            z, w = self._euler(n0, grid, ns.size)
         else:
             z, w = self.drag.motion_array(z_a, w_a, self.u, tau)
         gap = x - z
@@ -178,12 +201,13 @@ class FixedStepSolver(Solver):
             hit = (np.abs(gap) <= delta) & (w > v)
         else:
             hit = (gap <= 0.0) & (w > v)
-        _, v_last, _, w_last = self.grid
+        _, v_last, _, w_last = grid
         v_prev = np.concatenate(([v_last], v[:-1]))
         w_prev = np.concatenate(([w_last], w[:-1]))
         flags = hit | self._steady(x, v, z, w, v_prev, w_prev)
         j = int(np.argmax(flags)) if flags.any() else None
-        self._buf = (ns, x, v, z, w, j, hit, v_prev, w_prev)
+        self._buf = GridChunk(ns, x, v, z, w, j, hit, v_prev, w_prev)
+        self._buf_start = (n0, grid)
 
     def _march_scalar(self) -> float:
         """Process grid point n + 1 alone (right after an event, where the next one may follow)."""
@@ -214,17 +238,17 @@ class FixedStepSolver(Solver):
 
         Returns the impulse of that impact on the structure (0 if none).
         """
-        if self._buf is None and self.n < SCALAR_STEPS:
+        if self._buf_start is None and self.n < SCALAR_STEPS:
             return self._march_scalar()
-        if self._buf is None:
-            self._fill()
+        if self._buf is None:  # a new chunk from n, or the one a snapshot started
+            self._fill(*(self._buf_start or (self.n, self.grid)))
         ns, x, v, z, w, j, hit, v_prev, w_prev = self._buf
         if j is None or ns[j] > n_end:  # no event up to n_end: consume grid points
             i = min(n_end, int(ns[-1])) - int(ns[0])
             self.n = int(ns[i])
             self.grid = (float(x[i]), float(v[i]), float(z[i]), float(w[i]))
             if i == ns.size - 1:
-                self._buf = None
+                self._buf = self._buf_start = None
                 self._chunk = min(2 * self._chunk, CHUNK_MAX)
             return 0.0
         return self._event(int(ns[j]), float(x[j]), float(v[j]), float(z[j]), float(w[j]),
@@ -240,7 +264,7 @@ class FixedStepSolver(Solver):
             self.max_penetration = max(self.max_penetration, z - x)
             v_plus, w_plus = impact(v, w, self.m, self.M, self.e)
             impulse = impact_impulse(v, v_plus, self.m)
-            self.impacts.append(Impact(t, x, v, w, v_plus, w_plus, impulse, self.e))
+            self._record(Impact(t, x, v, w, v_plus, w_plus, impulse, self.e))
             v, z, w = v_plus, x, w_plus
         self._anchor(t, x, v, z, w)
         if self._steady_at(x, v, z, w, v_prev, w_prev):
@@ -282,3 +306,47 @@ class FixedStepSolver(Solver):
             impulse += self.k * self.pin_x * (t_end - max(t_now, self.sticking_since))
         self.state = self._state_at(t_end)
         return impulse
+
+    # snapshots ----------------------------------------------------------------------------------
+    _KEYS = ("u", "pinned", "pin_x", "chunk", "max_penetration", "t_a", "anchor", "n", "grid",
+             "buffer")
+
+    def _snapshot(self) -> dict[str, Any]:
+        buffer = None
+        if self._buf_start is not None:
+            n0, grid = self._buf_start
+            buffer = {"n": n0, "grid": list(grid)}
+        return {"u": self.u, "pinned": self.pinned, "pin_x": self.pin_x, "chunk": self._chunk,
+                "max_penetration": self.max_penetration, "t_a": self.t_a,
+                "anchor": list(self.anchor), "n": self.n, "grid": list(self.grid),
+                "buffer": buffer}
+
+    def _read(self, rec: Record, t: float) -> Callable[[], None]:
+        u = rec.real("u")
+        pinned = rec.flag("pinned")
+        if pinned != rec.data["sticking"]:
+            raise StateError(rec.field("pinned"), pinned, "equal to sticking (method 2 sticks "
+                             "only when pinned at its steady state)")
+        pin_x = rec.real("pin_x")
+        chunk = rec.integer("chunk", low=CHUNK_MIN, high=CHUNK_MAX)
+        max_penetration = rec.real("max_penetration", low=0.0)
+        t_a = rec.real("t_a", low=0.0, high=t)
+        anchor = tuple(rec.reals("anchor", 4))
+        n = rec.integer("n", low=0)
+        grid = tuple(rec.reals("grid", 4))
+        buffer = rec.record("buffer", allow_none=True)
+        start = None
+        if buffer is not None:
+            buffer.expect_keys(("n", "grid"))
+            n0 = buffer.integer("n", low=0, high=n)
+            if n > n0 + chunk:
+                raise StateError(buffer.field("n"), n0, f">= n - chunk = {n - chunk} (the "
+                                 "look-ahead chunk holds the current grid point)")
+            start = (n0, tuple(buffer.reals("grid", 4)))
+
+        def apply() -> None:
+            self.u, self.pinned, self.pin_x = u, pinned, pin_x
+            self._chunk, self.max_penetration = chunk, max_penetration
+            self.t_a, self.anchor, self.n, self.grid = t_a, anchor, n, grid
+            self._buf, self._buf_start = None, start
+        return apply

@@ -10,14 +10,14 @@ The integrator is ``solver.ode_method`` (1 = RK45, 2 = DOP853, 3 = LSODA, 4 = Ra
 ``rtol = solver.rtol`` and ``atol = rtol * 1e-3`` (m, m/s: displacements of the article's scenes
 are of the order of a millimetre).
 
-Sticking follows the same ideas as the exact solver (:mod:`iceimpact.solvers.event`), in place of
-the article's steady-state thresholds (eq. 27-29):
+Sticking follows the contact rules shared with the exact solver
+(:mod:`iceimpact.solvers.contact_rules`, with its :data:`INTEGRATED_POLICY`), in place of the
+article's steady-state thresholds (eq. 27-29):
 
 - after an impact that leaves the ice pressed on the structure (contact force lam > 0), a next
-  bounce shorter than :data:`~iceimpact.solvers.event.CHATTER_FRACTION` of the structure's period
-  (or a Zeno sequence that would end within :data:`~iceimpact.solvers.event.ZENO_TIME`) is closed
-  by one plastic impact; so is a contact that parts too slowly for such a bounce (the rounding
-  left of a separation);
+  bounce shorter than ``CHATTER_FRACTION`` of the structure's period (or a Zeno sequence that
+  would end within ``ZENO_TIME``) is closed by one plastic impact; so is a contact that parts too
+  slowly for such a bounce (the rounding left of a separation);
 - the bodies then move together, ``(m + M) x'' + c x' + k x = F_drag(x')``, integrated with the
   same method, the contact force ``lam = F_drag(x') - M x''`` being a terminal event (direction -1):
   they separate when it turns tensile. The drag impulse is integrated alongside, so the impulse of
@@ -35,16 +35,25 @@ at a loose tolerance) make the bodies stick.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..physics.contact import contact_force, impact, impact_impulse
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..scene import Scene
-from .base import Impact, Solver, SolverError, State
-from .event import CHATTER_FRACTION, ROUNDING_SPEED, ZENO_TIME, DegenerateContacts
+from .base import Solver, SolverError, State
+from .contact_rules import (
+    INTEGRATED_POLICY,
+    ContactRules,
+    Outcome,
+    Phase,
+    Together,
+    reanchor_on_flow_change,
+)
+from .state import Record, StateError
 
 #: Events at one instant before the bodies are held together briefly (a degenerate contact).
 MAX_EVENTS_AT_ONE_INSTANT = 8
@@ -64,6 +73,9 @@ CHUNK_MAX = 5.0
 
 #: Positive stand-in for a zero event value at the start of a segment.
 _TINY = 1e-300
+
+#: Length of the integrated state by phase: [x, v, z, w] in flight, [x, v, drag impulse] stuck.
+_SIZE = {Phase.FLIGHT: 4, Phase.STICK: 3}
 
 
 class _Flight:
@@ -94,34 +106,17 @@ class _Gap:
         return gap if t > self.start else max(gap, _TINY)
 
 
-class _Stuck:
-    """Bodies together: ``[x, v, P]' = [v, (F_drag(v) - c v - k x) / (m + M), F_drag(v)]``."""
-
-    def __init__(self, solver: OdeSolver):
-        self.total, self.c, self.k, self.M = solver.m + solver.M, solver.c, solver.k, solver.M
-        self.u, self.drag = solver.u, solver.drag
-
-    def __call__(self, t: float, y: np.ndarray) -> list[float]:
-        f = self.drag.force(y[1], self.u)
-        return [y[1], (f - self.c * y[1] - self.k * y[0]) / self.total, f]
-
-    def contact_force(self, y: np.ndarray) -> float:
-        """Force on the structure from the ice: drag minus the ice's inertia, N."""
-        f = self.drag.force(y[1], self.u)
-        return f - self.M * (f - self.c * y[1] - self.k * y[0]) / self.total
-
-
 class _ContactForce:
     """Terminal event: the contact force turns tensile (the bodies separate)."""
 
     terminal = True
     direction = -1
 
-    def __init__(self, stuck: _Stuck, start: float):
-        self.stuck, self.start = stuck, start
+    def __init__(self, together: Together, start: float):
+        self.together, self.start = together, start
 
     def __call__(self, t: float, y: np.ndarray) -> float:
-        lam = self.stuck.contact_force(y)
+        lam = self.together.contact_force(y)
         # a contact force of exactly zero is not tensile (nothing pulls the bodies apart, e.g.
         # both at rest with no flow): only a negative one separates them
         return lam if t > self.start and lam != 0.0 else max(lam, _TINY)
@@ -132,74 +127,86 @@ def _same_instant(t: float, t_ref: float) -> bool:
     return abs(t - t_ref) <= 1e-12 * max(1.0, abs(t))
 
 
+def _floats(y) -> list[float]:
+    return [float(c) for c in y]
+
+
 class OdeSolver(Solver):
     """scipy ``solve_ivp`` with gap and contact-force events (method 3)."""
 
     name = "ode"
 
-    def __init__(self, scene: Scene):
-        super().__init__(scene)
+    @property
+    def penetration_cause(self) -> str:
+        return (f"the ODE method's positions carry its integration error (absolute tolerance "
+                f"{ATOL_SCALE:g} solver.rtol = {self.atol:.3g} m, exceeded a few times at most)")
+
+    def __init__(self, scene: Scene, record_impacts: bool = True):
+        super().__init__(scene, record_impacts)
         self.method = ODE_METHODS[scene.solver_ode_method]
         self.rtol = scene.solver_rtol
         self.atol = self.rtol * ATOL_SCALE
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
-        self.mu = self.m * self.M / (self.m + self.M)
-        self.omega_n = scene.omega_n
+        self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels,
+                                  INTEGRATED_POLICY)
         period = 2.0 * math.pi / scene.omega_n
-        self.chatter_time = CHATTER_FRACTION * period
         self.chunk = min(max(1.0, CHUNK_PERIODS * period), CHUNK_MAX)
         self.u = scene.flow_u
         self.pending_impulse = 0.0
         self.nfev = 0                   # right-hand-side evaluations, for the benchmarks
         self._events_here = 0
         self._last_event_t = -math.inf
-        self.degenerate = DegenerateContacts(self.chatter_time)  # the rule of method 1
         s = self.state
         self._begin(0.0, s.x, s.v, s.z, s.w)
 
-    # equations of motion -------------------------------------------------------------------------
-    def _flight_rhs(self):
-        return _Flight(self), _Gap(self.t_hi)
-
-    def _stick_rhs(self):
-        rhs = _Stuck(self)
-        return rhs, _ContactForce(rhs, self.t_hi)
+    def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
+        return self.osc.acceleration(x, v), self.drag.force(w, u) / self.M
 
     # segments ------------------------------------------------------------------------------------
-    def _segment(self, kind: str, t: float, y: list[float], hold: float = 0.0) -> None:
+    def _equations(self, phase: Phase, start: float) -> None:
+        """Right-hand side and terminal event of a segment of ``phase`` starting at ``start``."""
+        self.phase, self.segment_start = phase, start
+        if phase is Phase.FLIGHT:
+            self.rhs, self.event_fn = _Flight(self), _Gap(start)
+        else:
+            self.rhs = Together(self.m, self.c, self.k, self.M, self.drag, self.u,
+                                inertia_from_net=True)
+            self.event_fn = _ContactForce(self.rhs, start)
+
+    def _segment(self, phase: Phase, t: float, y: list[float], hold: float = 0.0) -> None:
         """Start a flight ``[x, v, z, w]`` or a sticking phase ``[x, v, drag impulse]`` at t;
         a sticking phase ignores separation for ``hold`` seconds."""
-        self.kind = kind
+        self._equations(phase, t)
         self.t_lo = self.t_hi = t
-        self.rhs, self.event_fn = self._flight_rhs() if kind == "flight" else self._stick_rhs()
         self.y_hi = np.array(y, dtype=float)
         self.y_now = self.y_hi.copy()
-        self.sol = None
+        self.y_lo: np.ndarray | None = None   # start of the integrated chunk (none yet)
+        self.sol = None                       # its dense output
         self.event: tuple[float, np.ndarray] | None = None
         # a forced hold ignores the separation event for a while
         self.hold_until = t + hold if hold > 0.0 else -math.inf
-        sticking = kind == "stick"
-        if sticking and not self.sticking:
-            self.sticking_since = t
-        if not sticking:
-            self.sticking_since = None
-        self.sticking = sticking
+        self._set_sticking(phase is Phase.STICK, t)
 
-    def _extend(self) -> None:
-        """Integrate one more chunk of the current segment (stops at its event)."""
-        lo = self.t_hi
+    def _integrate(self, lo: float, y_lo: np.ndarray):
+        """One solve_ivp call from (lo, y_lo): a chunk, or up to the end of a forced hold."""
         hi = lo + self.chunk
         events = self.event_fn
         if lo < self.hold_until:
             hi, events = self.hold_until, None
-        res = solve_ivp(self.rhs, (lo, hi), self.y_hi, method=self.method, rtol=self.rtol,
+        res = solve_ivp(self.rhs, (lo, hi), y_lo, method=self.method, rtol=self.rtol,
                         atol=self.atol, dense_output=True, events=events)
-        self.nfev += res.nfev
         if res.status == -1:
             raise SolverError(f"ODE integration ({self.method}) failed at t = {lo}: "
-                               f"{res.message}")
-        self.sol, self.t_lo = res.sol, lo
+                              f"{res.message}")
+        return res, hi, events
+
+    def _extend(self) -> None:
+        """Integrate one more chunk of the current segment (stops at its event)."""
+        lo = self.t_hi
+        res, hi, events = self._integrate(lo, self.y_hi)
+        self.nfev += res.nfev
+        self.sol, self.t_lo, self.y_lo = res.sol, lo, self.y_hi
         if events is None:  # end of a forced hold: the contact logic decides again
             self.event = (hi, res.y[:, -1])
             self.t_hi, self.y_hi = hi, res.y[:, -1]
@@ -211,83 +218,51 @@ class OdeSolver(Solver):
             self.t_hi, self.y_hi = hi, res.y[:, -1]
 
     def _y(self, t: float) -> np.ndarray:
-        if t >= self.t_hi or self.sol is None:
+        if t >= self.t_hi or self.y_lo is None:
             return self.y_hi
+        if self.sol is None:  # restored from a snapshot: the same call gives the same output
+            self.sol = self._integrate(self.t_lo, self.y_lo)[0].sol
         return self.sol(t)
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float) -> None:
-        """Start the segment that follows time t from state (x, v, z, w) (as the exact solver)."""
+        """Start the segment that follows time t from state (x, v, z, w) (contact rules of
+        :mod:`~iceimpact.solvers.contact_rules` with :data:`INTEGRATED_POLICY`)."""
         if _same_instant(t, self._last_event_t):
             self._events_here += 1
         else:
             self._events_here, self._last_event_t = 0, t
         if x - z > 0.0:
-            self._segment("flight", t, [x, v, z, w])
+            self._segment(Phase.FLIGHT, t, [x, v, z, w])
             return
-        closing = w - v
         if self._events_here > MAX_EVENTS_AT_ONE_INSTANT:
             # degenerate contact or integration noise: plastic contact, held for a moment
-            v_plus, _ = impact(v, w, self.m, self.M, 0.0)
-            self.pending_impulse += impact_impulse(v, v_plus, self.m)
-            self._segment("stick", t, [x, v_plus, 0.0], hold=self.chatter_time)
+            v_common, impulse = self.rules.plastic_merge(v, w)
+            self.pending_impulse += impulse
+            self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
             return
-        if closing > 0.0:  # approaching at contact: impact now
+        decision = self.rules.at_contact(t, x, v, w, self.u)
+        if decision.outcome is Outcome.IMPACT:
             self._impact(t, x, v, w)
-            return
-        speed_scale = abs(v) + abs(w) + abs(self.u) + self.omega_n * abs(x)
-        if -closing <= ROUNDING_SPEED * speed_scale + 1e-300:
-            # no closing speed: as in method 1, contact that keeps re-forming (contact force
-            # zero to rounding, e.g. everything at rest with no flow) is held together for
-            # doubling times up to the chatter time, so that the work stays bounded
-            hold = self.degenerate.hold(t)
-            if hold > 0.0:
-                v_common, _ = impact(v, w, self.m, self.M, 0.0)
-                self.pending_impulse += impact_impulse(v, v_common, self.m)
-                self._segment("stick", t, [x, v_common, 0.0], hold=hold)
-                return
-        lam = contact_force(self.osc.acceleration(x, v), self.drag.force(w, self.u) / self.M,
-                            self.m, self.M)
-        if lam >= 0.0 and -2.0 * closing * self.mu <= lam * self.chatter_time:
-            # pressed together and parting too slowly for a resolvable bounce (rounding of a
-            # separation, the tail of a chatter): stick, with the common momentum velocity
-            v_common, _ = impact(v, w, self.m, self.M, 0.0)
-            self.pending_impulse += impact_impulse(v, v_common, self.m)
-            self._segment("stick", t, [x, v_common, 0.0])
+        elif decision.outcome is Outcome.STICK:
+            self.pending_impulse += decision.impulse
+            self._segment(Phase.STICK, t, [x, decision.v, 0.0], hold=decision.hold)
         else:
-            self._segment("flight", t, [x, v, x, w])
+            self._segment(Phase.FLIGHT, t, [x, v, x, w])
 
     def _impact(self, t: float, x: float, v_minus: float, w_minus: float) -> None:
-        """Eq. 16-17 at time t; close a chatter or Zeno sequence with a plastic impact."""
-        m, M, e = self.m, self.M, self.e
-        v_plus, w_plus = impact(v_minus, w_minus, m, M, e)
-        if e > 0.0:
-            lam = contact_force(self.osc.acceleration(x, v_plus),
-                                self.drag.force(w_plus, self.u) / M, m, M)
-            if lam > 0.0:
-                bounce = 2.0 * (v_plus - w_plus) * self.mu / lam  # next bounce ~ 2 s mu / lam
-                if bounce < self.chatter_time or bounce < ZENO_TIME * (1.0 - e):
-                    e = 0.0
-                    v_plus, w_plus = impact(v_minus, w_minus, m, M, 0.0)
-        if e == 0.0:
-            w_plus = v_plus
-        impulse = impact_impulse(v_minus, v_plus, m)
-        self.impacts.append(Impact(t, x, v_minus, w_minus, v_plus, w_plus, impulse, e))
-        self.pending_impulse += impulse
-        self._begin(t, x, v_plus, x, w_plus)
-
-    def _stick_impulse(self, ya: np.ndarray, yb: np.ndarray) -> float:
-        """Contact-force impulse on the structure: drag impulse minus the ice's momentum change."""
-        return float((yb[2] - ya[2]) - self.M * (yb[1] - ya[1]))
+        """The impact step (eq. 16-18, chatter and Zeno closure) at time t; what follows."""
+        impact = self.rules.impact(t, x, v_minus, w_minus, self.e, self.u)
+        self._record(impact)
+        self.pending_impulse += impact.impulse
+        self._begin(t, x, impact.v_plus, x, impact.w_plus)
 
     # marching ------------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
         if u != self.u:  # zero-order hold: restart the integration at the change
             s = self.state
             self.u = u
-            if self.kind == "stick":
-                self._begin(s.t, s.x, s.v, s.x, s.v)
-            else:
-                self._begin(s.t, s.x, s.v, min(s.z, s.x), s.w)
+            x, v, z, w = reanchor_on_flow_change(s.x, s.v, s.z, s.w, self.phase is Phase.STICK)
+            self._begin(s.t, x, v, z, w)
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         while True:
@@ -295,13 +270,13 @@ class OdeSolver(Solver):
                 self._extend()
             if self.event is not None and self.event[0] <= t_end:
                 t_ev, y_ev = self.event
-                if self.kind == "stick":
-                    impulse += self._stick_impulse(self.y_now, y_ev)
+                if self.phase is Phase.STICK:
+                    impulse += self.rhs.impulse(self.y_now, y_ev)
                     x, v = float(y_ev[0]), float(y_ev[1])
                     if self.hold_until == t_ev:
                         self._begin(t_ev, x, v, x, v)
                     else:  # contact force turns tensile: separate with equal velocities
-                        self._segment("flight", t_ev, [x, v, x, v])
+                        self._segment(Phase.FLIGHT, t_ev, [x, v, x, v])
                 else:
                     x, v, w = float(y_ev[0]), float(y_ev[1]), float(y_ev[3])
                     if w > v:
@@ -312,10 +287,64 @@ class OdeSolver(Solver):
                 self.pending_impulse = 0.0
                 continue
             y = self._y(t_end)
-            if self.kind == "stick":
-                impulse += self._stick_impulse(self.y_now, y)
+            if self.phase is Phase.STICK:
+                impulse += self.rhs.impulse(self.y_now, y)
                 self.state = State(t_end, float(y[0]), float(y[1]), float(y[0]), float(y[1]))
             else:
                 self.state = State(t_end, *(float(c) for c in y))
             self.y_now = np.array(y, dtype=float)
             return impulse
+
+    # snapshots ----------------------------------------------------------------------------------
+    _KEYS = ("u", "pending_impulse", "nfev", "events_here", "last_event_t", "degenerate",
+             "phase", "segment_start", "hold_until", "t_lo", "t_hi", "y_lo", "y_hi", "y_now",
+             "event")
+
+    def _snapshot(self) -> dict[str, Any]:
+        return {"u": self.u, "pending_impulse": self.pending_impulse, "nfev": self.nfev,
+                "events_here": self._events_here, "last_event_t": self._last_event_t,
+                "degenerate": self.rules.degenerate.snapshot(), "phase": self.phase.value,
+                "segment_start": self.segment_start, "hold_until": self.hold_until,
+                "t_lo": self.t_lo, "t_hi": self.t_hi,
+                "y_lo": None if self.y_lo is None else _floats(self.y_lo),
+                "y_hi": _floats(self.y_hi), "y_now": _floats(self.y_now),
+                "event": None if self.event is None else [self.event[0],
+                                                          _floats(self.event[1])]}
+
+    def _read(self, rec: Record, t: float) -> Callable[[], None]:
+        u = rec.real("u")
+        pending = rec.real("pending_impulse")
+        nfev = rec.integer("nfev", low=0)
+        events_here = rec.integer("events_here", low=0)
+        last_event_t = rec.real("last_event_t", finite=False, high=t)
+        degenerate = self.rules.degenerate.read(rec.record("degenerate"))
+        phase = Phase(rec.text("phase", [p.value for p in Phase]))
+        if (phase is Phase.STICK) != rec.data["sticking"]:
+            raise StateError(rec.field("phase"), phase.value,
+                             "stick exactly when sticking is true")
+        size = _SIZE[phase]
+        start = rec.real("segment_start", low=0.0, high=t)
+        hold_until = rec.real("hold_until", finite=False, high=math.inf)
+        t_lo = rec.real("t_lo", low=start)
+        t_hi = rec.real("t_hi", low=t_lo)
+        y_lo = rec.reals("y_lo", size, allow_none=True)
+        y_hi = rec.reals("y_hi", size)
+        y_now = rec.reals("y_now", size)
+        event = rec.raw("event")
+        if event is not None:
+            ev = Record({"t": event[0], "y": event[1]} if isinstance(event, list | tuple)
+                        and len(event) == 2 else event, rec.field("event"))
+            event = (ev.real("t", low=t_hi, high=t_hi), np.array(ev.reals("y", size)))
+
+        def apply() -> None:
+            self.u = u
+            self._equations(phase, start)
+            self.pending_impulse, self.nfev = pending, nfev
+            self._events_here, self._last_event_t = events_here, last_event_t
+            self.rules.degenerate.set(degenerate)
+            self.hold_until, self.t_lo, self.t_hi = hold_until, t_lo, t_hi
+            self.y_lo = None if y_lo is None else np.array(y_lo)
+            self.sol = None
+            self.y_hi, self.y_now = np.array(y_hi), np.array(y_now)
+            self.event = event
+        return apply

@@ -23,8 +23,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 from scipy.optimize import brentq
+
+from .state import Record
 
 #: Iterations before the search gives up proving and reports a touch where it stands
 #: (only a pathological, exactly tangent contact gets there; the touch is then real to rounding).
@@ -56,6 +59,24 @@ class RootSearch:
         self.iterations = 0
         self.creep = 0
         self.xtol = 1e-15
+
+    def frontier(self) -> dict[str, Any]:
+        """Where the search stands, as plain data: with the same signal and start,
+        :meth:`set_frontier` continues it exactly (a snapshot of a solver holds it)."""
+        return {"a": self.a, "root": self.root, "iterations": self.iterations,
+                "creep": self.creep}
+
+    @staticmethod
+    def read_frontier(record: Record, start: float) -> tuple[float, float | None, int, int]:
+        """Validated (a, root, iterations, creep) from a :meth:`frontier` record."""
+        record.expect_keys(("a", "root", "iterations", "creep"))
+        return (record.real("a", finite=False, low=start),
+                record.real("root", low=start, allow_none=True),
+                record.integer("iterations", low=0),
+                record.integer("creep", low=0))
+
+    def set_frontier(self, values: tuple[float, float | None, int, int]) -> None:
+        self.a, self.root, self.iterations, self.creep = values
 
     def next_root_before(self, horizon: float) -> float | None:
         """The first root if it is at or before ``horizon``, else None (frontier moved past)."""

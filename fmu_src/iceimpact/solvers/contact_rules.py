@@ -1,0 +1,338 @@
+"""The contact rules every method shares: what happens when the bodies touch, while they stick,
+and when the flow changes.
+
+The pure laws live in :mod:`iceimpact.physics.contact` (the impact law of eq. 12-17, the contact
+force of free accelerations). This module adds what a solver needs around them:
+
+- the impact step (eq. 12-18) with the closure of chatter and Zeno sequences by one plastic
+  impact (:meth:`ContactRules.impact`);
+- degenerate contacts, which keep re-forming with no closing speed (:class:`DegenerateContacts`);
+- the decision at zero gap: impact, stick or fly (:meth:`ContactRules.at_contact`);
+- the sticking phase that replaces the article's steady-state thresholds (eq. 27-29): the bodies
+  move together, ``(m + M) x'' + c x' + k x = F_drag(x')`` (:class:`Together`), the contact force
+  on the structure is the drag on the ice minus its inertia (:func:`sticking_contact_force`), and
+  they separate when it turns tensile (:func:`separates`);
+- the bookkeeping of the sticking phase's start (:func:`sticking_start`);
+- the re-anchoring of the closed forms when the flow speed changes (zero-order hold,
+  :func:`reanchor_on_flow_change`).
+
+The exact method (1) and the ODE method (3) use all of it; the fixed-step method (2) follows the
+article's own scheme and uses the impact law and the sticking bookkeeping. Where the exact and the
+ODE methods differ, the difference is a named parameter (:class:`ContactPolicy`, the
+``inertia_from_net`` rounding of :class:`Together`, the ``free_accels`` of :class:`ContactRules`).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from ..physics.contact import Impact, contact_force, impact, impact_impulse
+from .state import Record
+
+#: A Zeno sequence whose remaining impacts would all happen within this time (s) is closed by
+#: one plastic impact: the motion it skips is below ~ closing speed * ZENO_TIME (sub-nanometre).
+ZENO_TIME = 1e-9
+
+#: Chatter closure: a bounce that would last less than this fraction of the structure's natural
+#: period 2 pi / omega_n ends the bouncing with one plastic impact. With e = 1 the exact model never
+#: stops bouncing: pressed on the structure by the flow, the ice makes ever smaller and faster
+#: bounces (the impact rate doubles every ~25 s in the Figure 2 scene) whose mean force is the
+#: sticking contact force. Closing them bounds the work per simulated second; the motion it skips
+#: is a bounce of height (g'' T^2 / 8) below ~1e-9 m in the Figure 2 scene. The README gives
+#: its measured effect.
+CHATTER_FRACTION = 1e-2
+
+#: A closing speed below ROUNDING_SPEED * (|v| + |w| + |u| + wn |x|) is rounding, not an impact.
+ROUNDING_SPEED = 1e-12
+
+#: More than this many contacts with zero closing speed, each within CHATTER_FRACTION of a period
+#: of the previous one, mean a degenerate contact (gap and contact force both zero to rounding,
+#: as right after a separation): the bodies are then held together for DEGENERATE_HOLD (s),
+#: doubling at each further such contact up to the chatter time, so the work stays bounded.
+MAX_DEGENERATE_CONTACTS = 8
+DEGENERATE_HOLD = 1e-9
+
+
+class Phase(enum.Enum):
+    """What the bodies do in a segment of the motion."""
+
+    FLIGHT = "flight"   # both free: structure on its oscillator, ice on its drag law
+    STICK = "stick"     # together, pressed by a compressive contact force
+
+
+class Outcome(enum.Enum):
+    """What follows a contact at zero gap (:meth:`ContactRules.at_contact`)."""
+
+    IMPACT = "impact"   # approaching: apply the impact step now
+    STICK = "stick"     # move together from here
+    FLIGHT = "flight"   # part (or stay apart) from here
+
+
+class ContactDecision(NamedTuple):
+    """The decision at a contact: the outcome and the velocities to continue with."""
+
+    outcome: Outcome
+    v: float          # structure velocity, m/s (the common velocity for STICK)
+    w: float          # ice velocity, m/s
+    hold: float = 0.0     # STICK: separation is not looked for during this time, s
+    impulse: float = 0.0  # STICK: impulse on the structure of the plastic entry, N.s
+    lam: float = math.nan  # FLIGHT: contact force of the free accelerations, N (eq. 12-17 aside)
+
+
+@dataclass(frozen=True)
+class ContactPolicy:
+    """How a method treats a contact at zero gap; the exact and the ODE methods differ here.
+
+    - ``merge_rounding_closing``: a closing speed at rounding level (either sign) is replaced by
+      the common velocity of both bodies (momentum kept) before the decision (exact method: its
+      velocities carry rounding only). Otherwise any positive closing speed is an impact.
+    - ``stick_slow_parting``: bodies pressed together (lam >= 0) that part too slowly for a
+      resolvable bounce (shorter than the chatter time) stick (ODE method: its velocities carry
+      integration error, which would leave an endless chatter). Otherwise only bodies with no
+      relative velocity stick.
+    - ``plastic_entry``: the sticking phase starts with the common velocity of a plastic impact
+      (eq. 16-17 with e = 0), its impulse counted; otherwise with the structure's velocity (which
+      then equals the ice's).
+    """
+
+    merge_rounding_closing: bool
+    stick_slow_parting: bool
+    plastic_entry: bool
+
+
+#: The exact method's contact policy (method 1).
+EXACT_POLICY = ContactPolicy(merge_rounding_closing=True, stick_slow_parting=False,
+                             plastic_entry=False)
+#: The ODE method's contact policy (method 3).
+INTEGRATED_POLICY = ContactPolicy(merge_rounding_closing=False, stick_slow_parting=True,
+                                  plastic_entry=True)
+
+
+def chatter_time(omega_n: float) -> float:
+    """CHATTER_FRACTION of the structure's natural period 2 pi / omega_n, s."""
+    return CHATTER_FRACTION * 2.0 * math.pi / omega_n
+
+
+class DegenerateContacts:
+    """The rule for contacts that keep re-forming with no closing speed (methods 1 and 3).
+
+    The gap and the contact force can both be zero to rounding (right after a separation, or
+    with everything at rest and no force): contact then re-forms at every event. After
+    MAX_DEGENERATE_CONTACTS such contacts, each within the chatter time of the previous one, the
+    bodies are held together for DEGENERATE_HOLD, doubling at each further one up to the chatter
+    time, so that the work per simulated second stays bounded.
+    """
+
+    __slots__ = ("chatter_time", "run", "last")
+
+    def __init__(self, chatter_time: float):
+        self.chatter_time = chatter_time
+        self.run = 0             # contacts in the current run of degenerate ones
+        self.last = -math.inf    # time of the latest one, s
+
+    def hold(self, t: float) -> float:
+        """Count a contact with no closing speed at time t (s); how long to hold the bodies
+        together from t (s), 0 while the run of such contacts is short."""
+        if t - self.last > self.chatter_time:
+            self.run = 0
+        self.run += 1
+        self.last = t
+        if self.run <= MAX_DEGENERATE_CONTACTS:
+            return 0.0
+        extra = self.run - MAX_DEGENERATE_CONTACTS
+        return min(DEGENERATE_HOLD * 2.0 ** min(extra, 60), self.chatter_time)
+
+    def snapshot(self) -> dict:
+        """The counters as plain data (see :meth:`read`)."""
+        return {"run": self.run, "last": self.last}
+
+    @staticmethod
+    def read(record: Record) -> tuple[int, float]:
+        """Validated (run, last) from a snapshot record; set them with :meth:`set`."""
+        record.expect_keys(("run", "last"))
+        return record.integer("run", low=0), record.real("last", finite=False, high=math.inf)
+
+    def set(self, values: tuple[int, float]) -> None:
+        self.run, self.last = values
+
+
+def sticking_contact_force(drag: float, ice_inertia: float) -> float:
+    """Contact force on the structure while the bodies stick, N (>= 0: compressive).
+
+    ``lam = F_drag - M x''``: the drag on the ice minus its inertia, the ice moving with the
+    structure (model.md, sticking contact; the article's steady state, eq. 27-29, is its
+    constant limit lam = F_drag)."""
+    return drag - ice_inertia
+
+
+def separates(lam: float) -> bool:
+    """Separation test: the bodies part when the contact force would turn tensile."""
+    return lam < 0.0
+
+
+class Together:
+    """Bodies moving together under the drag on the ice: ``(m + M) x'' + c x' + k x = F_drag(x')``.
+
+    The state for ``solve_ivp`` is ``[x, v, P]``, P the drag impulse on the ice (N.s), so that
+    the impulse of the contact force over an interval is ``dP - M dv`` (:meth:`impulse`).
+
+    ``inertia_from_net`` picks the rounding of the ice's inertia ``M x''`` in the contact force:
+    ``M * net / (m + M)`` (ODE method) or ``M * (net / (m + M))`` (exact method), net being
+    ``F_drag - c v - k x``; the two differ in the last bit, which moves the located separation.
+    """
+
+    __slots__ = ("m", "c", "k", "M", "drag", "u", "total", "inertia_from_net")
+
+    def __init__(self, m: float, c: float, k: float, M: float, drag, u: float,
+                 inertia_from_net: bool):
+        self.m, self.c, self.k, self.M = m, c, k, M
+        self.drag, self.u = drag, u
+        self.total = m + M
+        self.inertia_from_net = inertia_from_net
+
+    def __call__(self, t: float, y) -> list[float]:
+        f = self.drag.force(y[1], self.u)
+        return [y[1], (f - self.c * y[1] - self.k * y[0]) / self.total, f]
+
+    def contact_force(self, y) -> float:
+        """Force on the structure from the ice at state ``[x, v, ...]``, N."""
+        x, v = y[0], y[1]
+        f = self.drag.force(v, self.u)
+        net = f - self.c * v - self.k * x
+        if self.inertia_from_net:
+            return sticking_contact_force(f, self.M * net / self.total)
+        return sticking_contact_force(f, self.M * (net / self.total))
+
+    def impulse(self, ya, yb) -> float:
+        """Impulse of the contact force on the structure between states ya and yb, N.s:
+        drag impulse on the ice minus its momentum change."""
+        return float((yb[2] - ya[2]) - self.M * (yb[1] - ya[1]))
+
+
+def sticking_start(was_sticking: bool, since: float | None, sticking: bool,
+                   t: float) -> float | None:
+    """Start time of the sticking phase (s) after a segment starting at t: kept while the bodies
+    stay together, t when they start sticking, None while they are apart."""
+    if not sticking:
+        return None
+    return since if was_sticking else t
+
+
+def reanchor_on_flow_change(x: float, v: float, z: float, w: float,
+                            sticking: bool) -> tuple[float, float, float, float]:
+    """State from which a new flow speed restarts the closed forms (zero-order hold).
+
+    Sticking bodies stay together (the ice takes the structure's state); in flight, an ice
+    position past the structure by rounding is put back at contact."""
+    if sticking:
+        return x, v, x, v
+    return x, v, min(z, x), w
+
+
+FreeAccels = Callable[[float, float, float, float], tuple[float, float]]
+
+
+class ContactRules:
+    """The contact rules of one scene for one method: impact step, degenerate contacts, the
+    decision at zero gap.
+
+    ``free_accels(x, v, w, u) -> (a_x, a_z)`` gives the free accelerations of structure and ice
+    (each method evaluates the ice's drag acceleration its own way, to the last bit);
+    ``policy`` is the method's :class:`ContactPolicy`.
+    """
+
+    def __init__(self, m: float, M: float, omega_n: float, free_accels: FreeAccels,
+                 policy: ContactPolicy):
+        self.m, self.M = m, M
+        self.mu = m * M / (m + M)   # reduced mass, kg
+        self.omega_n = omega_n
+        self.chatter_time = chatter_time(omega_n)
+        self.free_accels = free_accels
+        self.policy = policy
+        self.degenerate = DegenerateContacts(self.chatter_time)
+
+    def free_contact_force(self, x: float, v: float, w: float, u: float) -> float:
+        """Contact force needed to keep the bodies together at state (x, v, w), N: the
+        separation test at a contact (< 0: they part)."""
+        a_x, a_z = self.free_accels(x, v, w, u)
+        return contact_force(a_x, a_z, self.m, self.M)
+
+    def is_rounding(self, closing: float, x: float, v: float, w: float, u: float) -> bool:
+        """|closing| (m/s) is at rounding level of the speeds of the scene."""
+        speed_scale = abs(v) + abs(w) + abs(u) + self.omega_n * abs(x)
+        return abs(closing) <= ROUNDING_SPEED * speed_scale + 1e-300
+
+    def impact(self, t: float, x: float, v_minus: float, w_minus: float, e: float,
+               u: float) -> Impact:
+        """The impact step at time t (s), position x (m): eq. 16-17, positions unchanged (eq. 18).
+
+        Chatter and Zeno closure: if the ice stays pressed on the structure after the impact
+        (contact force lam > 0), the next bounce lasts ~ 2 s mu / lam (opening speed s) and a
+        Zeno sequence (e < 1) ends after ~ that / (1 - e); a bounce shorter than the chatter
+        time, or a sequence ending within ZENO_TIME, is replaced by one plastic impact (e = 0),
+        after which the bodies move together.
+        """
+        m, M = self.m, self.M
+        v_plus, w_plus = impact(v_minus, w_minus, m, M, e)
+        if e > 0.0:
+            lam = self.free_contact_force(x, v_plus, w_plus, u)
+            if lam > 0.0:
+                bounce = 2.0 * (v_plus - w_plus) * self.mu / lam
+                if bounce < self.chatter_time or bounce < ZENO_TIME * (1.0 - e):
+                    e = 0.0
+                    v_plus, w_plus = impact(v_minus, w_minus, m, M, 0.0)
+        if e == 0.0:
+            w_plus = v_plus  # exactly together
+        return Impact(t, x, v_minus, w_minus, v_plus, w_plus,
+                      impact_impulse(v_minus, v_plus, m), e)
+
+    def plastic_merge(self, v: float, w: float) -> tuple[float, float]:
+        """Common velocity of a plastic impact (eq. 16-17, e = 0), m/s, and its impulse on the
+        structure, N.s: how the bodies start sticking under ``plastic_entry``."""
+        v_common, _ = impact(v, w, self.m, self.M, 0.0)
+        return v_common, impact_impulse(v, v_common, self.m)
+
+    def _stick(self, v: float, w: float, hold: float = 0.0) -> ContactDecision:
+        if self.policy.plastic_entry:
+            v_common, impulse = self.plastic_merge(v, w)
+            return ContactDecision(Outcome.STICK, v_common, v_common, hold, impulse)
+        return ContactDecision(Outcome.STICK, v, v, hold)
+
+    def at_contact(self, t: float, x: float, v: float, w: float, u: float) -> ContactDecision:
+        """What follows at time t (s) with the bodies at zero gap at x (m), velocities v, w.
+
+        An approach is an impact; contact with no relative velocity that keeps re-forming is
+        held (:class:`DegenerateContacts`); bodies pressed together (lam >= 0) with no relative
+        velocity stick; all else parts. The method's :class:`ContactPolicy` decides the
+        rounding-level cases.
+        """
+        policy = self.policy
+        closing = w - v
+        rounding = self.is_rounding(closing, x, v, w, u)
+        if policy.merge_rounding_closing and closing != 0.0 and rounding:
+            # a closing speed at rounding level is no impact: merge the velocities
+            # (momentum kept) and let the contact logic below decide
+            v = w = (self.m * v + self.M * w) / (self.m + self.M)
+            closing = 0.0
+        if closing > 0.0:  # approaching at contact: impact now
+            return ContactDecision(Outcome.IMPACT, v, w)
+        if rounding:
+            # contact that keeps re-forming with no speed (contact force zero to rounding, e.g.
+            # everything at rest with no flow): hold the bodies together for a while
+            hold = self.degenerate.hold(t)
+            if hold > 0.0:
+                return self._stick(v, w, hold)
+        lam = self.free_contact_force(x, v, w, u)
+        if policy.stick_slow_parting:
+            # pressed together and parting too slowly for a resolvable bounce (rounding of a
+            # separation, the tail of a chatter): stick
+            stick = lam >= 0.0 and -2.0 * closing * self.mu <= lam * self.chatter_time
+        else:
+            stick = closing == 0.0 and lam >= 0.0
+        if stick:
+            return self._stick(v, w)
+        return ContactDecision(Outcome.FLIGHT, v, w, lam=lam)

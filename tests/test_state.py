@@ -1,0 +1,445 @@
+"""Saved states and refused steps: a small record of plain data that continues a run to the last
+bit (through JSON), is refused field by field when malformed, and a step the method refuses
+changes nothing."""
+
+import copy
+import json
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from iceimpact import ParameterError, Scene, Simulator, SolverError, StateError, run
+from iceimpact.solvers.state import STATE_VERSION
+
+METHODS = {"exact": dict(solver_method=1),
+           "fixed-step": dict(solver_method=2, solver_detection=2),
+           "ode": dict(solver_method=3)}
+
+#: communication steps (h, u) after a save: uneven steps and two flow changes
+SUFFIX = ([(0.01, 0.1)] * 30 + [(0.013, 0.1)] * 7 + [(0.01, 0.3)] * 20 + [(0.007, -0.1)] * 20
+          + [(0.01, 0.1)] * 40)
+
+
+def json_copy(data):
+    return json.loads(json.dumps(data))
+
+
+def steps(sim, inputs):
+    return [sim.advance(h, u) for h, u in inputs]
+
+
+def stepped(scene, t_stop, u_before=0.1, **options):
+    sim = Simulator(scene, **options)
+    while sim.t < t_stop - 1e-9:
+        sim.advance(0.01, u_before)
+    return sim
+
+
+def assert_continues_identically(sim, inputs=SUFFIX):
+    """Save, round-trip through JSON, restore into fresh simulators: the same future."""
+    saved = json_copy(sim.save())
+    twin = Simulator(Scene())  # any simulator takes a state, its scene included
+    twin.restore(saved)
+    fresh = Simulator.from_snapshot(saved)
+    expected = steps(sim, inputs)
+    assert steps(fresh, inputs) == expected
+    assert steps(twin, inputs) == expected
+    assert fresh.save() == sim.save() == twin.save()
+    return saved
+
+
+# --- round trips ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("drag_model", [1, 2])
+@pytest.mark.parametrize("method", list(METHODS))
+def test_json_round_trip_continues_to_the_last_bit(method, drag_model):
+    """Mid-flight, mid-sticking (e = 0 sticks after its first impacts), after a flow change."""
+    scene = Scene(impact_e=0.0, drag_model=drag_model, **METHODS[method])
+    sim = Simulator(scene)
+    for t_stop, u in ((0.55, 0.1), (3.0, 0.1), (9.0, 0.1), (9.5, 0.25)):
+        while sim.t < t_stop - 1e-9:
+            sim.advance(0.01, u)
+        assert_continues_identically(sim)
+
+
+@pytest.mark.parametrize("drag_model", [1, 2])
+@pytest.mark.parametrize("method", list(METHODS))
+def test_round_trip_in_elastic_bouncing(method, drag_model):
+    sim = stepped(Scene(impact_e=1.0, drag_model=drag_model, **METHODS[method]), 4.0)
+    assert sim.impact_count > 0
+    assert_continues_identically(sim)
+
+
+def test_round_trip_inside_a_quadratic_sticking_chunk():
+    """Exact method, quadratic drag, sticking: the saved state holds the start of the current
+    integration chunk, which a restored solver integrates again to the same dense output."""
+    sim = stepped(Scene(impact_e=0.0, drag_model=2), 30.0)
+    segment = sim.save()["solver"]["segment"]
+    assert segment["phase"] == "stick" and segment["chunks"]
+    lo, hi, _ = segment["chunks"][-1]
+    assert lo < sim.t - segment["t0"] < hi
+    assert_continues_identically(sim, [(0.01, 0.1)] * 300 + [(0.01, -0.2)] * 100)
+
+
+def test_round_trip_inside_the_fixed_step_look_ahead():
+    scene = Scene(solver_method=2, solver_detection=2, drag_model=2, impact_e=0.5)
+    sim = stepped(scene, 1.0)
+    buffer = sim.save()["solver"]["buffer"]
+    assert buffer is not None and buffer["n"] < sim.save()["solver"]["n"]
+    assert_continues_identically(sim)
+
+
+def test_round_trip_inside_an_ode_chunk():
+    sim = stepped(Scene(solver_method=3), 1.234)
+    state = sim.save()["solver"]
+    assert state["y_lo"] is not None and state["t_lo"] < sim.t < state["t_hi"]
+    assert_continues_identically(sim)
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_round_trip_after_a_restitution_change(method):
+    sim = stepped(Scene(impact_e=0.9, **METHODS[method]), 2.0)
+    sim.set_restitution(0.2)
+    sim.advance(0.01)
+    saved = assert_continues_identically(sim)
+    assert saved["scene"]["impact.e"] == saved["solver"]["e"] == 0.2
+
+
+def test_rollback_in_the_same_simulator_keeps_the_impact_history():
+    sim = stepped(Scene(impact_e=0.5), 3.0)
+    saved = sim.save()
+    before = list(sim.impacts)
+    first = steps(sim, SUFFIX * 3)
+    assert len(sim.impacts) > len(before)
+    sim.restore(saved)
+    assert sim.impacts == before
+    assert steps(sim, SUFFIX * 3) == first
+
+
+def test_pickled_state_replays():
+    """The FMU serializes the state with pickle: a dict of plain data."""
+    sim = stepped(Scene(drag_model=2, impact_e=0.3), 5.0)
+    saved = pickle.loads(pickle.dumps(sim.save()))
+    expected = steps(sim, SUFFIX)
+    sim.restore(saved)
+    assert steps(sim, SUFFIX) == expected
+
+
+def test_layout_is_plain_data_with_a_version():
+    saved = Simulator(Scene()).save()
+    assert set(saved) == {"version", "scene", "solver", "report", "reported_impacts", "failed"}
+    assert saved["version"] == saved["solver"]["version"] == STATE_VERSION
+    assert saved["scene"] == Scene().to_fmi()
+
+    def plain(value):
+        if isinstance(value, dict):
+            return all(isinstance(k, str) and plain(v) for k, v in value.items())
+        if isinstance(value, list):
+            return all(plain(v) for v in value)
+        return value is None or type(value) in (str, float, int, bool)
+
+    for method in METHODS.values():
+        for drag_model in (1, 2):
+            saved = stepped(Scene(impact_e=0.0, drag_model=drag_model, **method), 2.0).save()
+            assert plain(saved)
+            assert json_copy(saved) == saved
+
+
+# --- size and the impact list --------------------------------------------------------------------
+
+SIZE_SCENES = {  # scenes that keep impacting: elastic chatter, a heavy floe on a fixed grid
+    "exact": (Scene(), 10_000), "ode": (Scene(solver_method=3), 300),
+    "fixed-step": (Scene(ice_M=4800.0, impact_e=0.3, **METHODS["fixed-step"]), 10_000)}
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_saved_state_stays_small_at_any_run_length(method):
+    """The impact history is not part of the state: the size after 1e4 impacts (300 for the
+    slower ODE method) is that after 10."""
+    scene, target = SIZE_SCENES[method]
+    sim = Simulator(scene, record_impacts=False)
+    while sim.report.impact_count < 10:
+        sim.advance(0.05)
+    early = len(json.dumps(sim.save()))
+    while sim.report.impact_count < target:
+        sim.advance(1.0)
+    late = len(json.dumps(sim.save()))
+    assert early <= 16_384 and late <= 16_384
+    assert abs(late - early) < 500
+    assert sim.impacts == []
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_unrecorded_impacts_change_no_report(method):
+    scene = Scene(impact_e=0.5, drag_model=2, **METHODS[method])
+    recorded, bare = Simulator(scene), Simulator(scene, record_impacts=False)
+    assert steps(bare, SUFFIX) == steps(recorded, SUFFIX)
+    assert bare.impacts == [] and len(recorded.impacts) == recorded.impact_count > 0
+    assert bare.impact_count == recorded.impact_count
+
+
+# --- refusals ------------------------------------------------------------------------------------
+
+def _set(path, value):
+    def change(state):
+        target = state
+        for key in path[:-1]:
+            target = target[key]
+        target[path[-1]] = value
+    return change
+
+
+def _drop(path):
+    def change(state):
+        target = state
+        for key in path[:-1]:
+            target = target[key]
+        del target[path[-1]]
+    return change
+
+
+BAD_EXACT = {
+    "version": (_set(("version",), 99), "version"),
+    "missing report": (_drop(("report",)), "report"),
+    "unknown key": (_set(("extra",), 1), "extra"),
+    "scene value": (_set(("scene", "ice.M"), -1.0), "scene.ice.M"),
+    "scene name": (_set(("scene", "ice.mass"), 1.0), "scene.ice.mass"),
+    "scene type": (_set(("scene",), [1, 2]), "scene"),
+    "reported > count": (_set(("reported_impacts",), 10**6), "reported_impacts"),
+    "report type": (_set(("report", "impacts"), 1.5), "report.impacts"),
+    "report time": (_set(("report", "t"), 123.0), "report.t"),
+    "failed type": (_set(("failed",), 3), "failed"),
+    "solver type": (_set(("solver",), "x"), "solver"),
+    "method": (_set(("solver", "method"), "ode"), "solver.method"),
+    "time NaN": (_set(("solver", "t"), math.nan), "solver.t"),
+    "time negative": (_set(("solver", "t"), -1.0), "solver.t"),
+    "x infinite": (_set(("solver", "x"), math.inf), "solver.x"),
+    "x text": (_set(("solver", "x"), "0.0"), "solver.x"),
+    "x bool": (_set(("solver", "x"), True), "solver.x"),
+    "e range": (_set(("solver", "e"), 1.5), "solver.e"),
+    "count negative": (_set(("solver", "impact_count"), -1), "solver.impact_count"),
+    "count float": (_set(("solver", "impact_count"), 3.0), "solver.impact_count"),
+    "t_last after t": (_set(("solver", "t_last"), 1e9), "solver.t_last"),
+    "t_last without impacts": (_set(("solver", "impact_count"), 0), "solver.t_last"),
+    "sticking type": (_set(("solver", "sticking"), 1), "solver.sticking"),
+    "sticking_since": (_set(("solver", "sticking_since"), 0.1), "solver.sticking_since"),
+    "missing tau": (_drop(("solver", "tau")), "solver.tau"),
+    "pending NaN": (_set(("solver", "pending_impulse"), math.nan), "solver.pending_impulse"),
+    "degenerate run": (_set(("solver", "degenerate", "run"), -2), "solver.degenerate.run"),
+    "phase": (_set(("solver", "segment", "phase"), "orbit"), "solver.segment.phase"),
+    "phase vs sticking": (_set(("solver", "segment", "phase"), "stick"),
+                          "solver.segment.phase"),
+    "anchor length": (_set(("solver", "segment", "anchor"), [0.0, 0.0]),
+                      "solver.segment.anchor"),
+    "anchor NaN": (_set(("solver", "segment", "anchor", 2), math.nan),
+                   "solver.segment.anchor[2]"),
+    "search a": (_set(("solver", "segment", "search", "a"), -5.0), "solver.segment.search.a"),
+    "search iterations": (_set(("solver", "segment", "search", "iterations"), "many"),
+                          "solver.segment.search.iterations"),
+    "search missing": (_drop(("solver", "segment", "search", "creep")),
+                       "solver.segment.search.creep"),
+}
+
+
+@pytest.fixture(scope="module")
+def exact_state():
+    sim = stepped(Scene(impact_e=0.5), 2.0)
+    assert sim.impact_count > 0 and not sim.sticking
+    return sim.save()
+
+
+def assert_refused_and_unchanged(sim, state, field):
+    before = sim.save()
+    twin = Simulator.from_snapshot(before)
+    with pytest.raises(StateError) as err:
+        sim.restore(state)
+    assert err.value.field == field
+    assert f"state field {field} = " in str(err.value) and "is not allowed" in str(err.value)
+    assert sim.save() == before
+    assert steps(sim, SUFFIX[:40]) == steps(twin, SUFFIX[:40])
+    with pytest.raises(StateError):
+        Simulator.from_snapshot(state)
+
+
+@pytest.mark.parametrize("case", list(BAD_EXACT))
+def test_malformed_state_is_refused_naming_the_field(exact_state, case):
+    change, field = BAD_EXACT[case]
+    state = copy.deepcopy(exact_state)
+    change(state)
+    sim = stepped(Scene(impact_e=0.9, drag_model=2), 1.0)  # a different run, left unchanged
+    assert_refused_and_unchanged(sim, state, field)
+
+
+BAD_OTHERS = {
+    ("fixed-step", "chunk"): (_set(("solver", "chunk"), 3), "solver.chunk"),
+    ("fixed-step", "grid"): (_set(("solver", "grid"), [0.0, 0.0, 0.0]), "solver.grid"),
+    ("fixed-step", "pinned"): (_set(("solver", "pinned"), True), "solver.pinned"),
+    ("fixed-step", "buffer"): (_set(("solver", "buffer"), {"n": -1, "grid": [0.0] * 4}),
+                               "solver.buffer.n"),
+    ("ode", "phase"): (_set(("solver", "phase"), "fly"), "solver.phase"),
+    ("ode", "y_hi"): (_set(("solver", "y_hi"), [0.0, 0.0, 0.0]), "solver.y_hi"),
+    ("ode", "t_hi"): (_set(("solver", "t_hi"), -1.0), "solver.t_hi"),
+    ("ode", "event"): (lambda state: state["solver"].update(event=[state["solver"]["t_hi"],
+                                                                   "y"]), "solver.event.y"),
+    ("ode", "event time"): (lambda state: state["solver"].update(event=[-1.0, [0.0] * 4]),
+                            "solver.event.t"),
+    ("ode", "nfev"): (_set(("solver", "nfev"), None), "solver.nfev"),
+    ("exact", "chunks"): (_set(("solver", "segment", "chunks"), [[0.0, 1e9, [0.0] * 3]]),
+                          "solver.segment.chunks[0].hi"),
+    ("exact", "recent"): (_set(("solver", "segment", "recent"), [[0.0]]),
+                          "solver.segment.recent[0]"),
+}
+
+
+@pytest.mark.parametrize("key", list(BAD_OTHERS), ids=lambda k: "-".join(k))
+def test_malformed_method_fields_are_refused(key):
+    method, _ = key
+    change, field = BAD_OTHERS[key]
+    scene = Scene(drag_model=2, impact_e=0.0 if method == "exact" else 0.5, **METHODS[method])
+    state = stepped(scene, 30.0 if method == "exact" else 3.0).save()  # exact: sticking
+    change(state)
+    assert_refused_and_unchanged(stepped(scene, 0.5), state, field)
+
+
+def test_state_error_is_a_value_error():
+    assert issubclass(StateError, ValueError)
+    with pytest.raises(StateError, match="a dict"):
+        Simulator(Scene()).restore(("old", "tuple", "snapshot"))
+
+
+# --- refused steps -------------------------------------------------------------------------------
+
+def test_refused_unstable_step_changes_nothing():
+    """Method 2, quadratic drag: a flow spike makes the explicit Euler step diverge. The step is
+    refused, the state is the one before it, the same spike is refused again, and a sane step
+    from the same time reports what a run that never saw the spike reports."""
+    scene = Scene(drag_model=2, impact_e=0.5, solver_method=2, solver_detection=2)
+    clean = steps(Simulator(scene), [(0.01, 0.1)] * 400)
+    k = next(i for i, r in enumerate(clean) if i > 10 and r.impacts > 0)  # a step with impacts
+    sim = Simulator(scene)
+    steps(sim, [(0.01, 0.1)] * k)
+    before = sim.save()
+    for _ in range(2):
+        with pytest.raises(SolverError, match="the run stopped") as err:
+            sim.advance(0.01, 1e5)
+        assert "explicit Euler step" in str(err.value)
+        assert sim.failed is not None
+        assert {k: v for k, v in sim.save().items() if k != "failed"} == {
+            k: v for k, v in before.items() if k != "failed"}
+    after = steps(sim, [(0.01, 0.1)] * (400 - k))
+    assert after == clean[k:]
+    assert sim.failed is None
+    assert after[0].impacts > 0 and after[0].impulse > 0.0
+
+
+class _Fails:
+    """Wraps a solver method: raises once, on the n-th call, after the real work of the first
+    n - 1 calls (the step has already changed the solver when it fails)."""
+
+    def __init__(self, method, n, error):
+        self.method, self.n, self.error, self.calls = method, n, error, 0
+
+    def __call__(self, *args, **kwargs):
+        self.calls += 1
+        if self.calls == self.n:
+            raise self.error
+        return self.method(*args, **kwargs)
+
+
+@pytest.mark.parametrize("error", [SolverError("integration failed"), FloatingPointError("x")],
+                         ids=["SolverError", "other"])
+@pytest.mark.parametrize("method", ["exact", "ode"])
+def test_step_failing_midway_changes_nothing(method, error):
+    """A failure after some impacts of a long step: the next step from the same time reports
+    the full impulse of its interval, each impact counted once."""
+    scene = Scene(impact_e=0.7, **METHODS[method])
+    sim, clean = Simulator(scene), Simulator(scene)
+    steps(sim, [(0.01, 0.1)] * 50)
+    steps(clean, [(0.01, 0.1)] * 50)
+    solver = sim.solver
+    solver._record = _Fails(solver._record, 3, error)
+    with pytest.raises(type(error)):
+        sim.advance(12.0)
+    assert solver._record.calls == 3  # two impacts were made before the failure
+    del solver._record
+    assert sim.advance(12.0) == clean.advance(12.0)
+    assert sim.report.impacts >= 3
+    assert steps(sim, SUFFIX) == steps(clean, SUFFIX)
+    assert sim.impacts == clean.impacts
+
+
+@pytest.mark.parametrize("h", [0.0, -0.01, math.nan, math.inf, True, "0.01", None])
+def test_bad_step_is_refused_and_changes_nothing(h):
+    scene = Scene(ice_z0=0.0, ice_v0=0.05, impact_e=0.5)  # an impact at t = 0: pending impulse
+    sim, clean = Simulator(scene), Simulator(scene)
+    with pytest.raises(ParameterError, match="communication step"):
+        sim.advance(h)
+    assert sim.save() == clean.save()
+    first = sim.advance(0.01)
+    assert first == clean.advance(0.01) and first.impacts == 1 and first.impulse > 0.0
+
+
+@pytest.mark.parametrize("u", [math.nan, math.inf, "0.1", 1e300])
+def test_bad_flow_is_refused_and_changes_nothing(u):
+    sim, clean = stepped(Scene(drag_model=2), 1.0), stepped(Scene(drag_model=2), 1.0)
+    with pytest.raises(ParameterError, match="flow.u"):
+        sim.advance(0.01, u)
+    assert sim.save() == clean.save()
+    assert steps(sim, SUFFIX) == steps(clean, SUFFIX)
+
+
+def test_step_too_small_to_advance_the_time_is_refused():
+    sim = stepped(Scene(), 2.0)
+    before = sim.save()
+    with pytest.raises(ParameterError) as err:
+        sim.advance(1e-17)
+    assert err.value.name == "communication step" and "t + h > t" in str(err.value)
+    assert sim.save() == before
+    sim.advance(1e-15)  # representable: fine
+    with pytest.raises(ParameterError, match="communication point"):
+        sim.advance_to(sim.t)
+
+
+# --- run() on the simulator ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_run_reports_what_the_simulator_reports(method):
+    scene = Scene(impact_e=0.5, drag_model=2, **METHODS[method])
+    res = run(scene, 3.0, dt=0.05)
+    sim = Simulator(scene)
+    reports = [sim.report] + [sim.advance_to(float(t)) for t in res.t[1:]]
+    assert np.array_equal(res.x, [r.x for r in reports])
+    assert np.array_equal(res.gap, [r.gap for r in reports])
+    assert np.array_equal(res.impulse, [r.impulse for r in reports])
+    assert np.all(res.gap >= 0.0) and np.all(res.penetration >= 0.0)
+    assert len(res.impacts) == sim.impact_count
+
+
+def test_run_gap_is_never_negative_where_the_ice_passes_through():
+    """The fixed-step window (eq. 26) lets the ice through the structure: reported as a
+    penetration, never as a negative gap."""
+    res = run(Scene(solver_method=2, solver_detection=1), 3.0)
+    assert np.any(res.x - res.z < 0.0)
+    assert np.all(res.gap >= 0.0)
+    assert np.array_equal(res.penetration > 0.0, res.x - res.z <= -1e-12)
+
+
+@pytest.mark.parametrize("times,index", [
+    ([0.1, math.nan], 1), ([math.inf], 0), ([0.2, 0.1], 1), ([0.1, 0.1], 1), ([0.0, 0.5], 0),
+    ([-0.1], 0), ([0.5, 1.5], 1)])
+def test_bad_sample_times_are_refused(times, index):
+    with pytest.raises(ParameterError) as err:
+        run(Scene(), 1.0, sample_times=times)
+    assert err.value.name == f"sample_times[{index}]"
+    assert "(0, t_end = 1.0] s" in str(err.value)
+    value = times[index]
+    assert err.value.value == value or (math.isnan(value) and math.isnan(err.value.value))
+
+
+def test_sample_times_must_be_a_sequence_of_numbers():
+    with pytest.raises(ParameterError, match="sample_times"):
+        run(Scene(), 1.0, sample_times=[[0.1, 0.2]])
+    with pytest.raises(ParameterError, match="sample_times"):
+        run(Scene(), 1.0, sample_times=["soon"])
