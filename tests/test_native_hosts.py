@@ -199,14 +199,15 @@ def test_fmu_runs_its_own_core_beside_another_iceimpact(fmu_dir, tmp_path):
         assert sys.modules["iceimpact"] is iceimpact and iceimpact.Scene is None
         slave = [m for n, m in sys.modules.items() if n.endswith("_slave")][0]
         print(json.dumps({{"x": result["structure.x"].tolist(), "slave": slave.__file__,
-                          "core": slave.Scene.__module__}}))
+                          "core": slave.FmuModel.__module__}}))
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           timeout=120)
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout.strip().splitlines()[-1])
     assert result["slave"].startswith(str(fmu_dir))
-    assert result["core"].startswith("_iceimpact_") and result["core"].endswith(".scene")
+    assert (result["core"].startswith("_iceimpact_")
+            and result["core"].endswith(".fmi.adapter"))
     np.testing.assert_array_equal(result["x"][1:], _grid_core(VALUES, 1000)["structure.x"])
 
 

@@ -162,7 +162,7 @@ def test_invalid_combination_is_an_error_row_not_a_crash():
     rows = sweep(None, {"impact.e": [0.5, 1.5], "drag.model": [2, 3]}, t_end=T_END, dt=DT,
                  workers=1, progress=False)
     assert [r["status"] == "ok" for r in rows] == [True, False, False, False]
-    assert rows[1]["status"] == "drag.model = 3 is not allowed: 1 or 2"
+    assert rows[1]["status"].startswith("drag.model = 3 is not allowed: 1 or 2")
     assert rows[2]["status"].startswith("impact.e = 1.5 is not allowed")
     for row in rows[1:]:
         assert all(math.isnan(row[k]) for k in SUMMARY_FIELDS)
@@ -377,7 +377,7 @@ def test_huge_numbers_are_clean_errors():
         sweep(None, {"flow.u": [0.1]}, t_end=1e6, dt=1e-9, progress=False)
     (row,) = sweep(None, {"solver.method": [1e30]}, t_end=T_END, dt=DT, workers=1,
                    progress=False)
-    assert row["status"] == "solver.method = 1e+30 is not allowed: 1, 2 or 3"
+    assert row["status"].startswith("solver.method = 1e+30 is not allowed: 1, 2 or 3")
 
 
 def test_integer_columns_are_ints(tmp_path):

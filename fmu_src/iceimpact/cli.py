@@ -27,22 +27,17 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from .contract import BY_NAME
 from .runspec import DEFAULT_DT, SpecError, apply, check_samples, parse_set
 from .scene import ParameterError, Scene, load_scene
 from .simulator import Result, run
 
 #: Columns of ``simulate --out``: the FMU's output names for the sampled states (SI units),
 #: with the Result field each comes from. ``contact.active`` is 1 while the bodies stick.
-SAMPLE_COLUMNS: tuple[tuple[str, str], ...] = (
-    ("time", "t"),
-    ("structure.x", "x"),
-    ("structure.v", "v"),
-    ("ice.z", "z"),
-    ("ice.v", "w"),
-    ("contact.gap", "gap"),
-    ("contact.impulse", "impulse"),
-    ("contact.active", "sticking"),
-)
+SAMPLE_COLUMNS: tuple[tuple[str, str], ...] = (("time", "t"), *(
+    (name, BY_NAME[name].field) for name in (
+        "structure.x", "structure.v", "ice.z", "ice.v", "contact.gap", "contact.penetration",
+        "contact.impulse", "contact.active")))
 
 #: Exit status of a sweep with failed runs (without --allow-failures).
 EXIT_RUNS_FAILED = 1

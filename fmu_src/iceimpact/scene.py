@@ -284,6 +284,8 @@ def load_scene(path: str | Path) -> Scene:
             data = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise ParameterError("scene file", str(path), f"a TOML file ({exc})") from None
+    except FileNotFoundError:
+        raise
     except (OSError, UnicodeDecodeError) as exc:
         raise ParameterError("scene file", str(path), f"a readable TOML file ({exc})") from None
     flat: dict[str, Any] = {}
