@@ -1,6 +1,10 @@
-"""Build dist/IceImpact.fmu (FMI 2.0 Co-Simulation) with PythonFMU.
+"""Build dist/IceImpact.fmu and dist/ModalStructure.fmu (FMI 2.0 Co-Simulation) with PythonFMU.
 
-    python build_fmu.py [--dest dist]
+    python build_fmu.py [--dest dist] [--fmu all|IceImpact|ModalStructure]
+
+ModalStructure.fmu, a linear structure given by its modes to couple IceImpact.fmu with (see
+docs/coupling.md), is built by :func:`build_modal` the same way, from ``fmu_src/ModalStructure.py``
+and its contract table ``iceimpact.modal_contract``. The rest of this text is about IceImpact.fmu.
 
 The FMU carries the slave (fmu_src/IceImpact.py), the model core (the ``iceimpact`` package) and
 a requirements.txt (numpy, scipy) under ``resources/``; it runs wherever a Python with numpy and
@@ -50,6 +54,7 @@ _SYMBOLS = {
     "m": {"m": 1},
     "s": {"s": 1},
     "N": {"kg": 1, "m": 1, "s": -2},
+    "Hz": {"s": -1},
 }
 
 
@@ -206,7 +211,7 @@ def build(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) ->
 NATIVE_PLATFORM = "linux64"
 PYTHONFMU_LIBRARY = "pythonfmu/IceImpact.so"  # relative to binaries/linux64 (loader.c knows it)
 
-ENTRY_MODULE = '''"""IceImpact.fmu: the module PythonFMU imports (written by build_fmu.py).
+ENTRY_MODULE = '''"""{slave}.fmu: the module PythonFMU imports (written by build_fmu.py).
 
 resources/slavemodule.txt names this module, so PythonFMU imports it under this private name and
 never picks up a module the host imported. PythonFMU 0.7.0 also executes this source again at
@@ -226,7 +231,7 @@ if _BOOT not in _sys.modules:
         _BOOT, _os.path.join(_os.path.dirname(__file__), "iceimpact_fmu", "boot.py"))
     _sys.modules[_BOOT] = _util.module_from_spec(_spec)
     _spec.loader.exec_module(_sys.modules[_BOOT])
-IceImpact = _sys.modules[_BOOT].load_slave("{build_id}")
+{slave} = _sys.modules[_BOOT].load_slave("{build_id}", "{slave}")
 '''
 
 
@@ -287,8 +292,10 @@ def python_environment(requirement_lines: list[str], library: Path | None) -> di
     }
 
 
-def compile_loader(dest: Path, library: Path | None, soname: str) -> Path:
-    """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython()."""
+def compile_loader(dest: Path, library: Path | None, soname: str,
+                   pythonfmu_library: str = PYTHONFMU_LIBRARY) -> Path:
+    """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython();
+    ``pythonfmu_library`` is where it finds PythonFMU's library, relative to binaries/linux64."""
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     if compiler is None:
         raise NativeBuildError(
@@ -299,7 +306,7 @@ def compile_loader(dest: Path, library: Path | None, soname: str) -> Path:
         "LIBPYTHON_PATH": str(library) if library else "",
         "LIBPYTHON_SONAME": soname,
         "PYTHON_VERSION": python_version(),
-        "PYTHONFMU_LIBRARY": PYTHONFMU_LIBRARY,
+        "PYTHONFMU_LIBRARY": pythonfmu_library,
     }
     command = [compiler, "-shared", "-fPIC", "-O2", "-std=c11", "-Wall", "-Wextra", "-Werror",
                "-fvisibility=hidden", "-Wl,-z,nodelete", "-o", str(dest), str(LOADER_SOURCE),
@@ -323,37 +330,159 @@ def entry_module_name(ident: str) -> str:
     return f"_iceimpact_{ident}_fmu"
 
 
-def package_for_native_hosts(fmu: Path) -> None:
-    """Rearrange a PythonFMU-built FMU as described above (Linux x86_64 builds only)."""
+def package_for_native_hosts(fmu: Path, slave_name: str = SLAVE_NAME) -> None:
+    """Rearrange a PythonFMU-built FMU as described above (Linux x86_64 builds only).
+
+    ``slave_name`` is the model identifier, the slave's module and class name (``IceImpact``
+    above; ``ModalStructure`` for :func:`build_modal`).
+    """
     if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
         warnings.warn("the native loader is built on Linux x86_64 only: this FMU needs a Python "
                       "host, or LD_PRELOAD of libpython in native hosts", stacklevel=2)
         return
     with zipfile.ZipFile(fmu) as src:
         entries = {info.filename: src.read(info) for info in src.infolist()}
-    slave = entries.pop(f"resources/{SLAVE_NAME}.py")
-    pythonfmu_library = entries.pop(f"binaries/{NATIVE_PLATFORM}/{SLAVE_NAME}.so")
-    ours = {f"resources/iceimpact_fmu/{SLAVE_NAME}.py": slave,
+    slave = entries.pop(f"resources/{slave_name}.py")
+    pythonfmu_library = entries.pop(f"binaries/{NATIVE_PLATFORM}/{slave_name}.so")
+    library_path = f"pythonfmu/{slave_name}.so"  # relative to binaries/linux64
+    ours = {f"resources/iceimpact_fmu/{slave_name}.py": slave,
             "resources/iceimpact_fmu/boot.py": BOOT_MODULE.read_bytes()}
     core = {name: data for name, data in entries.items()
             if name.startswith(f"resources/{PACKAGE_NAME}/")}
     ident = build_id({**ours, **core})
     requirement_lines = entries["resources/requirements.txt"].decode().splitlines()
     library, soname = libpython()
+    environment = python_environment(requirement_lines, library)
+    environment["model_identifier"] = slave_name  # boot.py names the FMU in its messages
     ours["resources/iceimpact_fmu/python.json"] = (
-        json.dumps(python_environment(requirement_lines, library), indent=2) + "\n").encode()
+        json.dumps(environment, indent=2) + "\n").encode()
     entry = entry_module_name(ident)
-    ours[f"resources/{entry}.py"] = ENTRY_MODULE.format(build_id=ident).encode()
+    ours[f"resources/{entry}.py"] = ENTRY_MODULE.format(build_id=ident,
+                                                        slave=slave_name).encode()
     ours["resources/slavemodule.txt"] = entry.encode()
-    ours[f"binaries/{NATIVE_PLATFORM}/{PYTHONFMU_LIBRARY}"] = pythonfmu_library
+    ours[f"binaries/{NATIVE_PLATFORM}/{library_path}"] = pythonfmu_library
     with tempfile.TemporaryDirectory(prefix="iceimpact_loader_") as tmp:
-        loader = compile_loader(Path(tmp) / f"{SLAVE_NAME}.so", library, soname)
-        ours[f"binaries/{NATIVE_PLATFORM}/{SLAVE_NAME}.so"] = loader.read_bytes()
+        loader = compile_loader(Path(tmp) / f"{slave_name}.so", library, soname, library_path)
+        ours[f"binaries/{NATIVE_PLATFORM}/{slave_name}.so"] = loader.read_bytes()
     tmp_fmu = fmu.with_suffix(".fmu.tmp")
     with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as dst:
         for name, data in {**entries, **ours}.items():
             dst.writestr(name, data)
     tmp_fmu.replace(fmu)
+
+
+# ModalStructure.fmu ------------------------------------------------------------------------------
+# The structure FMU of docs/coupling.md: a linear structure given by its modes (iceimpact.modal),
+# its variables in the contract table iceimpact.modal_contract. Built like IceImpact.fmu (the same
+# bundle, requirements and native-host packaging), from fmu_src/ModalStructure.py.
+
+MODAL_SLAVE_NAME = "ModalStructure"
+
+
+def complete_model_description_from(xml: bytes, contract) -> bytes:
+    """Add units, ranges, descriptions, initial unknowns and the default experiment to
+    PythonFMU's XML, all read from a contract table module (``BY_NAME``: name -> variable with
+    ``description``, ``unit``, ``minimum``, ``maximum``; ``DEFAULT_EXPERIMENT``;
+    ``number_text``), such as :mod:`iceimpact.modal_contract`."""
+    root = ET.fromstring(xml)
+    used_units: list[str] = []
+    outputs: list[int] = []
+    model_variables = root.find("ModelVariables")
+    for index, var in enumerate(model_variables.findall("ScalarVariable"), start=1):
+        name = var.get("name")
+        spec = contract.BY_NAME[name]
+        if not var.get("description"):
+            var.set("description", spec.description)
+        type_node = var[0]
+        if type_node.tag == "Real":
+            if not spec.unit:
+                raise ValueError(f"no unit for the Real variable {name!r}")
+            type_node.set("unit", spec.unit)
+            if spec.unit not in used_units:
+                used_units.append(spec.unit)
+        if type_node.tag in ("Integer", "Boolean") and var.get("causality") not in (
+                "parameter", "calculatedParameter"):
+            var.set("variability", "discrete")
+        if type_node.get("start") is not None and spec.start is not None:
+            # PythonFMU writes 16 significant digits; the start value is the contract's double
+            type_node.set("start", contract.number_text(spec.start))
+        if type_node.tag in ("Real", "Integer"):
+            if spec.minimum is not None:
+                type_node.set("min", contract.number_text(spec.minimum))
+            if spec.maximum is not None:
+                type_node.set("max", contract.number_text(spec.maximum))
+        if var.get("causality") == "output":
+            outputs.append(index)
+            if var.get("initial") is None:
+                var.set("initial", "calculated")
+
+    # UnitDefinitions: after <CoSimulation>, before <LogCategories> (fmiModelDescription schema).
+    for old in root.findall("UnitDefinitions"):
+        root.remove(old)
+    unit_defs = ET.Element("UnitDefinitions")
+    for unit in sorted(used_units):
+        node = ET.SubElement(unit_defs, "Unit", name=unit)
+        ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in base_units(unit).items()})
+    root.insert(list(root).index(root.find("CoSimulation")) + 1, unit_defs)
+
+    experiment = contract.DEFAULT_EXPERIMENT
+    for old in root.findall("DefaultExperiment"):
+        root.remove(old)
+    root.insert(list(root).index(model_variables), ET.Element("DefaultExperiment", {
+        "startTime": contract.number_text(experiment.start_time),
+        "stopTime": contract.number_text(experiment.stop_time),
+        "stepSize": contract.number_text(experiment.step_size)}))
+
+    structure = root.find("ModelStructure")
+    for old in structure.findall("InitialUnknowns"):
+        structure.remove(old)
+    initial = ET.SubElement(structure, "InitialUnknowns")
+    for index in outputs:
+        # No "dependencies" attribute: an output may depend on every parameter and the input.
+        ET.SubElement(initial, "Unknown", index=str(index))
+
+    text = ET.tostring(root, encoding="unicode")
+    pretty = minidom.parseString(text).toprettyxml(indent="  ", encoding="UTF-8")
+    return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
+
+
+def build_modal(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) -> Path:
+    """Build ``<dest>/ModalStructure.fmu`` from ``<source_dir>/ModalStructure.py`` and the
+    ``iceimpact`` package (its contract: :mod:`iceimpact.modal_contract`)."""
+    source_dir = Path(source_dir).resolve()
+    dest = Path(dest).resolve()
+    dest.mkdir(parents=True, exist_ok=True)
+    if str(source_dir) not in sys.path:
+        sys.path.insert(0, str(source_dir))
+    from pythonfmu import FmuBuilder
+
+    from iceimpact import modal_contract
+
+    with tempfile.TemporaryDirectory(prefix="modal_fmu_") as tmp:
+        req = Path(tmp) / "requirements.txt"
+        req.write_text(requirements())
+        fmu = Path(FmuBuilder.build_FMU(
+            source_dir / f"{MODAL_SLAVE_NAME}.py",
+            dest=dest,
+            project_files=[source_dir / PACKAGE_NAME, req],
+            canGetAndSetFMUstate=True,
+            canSerializeFMUstate=True,
+        ))
+    with zipfile.ZipFile(fmu) as src:
+        entries = [(info, src.read(info)) for info in src.infolist()]
+    tmp_fmu = fmu.with_suffix(".fmu.tmp")
+    with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as dst:
+        for info, data in entries:
+            if info.filename == "modelDescription.xml":
+                data = complete_model_description_from(data, modal_contract)
+            dst.writestr(info.filename, data, compress_type=zipfile.ZIP_DEFLATED)
+    tmp_fmu.replace(fmu)
+    package_for_native_hosts(fmu, MODAL_SLAVE_NAME)
+    return fmu
+
+
+#: What ``python build_fmu.py --fmu NAME`` builds.
+BUILDERS = {SLAVE_NAME: build, MODAL_SLAVE_NAME: build_modal}
 
 
 def variables_table(fmu: str | Path) -> str:
@@ -374,19 +503,29 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dest", default=str(ROOT / "dist"),
                         help="output folder (default: dist)")
+    parser.add_argument("--fmu", choices=["all", *BUILDERS], default="all",
+                        help="which FMU to build (default: all, i.e. IceImpact.fmu and "
+                             "ModalStructure.fmu)")
     parser.add_argument("--variables-table", action="store_true",
-                        help="also print the variables as a Markdown table (docs/fmu.md)")
+                        help="also print the variables of IceImpact.fmu as a Markdown table "
+                             "(docs/fmu.md)")
     args = parser.parse_args(argv)
-    fmu = build(args.dest)
-    if args.variables_table:
-        print(variables_table(fmu))
     from fmpy.validation import validate_fmu
 
-    problems = validate_fmu(str(fmu))
-    for problem in problems:
-        print(f"validation: {problem}", file=sys.stderr)
-    print(f"built {fmu}" + ("" if not problems else f" ({len(problems)} validation problems)"))
-    return 1 if problems else 0
+    failed = 0
+    for name, builder in BUILDERS.items():
+        if args.fmu not in ("all", name):
+            continue
+        fmu = builder(args.dest)
+        if args.variables_table and name == SLAVE_NAME:
+            print(variables_table(fmu))
+        problems = validate_fmu(str(fmu))
+        for problem in problems:
+            print(f"validation: {problem}", file=sys.stderr)
+        print(f"built {fmu}" + ("" if not problems else f" ({len(problems)} validation "
+                                                       "problems)"))
+        failed += bool(problems)
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -1,0 +1,172 @@
+"""The FMI contract of ModalStructure.fmu: every variable, its unit, range, start value and meaning.
+
+The one home of the structure FMU's interface: the slave (``fmu_src/ModalStructure.py``)
+registers exactly these variables, :mod:`iceimpact.modal_fmu` validates the parameters against the
+ranges here, ``build_fmu.py`` writes units, min/max, descriptions and the default experiment from
+it, and docs/coupling.md lists it (:func:`markdown_table`).
+
+FMI 2.0 has no arrays: the FMU has :data:`MAX_MODES` modes, ``mode1.*`` to ``mode5.*``, of which
+the first ``modes`` are used (the others are ignored and not validated). The defaults are one mode
+equal to IceImpact's built-in structure (m = 1600 kg, c = 200 N.s/m, k = 1e6 N/m, seen with
+phi = 1); modes 2 to 5 have the same frequency, damping and mass but ``phi = 0``, so a mode switched
+on without values of its own does not move the contact point.
+
+This module imports nothing from the package: it is a bottom layer.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+VERSION = "0.1.0"
+
+MODEL_IDENTIFIER = "ModalStructure"
+AUTHOR = "IceImpact contributors"
+LICENSE = "MIT"
+DESCRIPTION = ("A linear structure given by up to 5 modes, seen at one contact point: contact "
+               "force in, displacement, velocity and acceleration out; exact for a force held "
+               "over each step")
+
+MAX_MODES = 5
+
+
+@dataclass(frozen=True)
+class DefaultExperiment:
+    """The FMU's DefaultExperiment: IceImpact's (400 s at 1 ms steps), for coupled runs."""
+
+    start_time: float = 0.0   # s
+    stop_time: float = 400.0  # s
+    step_size: float = 1e-3   # s
+
+
+DEFAULT_EXPERIMENT = DefaultExperiment()
+
+# Causalities and variabilities, as FMI 2.0 spells them.
+PARAMETER, INPUT, OUTPUT = "parameter", "input", "output"
+FIXED, TUNABLE, CONTINUOUS, DISCRETE = "fixed", "tunable", "continuous", "discrete"
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI variable.
+
+    ``mode`` is the mode number (1 to 5) of a ``mode<k>.<field>`` parameter, else 0; ``field``
+    is the :class:`~iceimpact.modal.Mode` field (or ``q0``/``v0``) of a mode parameter.
+    ``minimum``/``maximum`` bound the allowed values (``min_exclusive`` makes the lower bound
+    strict); ``allowed`` is the range as a reader sees it in error messages and docs.
+    """
+
+    name: str
+    causality: str
+    kind: type                 # float (Real) or int (Integer)
+    unit: str                  # SI, as in modelDescription.xml; "" for Integer
+    description: str
+    start: float | int | None = None
+    allowed: str = "finite"
+    minimum: float | None = None
+    maximum: float | None = None
+    min_exclusive: bool = False
+    variability: str = FIXED
+    mode: int = 0
+    field: str = ""
+
+    @property
+    def tunable(self) -> bool:
+        return self.variability == TUNABLE
+
+    def in_range(self, value: float) -> bool:
+        """True if the finite number ``value`` lies within [minimum, maximum] (strict where
+        marked)."""
+        if self.minimum is not None and (value < self.minimum
+                                         or (self.min_exclusive and value == self.minimum)):
+            return False
+        return self.maximum is None or value <= self.maximum
+
+
+# IceImpact's built-in structure (iceimpact.contract / scene defaults) as one mode.
+_M, _C, _K = 1600.0, 200.0, 1.0e6
+DEFAULT_F = math.sqrt(_K / _M) / (2.0 * math.pi)      # Hz
+DEFAULT_ZETA = _C / (2.0 * math.sqrt(_K * _M))        # 1
+DEFAULT_M = _M                                        # kg
+
+_POSITIVE = {"allowed": "> 0", "minimum": 0.0, "min_exclusive": True}
+_NON_NEGATIVE = {"allowed": ">= 0", "minimum": 0.0}
+
+
+def _mode_parameters(k: int) -> tuple[Variable, ...]:
+    def real(field: str, unit: str, description: str, start: float, **kw) -> Variable:
+        return Variable(f"mode{k}.{field}", PARAMETER, float, unit, f"mode {k}: {description}",
+                        start, mode=k, field=field, **kw)
+
+    return (
+        real("f", "Hz", "natural frequency (undamped)", DEFAULT_F, **_POSITIVE),
+        real("zeta", "1", "damping ratio (1 = critical; any value >= 0)", DEFAULT_ZETA,
+             **_NON_NEGATIVE),
+        real("m", "kg", "modal mass", DEFAULT_M, **_POSITIVE),
+        real("phi", "1", "mode-shape value at the contact point (the force drives the mode with "
+             "phi force; x = sum phi q)", 1.0 if k == 1 else 0.0),
+        real("q0", "m", "initial modal displacement", 0.0),
+        real("v0", "m/s", "initial modal velocity", 0.0),
+    )
+
+
+MODES_PARAMETER = Variable(
+    "modes", PARAMETER, int, "", f"number of modes used (mode1 to mode<modes>; 1 to {MAX_MODES})",
+    1, allowed=f"1 <= modes <= {MAX_MODES}", minimum=1, maximum=MAX_MODES)
+
+#: Parameters, in the order of their value references (append new ones at the end).
+PARAMETERS: tuple[Variable, ...] = (MODES_PARAMETER,) + tuple(
+    v for k in range(1, MAX_MODES + 1) for v in _mode_parameters(k))
+
+#: The input, held constant over each communication step (zero-order hold).
+INPUTS: tuple[Variable, ...] = (
+    Variable("force", INPUT, float, "N", "contact force on the structure at the contact point, "
+             "positive in the direction of x (IceImpact's contact.force)", 0.0,
+             variability=CONTINUOUS),
+)
+FORCE_INPUT = INPUTS[0]
+
+#: Outputs: the contact point at the end of the last communication step.
+OUTPUTS: tuple[Variable, ...] = (
+    Variable("x", OUTPUT, float, "m", "displacement of the contact point",
+             variability=CONTINUOUS, allowed=""),
+    Variable("v", OUTPUT, float, "m/s", "velocity of the contact point",
+             variability=CONTINUOUS, allowed=""),
+    Variable("a", OUTPUT, float, "m/s2", "acceleration of the contact point under the current "
+             "value of force (at the end of a step: under the force of that step)",
+             variability=CONTINUOUS, allowed=""),
+)
+
+#: Every variable, in value-reference order per type as the slave registers them.
+VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS
+BY_NAME: dict[str, Variable] = {v.name: v for v in VARIABLES}
+
+
+def number_text(value: float | int) -> str:
+    """A number as modelDescription.xml and the docs write it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if float(value).is_integer() and abs(value) < 1e15:
+        return repr(int(value))
+    return repr(float(value)) if math.isfinite(value) else str(value)
+
+
+def markdown_table() -> str:
+    """The variables as the Markdown table of docs/coupling.md (``mode2.*`` to ``mode5.*``
+    summarised in one row)."""
+    kinds = {float: "Real", int: "Integer"}
+    rows = ["| name | causality | type | unit | start | allowed | meaning |",
+            "|---|---|---|---|---|---|---|"]
+    for v in VARIABLES:
+        if v.mode > 1:
+            continue
+        causality = v.causality + (" (tunable)" if v.tunable else "")
+        start = "" if v.start is None else number_text(v.start)
+        rows.append(f"| `{v.name}` | {causality} | {kinds[v.kind]} | {v.unit or '–'} | {start} | "
+                    f"{v.allowed} | {v.description} |")
+        if v.name == "mode1.v0":  # the last parameter of mode 1
+            rows.append(f"| `mode2.*` … `mode{MAX_MODES}.*` | parameter | Real | | as mode 1, "
+                        "but phi = 0 | as mode 1 | the same six parameters for modes 2 to "
+                        f"{MAX_MODES} |")
+    return "\n".join(rows) + "\n"
