@@ -297,3 +297,11 @@ def test_reset_before_initialization_and_doStep_without_initialization(fmu_dir,
         assert "does not match the time of the FMU" in errors(inst)
     finally:
         inst.free()
+
+
+def test_structure_force_is_the_spring_force():
+    """structure.force = k x (the base shear of docs/design_loads.md), after every step."""
+    model = model_after(0, {"structure.k": 2.5e6, "impact.e": 0.5})
+    for k in range(1500):
+        assert model.do_step(k * DT, DT)
+        assert model.get("structure.force") == 2.5e6 * model.get("structure.x")

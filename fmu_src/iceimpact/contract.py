@@ -187,6 +187,9 @@ OUTPUTS: tuple[Variable, ...] = (
          "grid (solver.method = 2), or the ODE method's integration error (3, of the order of "
          "its absolute tolerance, 1e-3 solver.rtol m); always 0 with the exact method",
          minimum=0.0),
+    _out("structure.force", "spring_force", float, "N",
+         "spring force k x of the structure: the base shear of the SDOF idealisation, the load "
+         "a design check takes (docs/design_loads.md)"),
 )
 
 #: Every variable, in value-reference order per type as the slave registers them.

@@ -59,6 +59,7 @@ class StepReport:
     impact_count: int    # impacts since the start
     t_last: float        # time of the latest impact, s (-1 before the first)
     sticking: bool       # bodies stick together at the end of the step
+    spring_force: float  # k x, the structure's spring force (base shear of the SDOF), N
 
 
 _REPORT_FIELDS = tuple(f.name for f in fields(StepReport))
@@ -185,7 +186,7 @@ class Simulator:
             t=s.t, x=s.x, v=s.v, z=s.z, w=s.w, gap=gap, penetration=penetration, impulse=impulse,
             force=impulse / h if h > 0.0 else 0.0, impacts=count - self._n_reported,
             impact_count=count, t_last=-1.0 if t_last is None else t_last,
-            sticking=self.solver.sticking)
+            sticking=self.solver.sticking, spring_force=self.scene.structure_k * s.x)
 
     def set_restitution(self, e: float) -> None:
         """Change ``impact.e`` (tunable) for impacts from now on; 0 <= e <= 1."""
