@@ -36,8 +36,8 @@ bench: $(STAMP)
 # the article's figures and its lock-in case through the FMU (~7 min), and the regime map (~5 min)
 reproduce: $(STAMP)
 	$(PY) build_fmu.py
-	$(PY) examples/reproduce_linear.py
-	$(PY) examples/reproduce_quadratic.py
+	$(PY) examples/reproduce_linear.py --img-dir docs/img
+	$(PY) examples/reproduce_quadratic.py --img-dir docs/img
 	$(PY) examples/lockin.py
 
 regime-map: $(STAMP)
