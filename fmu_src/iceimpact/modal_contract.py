@@ -27,8 +27,8 @@ from .contract import CONTINUOUS, INPUT, OUTPUT, PARAMETER, DefaultExperiment, V
 VERSION = "0.1.0"
 
 MODEL_IDENTIFIER = "ModalStructure"
-AUTHOR = "IceImpact contributors"
-LICENSE = "MIT"
+AUTHOR = contract.AUTHOR
+LICENSE = contract.LICENSE
 DESCRIPTION = ("A linear structure given by up to 5 modes, seen at one contact point: contact "
                "force in, displacement, velocity and acceleration out; exact for a force held "
                "over each step")

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .fmi.lifecycle import ERROR, FmuLifecycle
-from .fmi.state_codec import StateCodec, check_keys, check_number
+from .fmi.state_codec import StateCodec, check_keys, check_number, check_values
 from .modal import ModalStructure, Mode
 from .modal_contract import (
     FORCE_INPUT,
@@ -71,10 +71,7 @@ _RECORD_KEYS = {"values", "force", "step_force", "start_time", "time", "error", 
 def check_record(record: Any) -> dict[str, Any]:
     """Check the types of an instance record (the structure part is rebuilt by restore)."""
     check_keys("state", record, _RECORD_KEYS)
-    values = record["values"]
-    if not isinstance(values, dict) or set(values) != _PARAMETER_NAMES:
-        raise StateError("values", sorted(values) if isinstance(values, dict) else values,
-                         "an object holding every parameter of the FMU, and only those")
+    values = check_values("values", record["values"], _PARAMETER_NAMES)
     for name, value in values.items():
         if name == MODES_PARAMETER.name:
             if isinstance(value, bool) or not isinstance(value, int):

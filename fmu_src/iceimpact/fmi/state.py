@@ -23,7 +23,7 @@ from typing import Any
 
 from ..contract import FLOW_INPUT, MODEL_IDENTIFIER, PARAMETERS, VERSION
 from ..solvers.state import StateError
-from .state_codec import FORMAT, StateCodec, check_keys, check_number
+from .state_codec import FORMAT, StateCodec, check_keys, check_number, check_values
 
 __all__ = ["CODEC", "FORMAT", "MAGIC", "MAX_BYTES", "check_record", "decode", "encode"]
 
@@ -39,10 +39,7 @@ _RECORD_KEYS = {"values", "flow_u", "start_time", "time", "pending", "error",
 def check_record(record: Any) -> dict[str, Any]:
     """Check the instance part of a state (the simulator part is checked when restored)."""
     check_keys("state", record, _RECORD_KEYS)
-    values = record["values"]
-    if not isinstance(values, dict) or set(values) != _PARAMETER_NAMES:
-        raise StateError("state.values", sorted(values) if isinstance(values, dict) else values,
-                         "an object holding every parameter of the FMU, and only those")
+    values = check_values("state.values", record["values"], _PARAMETER_NAMES)
     for name, value in values.items():
         check_number(f"state.values[{name!r}]", value)
     pending = record["pending"]

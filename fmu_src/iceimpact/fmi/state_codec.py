@@ -100,6 +100,15 @@ def check_keys(field: str, record: Any, keys: set[str]) -> None:
         raise StateError(field, got, f"an object with the keys {sorted(keys)}")
 
 
+def check_values(field: str, values: Any, names: set[str]) -> dict[str, Any]:
+    """``values`` is an object holding the parameters ``names``, and only those (the types of
+    the values are the record's to check)."""
+    if not isinstance(values, dict) or set(values) != names:
+        raise StateError(field, sorted(values) if isinstance(values, dict) else values,
+                         "an object holding every parameter of the FMU, and only those")
+    return values
+
+
 def check_number(field: str, value: Any, finite: bool = True) -> None:
     """``value`` is a number (not a bool), finite unless ``finite=False``."""
     if isinstance(value, bool) or not isinstance(value, int | float):
