@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import importlib
 import json
 import os
 import platform
@@ -38,6 +39,7 @@ import tempfile
 import warnings
 import zipfile
 from pathlib import Path
+from types import ModuleType
 from xml.dom import minidom
 from xml.etree import ElementTree as ET
 
@@ -91,31 +93,35 @@ def requirements() -> str:
     return "".join(f"{dep}\n" for dep in wanted)
 
 
-def complete_model_description(xml: bytes) -> bytes:
-    """Add units, ranges, initial unknowns and the default experiment to PythonFMU's XML."""
-    from iceimpact.contract import BY_NAME, DEFAULT_EXPERIMENT, number_text
+def complete_model_description(xml: bytes, contract: ModuleType) -> bytes:
+    """Add units, ranges, full-precision start values, descriptions, initial unknowns and the
+    default experiment to PythonFMU's XML, all read from a contract table module
+    (:mod:`iceimpact.contract`, :mod:`iceimpact.modal_contract`: ``BY_NAME``, name -> variable;
+    ``DEFAULT_EXPERIMENT``)."""
+    from iceimpact.contract import number_text
 
     root = ET.fromstring(xml)
-
     used_units: list[str] = []
     outputs: list[int] = []
     model_variables = root.find("ModelVariables")
     for index, var in enumerate(model_variables.findall("ScalarVariable"), start=1):
         name = var.get("name")
-        spec = BY_NAME[name]
+        spec = contract.BY_NAME[name]
         if not var.get("description"):
             var.set("description", spec.description)
         type_node = var[0]
         if type_node.tag == "Real":
-            unit = spec.unit
-            if not unit:
+            if not spec.unit:
                 raise ValueError(f"no unit for the Real variable {name!r}")
-            type_node.set("unit", unit)
-            if unit not in used_units:
-                used_units.append(unit)
+            type_node.set("unit", spec.unit)
+            if spec.unit not in used_units:
+                used_units.append(spec.unit)
         if type_node.tag in ("Integer", "Boolean") and var.get("causality") not in (
                 "parameter", "calculatedParameter"):
             var.set("variability", "discrete")
+        if type_node.get("start") is not None and spec.start is not None:
+            # PythonFMU writes 16 significant digits; the start value is the contract's double
+            type_node.set("start", number_text(spec.start))
         if type_node.tag in ("Real", "Integer"):
             if spec.minimum is not None:
                 type_node.set("min", number_text(spec.minimum))
@@ -133,17 +139,15 @@ def complete_model_description(xml: bytes) -> bytes:
     for unit in sorted(used_units):
         node = ET.SubElement(unit_defs, "Unit", name=unit)
         ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in base_units(unit).items()})
-    children = list(root)
-    position = children.index(root.find("CoSimulation")) + 1
-    root.insert(position, unit_defs)
+    root.insert(list(root).index(root.find("CoSimulation")) + 1, unit_defs)
 
+    experiment = contract.DEFAULT_EXPERIMENT
     for old in root.findall("DefaultExperiment"):
         root.remove(old)
-    experiment = ET.Element("DefaultExperiment", {
-        "startTime": number_text(DEFAULT_EXPERIMENT.start_time),
-        "stopTime": number_text(DEFAULT_EXPERIMENT.stop_time),
-        "stepSize": number_text(DEFAULT_EXPERIMENT.step_size)})
-    root.insert(list(root).index(model_variables), experiment)
+    root.insert(list(root).index(model_variables), ET.Element("DefaultExperiment", {
+        "startTime": number_text(experiment.start_time),
+        "stopTime": number_text(experiment.stop_time),
+        "stepSize": number_text(experiment.step_size)}))
 
     structure = root.find("ModelStructure")
     for old in structure.findall("InitialUnknowns"):
@@ -158,20 +162,28 @@ def complete_model_description(xml: bytes) -> bytes:
     return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
 
 
-def _rewrite_model_description(fmu: Path) -> None:
+def _rewrite_model_description(fmu: Path, contract: ModuleType) -> None:
     with zipfile.ZipFile(fmu) as src:
         entries = [(info, src.read(info)) for info in src.infolist()]
     tmp = fmu.with_suffix(".fmu.tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as dst:
         for info, data in entries:
             if info.filename == "modelDescription.xml":
-                data = complete_model_description(data)
+                data = complete_model_description(data, contract)
             dst.writestr(info.filename, data, compress_type=zipfile.ZIP_DEFLATED)
     tmp.replace(fmu)
 
 
 def build(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) -> Path:
     """Build ``<dest>/IceImpact.fmu`` from ``<source_dir>/IceImpact.py`` and its package."""
+    return build_slave(SLAVE_NAME, "iceimpact.contract", dest, source_dir)
+
+
+def build_slave(slave_name: str, contract_module: str, dest: str | Path = ROOT / "dist",
+                source_dir: str | Path = FMU_SRC) -> Path:
+    """Build ``<dest>/<slave_name>.fmu`` from ``<source_dir>/<slave_name>.py`` and the
+    ``iceimpact`` package; ``contract_module`` names its contract table (imported from
+    ``source_dir``), which completes modelDescription.xml."""
     source_dir = Path(source_dir).resolve()
     dest = Path(dest).resolve()
     dest.mkdir(parents=True, exist_ok=True)
@@ -179,19 +191,19 @@ def build(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) ->
         sys.path.insert(0, str(source_dir))
     from pythonfmu import FmuBuilder
 
-    with tempfile.TemporaryDirectory(prefix="iceimpact_fmu_") as tmp:
+    contract = importlib.import_module(contract_module)
+    with tempfile.TemporaryDirectory(prefix=f"{slave_name.lower()}_fmu_") as tmp:
         req = Path(tmp) / "requirements.txt"
         req.write_text(requirements())
-        fmu = FmuBuilder.build_FMU(
-            source_dir / f"{SLAVE_NAME}.py",
+        fmu = Path(FmuBuilder.build_FMU(
+            source_dir / f"{slave_name}.py",
             dest=dest,
             project_files=[source_dir / PACKAGE_NAME, req],
             canGetAndSetFMUstate=True,
             canSerializeFMUstate=True,
-        )
-    fmu = Path(fmu)
-    _rewrite_model_description(fmu)
-    package_for_native_hosts(fmu)
+        ))
+    _rewrite_model_description(fmu, contract)
+    package_for_native_hosts(fmu, slave_name)
     return fmu
 
 
@@ -379,106 +391,10 @@ def package_for_native_hosts(fmu: Path, slave_name: str = SLAVE_NAME) -> None:
 MODAL_SLAVE_NAME = "ModalStructure"
 
 
-def complete_model_description_from(xml: bytes, contract) -> bytes:
-    """Add units, ranges, descriptions, initial unknowns and the default experiment to
-    PythonFMU's XML, all read from a contract table module (``BY_NAME``: name -> variable with
-    ``description``, ``unit``, ``minimum``, ``maximum``; ``DEFAULT_EXPERIMENT``;
-    ``number_text``), such as :mod:`iceimpact.modal_contract`."""
-    root = ET.fromstring(xml)
-    used_units: list[str] = []
-    outputs: list[int] = []
-    model_variables = root.find("ModelVariables")
-    for index, var in enumerate(model_variables.findall("ScalarVariable"), start=1):
-        name = var.get("name")
-        spec = contract.BY_NAME[name]
-        if not var.get("description"):
-            var.set("description", spec.description)
-        type_node = var[0]
-        if type_node.tag == "Real":
-            if not spec.unit:
-                raise ValueError(f"no unit for the Real variable {name!r}")
-            type_node.set("unit", spec.unit)
-            if spec.unit not in used_units:
-                used_units.append(spec.unit)
-        if type_node.tag in ("Integer", "Boolean") and var.get("causality") not in (
-                "parameter", "calculatedParameter"):
-            var.set("variability", "discrete")
-        if type_node.get("start") is not None and spec.start is not None:
-            # PythonFMU writes 16 significant digits; the start value is the contract's double
-            type_node.set("start", contract.number_text(spec.start))
-        if type_node.tag in ("Real", "Integer"):
-            if spec.minimum is not None:
-                type_node.set("min", contract.number_text(spec.minimum))
-            if spec.maximum is not None:
-                type_node.set("max", contract.number_text(spec.maximum))
-        if var.get("causality") == "output":
-            outputs.append(index)
-            if var.get("initial") is None:
-                var.set("initial", "calculated")
-
-    # UnitDefinitions: after <CoSimulation>, before <LogCategories> (fmiModelDescription schema).
-    for old in root.findall("UnitDefinitions"):
-        root.remove(old)
-    unit_defs = ET.Element("UnitDefinitions")
-    for unit in sorted(used_units):
-        node = ET.SubElement(unit_defs, "Unit", name=unit)
-        ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in base_units(unit).items()})
-    root.insert(list(root).index(root.find("CoSimulation")) + 1, unit_defs)
-
-    experiment = contract.DEFAULT_EXPERIMENT
-    for old in root.findall("DefaultExperiment"):
-        root.remove(old)
-    root.insert(list(root).index(model_variables), ET.Element("DefaultExperiment", {
-        "startTime": contract.number_text(experiment.start_time),
-        "stopTime": contract.number_text(experiment.stop_time),
-        "stepSize": contract.number_text(experiment.step_size)}))
-
-    structure = root.find("ModelStructure")
-    for old in structure.findall("InitialUnknowns"):
-        structure.remove(old)
-    initial = ET.SubElement(structure, "InitialUnknowns")
-    for index in outputs:
-        # No "dependencies" attribute: an output may depend on every parameter and the input.
-        ET.SubElement(initial, "Unknown", index=str(index))
-
-    text = ET.tostring(root, encoding="unicode")
-    pretty = minidom.parseString(text).toprettyxml(indent="  ", encoding="UTF-8")
-    return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
-
-
 def build_modal(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) -> Path:
     """Build ``<dest>/ModalStructure.fmu`` from ``<source_dir>/ModalStructure.py`` and the
     ``iceimpact`` package (its contract: :mod:`iceimpact.modal_contract`)."""
-    source_dir = Path(source_dir).resolve()
-    dest = Path(dest).resolve()
-    dest.mkdir(parents=True, exist_ok=True)
-    if str(source_dir) not in sys.path:
-        sys.path.insert(0, str(source_dir))
-    from pythonfmu import FmuBuilder
-
-    from iceimpact import modal_contract
-
-    with tempfile.TemporaryDirectory(prefix="modal_fmu_") as tmp:
-        req = Path(tmp) / "requirements.txt"
-        req.write_text(requirements())
-        fmu = Path(FmuBuilder.build_FMU(
-            source_dir / f"{MODAL_SLAVE_NAME}.py",
-            dest=dest,
-            project_files=[source_dir / PACKAGE_NAME, req],
-            canGetAndSetFMUstate=True,
-            canSerializeFMUstate=True,
-        ))
-    with zipfile.ZipFile(fmu) as src:
-        entries = [(info, src.read(info)) for info in src.infolist()]
-    tmp_fmu = fmu.with_suffix(".fmu.tmp")
-    with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED) as dst:
-        for info, data in entries:
-            if info.filename == "modelDescription.xml":
-                data = complete_model_description_from(data, modal_contract)
-            dst.writestr(info.filename, data, compress_type=zipfile.ZIP_DEFLATED)
-    tmp_fmu.replace(fmu)
-    package_for_native_hosts(fmu, MODAL_SLAVE_NAME)
-    return fmu
+    return build_slave(MODAL_SLAVE_NAME, "iceimpact.modal_contract", dest, source_dir)
 
 
 #: What ``python build_fmu.py --fmu NAME`` builds.

@@ -1,125 +1,25 @@
 """ModalStructure: the FMI 2.0 Co-Simulation slave (PythonFMU) of a structure given by its modes.
 
-FMI plumbing only: the variables are registered from the contract table
-(:mod:`iceimpact.modal_contract`), every call is passed to
+FMI plumbing only, all of it shared with IceImpact.fmu
+(:class:`iceimpact.fmi.slave_base.FmuSlave`): the variables and metadata come from the contract
+table (:mod:`iceimpact.modal_contract`), every call is passed to
 :class:`iceimpact.modal_fmu.ModalFmuModel`, which holds the life-cycle rules and the state
 record, and the physics is :class:`iceimpact.modal.ModalStructure`. ``build_fmu.py`` bundles the
 ``iceimpact`` package under ``resources/``.
-
-No exception may leave a slave method: PythonFMU 0.7.0 turns it into ``fmi2Fatal`` and releases
-the instance, and a later ``fmi2FreeInstance`` can then crash the host. Failures are logged
-(variable, value, allowed range) and reported through ``do_step`` returning False
-(``fmi2Discard``) or, for a step refused because of invalid parameters, ``fail_call``
-(``fmi2Error``), as IceImpact.fmu does.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from iceimpact import modal_contract
+from iceimpact.fmi.pythonfmu_fixes import hold_module_dict
+from iceimpact.fmi.slave_base import FmuSlave
+from iceimpact.modal_fmu import ModalFmuModel
 
-from pythonfmu import (
-    DefaultExperiment,
-    Fmi2Causality,
-    Fmi2Initial,
-    Fmi2Slave,
-    Fmi2Variability,
-    Integer,
-    Real,
-)
-from pythonfmu.enums import Fmi2Status
-
-from iceimpact import modal_contract as contract
-from iceimpact import modal_fmu
-from iceimpact_fmu_boot import fail_call, guard_native_exit
-
-# PythonFMU 0.7.0 re-executes the module it imports at every fmi2Instantiate and steals one
-# reference to its dictionary each time (see IceImpact.py): give it back.
-globals().setdefault("_MODULE_DICT_REFS", []).append(globals())
-
-_TYPES = {float: Real, int: Integer}
-_CAUSALITY = {contract.PARAMETER: Fmi2Causality.parameter, contract.INPUT: Fmi2Causality.input,
-              contract.OUTPUT: Fmi2Causality.output}
-_VARIABILITY = {contract.FIXED: Fmi2Variability.fixed, contract.TUNABLE: Fmi2Variability.tunable,
-                contract.CONTINUOUS: Fmi2Variability.continuous,
-                contract.DISCRETE: Fmi2Variability.discrete}
-_EXPERIMENT = contract.DEFAULT_EXPERIMENT
+hold_module_dict(globals())  # runs at each re-execution of this module by PythonFMU's loader
 
 
-class ModalStructure(Fmi2Slave):
+class ModalStructure(FmuSlave):
     """A linear structure given by up to 5 modes, seen at one contact point."""
 
-    author = contract.AUTHOR
-    description = contract.DESCRIPTION
-    license = contract.LICENSE
-    version = contract.VERSION
-    default_experiment = DefaultExperiment(start_time=_EXPERIMENT.start_time,
-                                           stop_time=_EXPERIMENT.stop_time,
-                                           step_size=_EXPERIMENT.step_size)
-
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(**kwargs)
-        guard_native_exit(contract.MODEL_IDENTIFIER)
-        self._model = modal_fmu.ModalFmuModel(self._log, self._fail)
-        for var in contract.VARIABLES:
-            output = var.causality == contract.OUTPUT
-            self.register_variable(_TYPES[var.kind](
-                var.name, causality=_CAUSALITY[var.causality],
-                variability=_VARIABILITY[var.variability], description=var.description,
-                initial=Fmi2Initial.calculated if output else None,
-                getter=self._getter(var.name), setter=None if output else self._setter(var.name)),
-                nested=False)
-
-    def _getter(self, name: str):
-        return lambda: self._model.get(name)
-
-    def _setter(self, name: str):
-        return lambda value: self._model.set(name, value)
-
-    def _log(self, status: int, message: str) -> None:
-        # FMI loggers treat the message as a printf format string
-        self.log(message.replace("%", "%%"), Fmi2Status(status))
-
-    def _fail(self, message: str) -> None:
-        fail_call(self, message.replace("%", "%%"))
-
-    # FMI life cycle ------------------------------------------------------------------------------
-    def setup_experiment(self, start_time: float, stop_time: float | None,
-                         tolerance: float | None) -> None:
-        self._model.setup_experiment(start_time)
-
-    def exit_initialization_mode(self) -> None:
-        self._model.initialize()
-
-    def do_step(self, current_time: float, step_size: float) -> bool:
-        return self._model.do_step(current_time, step_size)
-
-    # FMU state: a small record, serialized to a validated, versioned JSON layout ------------------
-    def _get_fmu_state(self) -> dict[str, Any]:
-        try:
-            return self._model.snapshot()
-        except Exception as exc:  # reported when this state is set or serialized
-            self._log(modal_fmu.ERROR, f"fmi2GetFMUstate failed: {exc!r}")
-            return {"refused": f"fmi2GetFMUstate failed: {exc!r}"}
-
-    def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        try:
-            if "refused" in state:
-                raise modal_fmu.StateError(state["refused"])
-            self._model.restore(state)
-        except Exception as exc:
-            self._log(modal_fmu.ERROR, f"fmi2SetFMUstate refused, the instance is unchanged: "
-                      f"{exc}")
-
-    @staticmethod
-    def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
-        try:
-            return modal_fmu.encode(state)
-        except Exception as exc:  # refused with this reason when the bytes come back
-            return modal_fmu.MAGIC + f"refused: {exc!r}".encode()
-
-    @staticmethod
-    def _fmu_state_from_bytes(blob: bytes) -> dict[str, Any]:
-        try:
-            return modal_fmu.decode(blob)
-        except Exception as exc:  # refused, with the reason, by _set_fmu_state
-            return {"refused": f"fmi2DeSerializeFMUstate: {exc}"}
+    CONTRACT = modal_contract
+    MODEL = ModalFmuModel

@@ -18,8 +18,7 @@ On the first call it
    iceimpact_fmu_boot`` to this module (the host's own modules of these names, if any, are put
    back afterwards).
 
-:func:`fail_call` is how the slave makes the current FMI call return ``fmi2Error``;
-:func:`guard_native_exit` works around a crash at process exit in PythonFMU's library.
+:func:`fail_call` is how the slave makes the current FMI call return ``fmi2Error``.
 
 Only the standard library is used here, and no extension module is imported before the
 environment is set up.
@@ -198,44 +197,3 @@ def load_slave(build_id: str, class_name: str = "IceImpact") -> type:
             sys.modules.update(hosts)
     _loaded[key] = getattr(slave, class_name)
     return _loaded[key]
-
-
-# Libraries (paths of loaded copies of a PythonFMU library) already guarded below.
-_GUARDED_LIBRARIES: set[str] = set()
-
-
-def guard_native_exit(model_identifier: str) -> None:
-    """Work around a use-after-free at process exit in PythonFMU 0.7.0's native library
-    (``binaries/linux64/[pythonfmu/]<model_identifier>.so``).
-
-    The same work-around as ``guard_native_exit`` in ``IceImpact.py``, for any model identifier
-    (see there and docs/fmu.md, "The crash at process exit"): for each loaded copy of the
-    library, its ``finalizePythonInterpreter`` is registered with ``__cxa_atexit``, so that it
-    runs before the library's static destructor and the later ELF destructor finds a null
-    pointer. The library is pinned with RTLD_NODELETE. Never raises.
-    """
-    if not sys.platform.startswith("linux"):
-        return
-    suffix = f"/{model_identifier}.so"
-    try:
-        import ctypes  # an extension module: only once the slave runs (see the module docstring)
-
-        with open("/proc/self/maps") as maps:
-            fields = [line.rstrip("\n").split(None, 5) for line in maps]
-        new = {f[5] for f in fields if len(f) == 6 and f[5].endswith(suffix)}
-        new -= _GUARDED_LIBRARIES
-        if not new:
-            return
-        cxa_atexit = ctypes.CDLL(None).__cxa_atexit
-        cxa_atexit.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
-        cxa_atexit.restype = ctypes.c_int
-        for path in sorted(new):
-            _GUARDED_LIBRARIES.add(path)
-            try:
-                lib = ctypes.CDLL(path, mode=os.RTLD_NOLOAD | os.RTLD_NODELETE | os.RTLD_NOW)
-                finalize = ctypes.cast(lib.finalizePythonInterpreter, ctypes.c_void_p).value
-            except (OSError, AttributeError):
-                continue  # not a PythonFMU library (the FMU's loader)
-            cxa_atexit(finalize, None, None)
-    except Exception:  # never fail an instantiation over this
-        return

@@ -7,7 +7,6 @@ import json
 import math
 import shutil
 import zipfile
-from ctypes import byref
 
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ from scipy.integrate import quad, solve_ivp
 from scipy.linalg import expm
 
 from coupling_master import ExactSdof, gauss_seidel
-from fmu_host import FMI_ERROR, FMI_OK, build_module
+from fmu_host import FMI_ERROR, FMI_OK, Instance, build_module
 from iceimpact import ParameterError
 from iceimpact import modal_contract as contract
 from iceimpact.modal import ModalStructure, Mode
@@ -224,37 +223,25 @@ def modal_dir(modal_fmu, tmp_path_factory):
 
 
 class Slave:
-    """ModalStructure.fmu stepped by hand through FMPy, keeping every log message."""
+    """ModalStructure.fmu stepped by hand through FMPy, keeping every log message.
+
+    Built on tests/fmu_host.py's Instance for its process-wide logger: a logger per Slave, given
+    to FMPy's one logger proxy, was left dangling once the Slave was collected, and a later
+    simulate_fmu in the same process crashed or lost its messages.
+    """
 
     def __init__(self, fmu_dir: str):
-        from fmpy import calloc, free, read_model_description
-        from fmpy.fmi2 import (
-            FMU2Slave,
-            fmi2CallbackAllocateMemoryTYPE,
-            fmi2CallbackFreeMemoryTYPE,
-            fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
-        )
-        from fmpy.logging import addLoggerProxy
+        from fmpy import read_model_description
 
         md = read_model_description(fmu_dir)
-        self.messages: list[tuple[int, str]] = []
-
-        def log(env, instance, status, category, message):
-            self.messages.append((status, message.decode()))
-
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(log)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        addLoggerProxy(byref(callbacks))
-        self._callbacks = callbacks
+        self._instance = Instance(fmu_dir, md, "structure")
+        self.fmu = self._instance.fmu
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmu_dir,
-                             modelIdentifier=md.coSimulation.modelIdentifier,
-                             instanceName="structure")
-        self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
         self.time = 0.0
+
+    @property
+    def messages(self) -> list[tuple[int, str]]:
+        return [(status, message) for status, _, message in self._instance.messages]
 
     def initialize(self, values: dict) -> None:
         self.fmu.setupExperiment(startTime=0.0)

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from scipy.signal import welch
 
-from .loads import LOAD_FIELDS, design_loads, load_columns
+from .loads import LOAD_FIELDS, design_loads, load_columns, sample_window
 
 #: Default relative tolerance of :func:`lock_in`: ``|ratio - N| / N <= 0.05`` counts as locked.
 LOCK_IN_TOLERANCE = 0.05
@@ -406,18 +406,8 @@ def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n:
     k x columns and the per-sample ``impulse`` (N.s) for the contact force; without them those
     columns are nan.
     """
-    t = np.asarray(t, dtype=float).ravel()
-    x = np.asarray(x, dtype=float).ravel()
-    if x.shape != t.shape:
-        raise ValueError(f"x: shape {x.shape} differs from t's {t.shape}")
-    if t.size == 0:
-        raise ValueError("t: no samples")
-    if not (math.isfinite(transient) and transient >= 0.0):
-        raise ValueError(f"transient = {transient!r} must be a finite number >= 0 (s)")
+    t, x, window = sample_window(t, x, transient)
     t_end = float(t[-1])
-    if transient > t_end:
-        raise ValueError(f"transient = {transient!r} s is beyond the last sample t = {t_end!r} s")
-    window = t >= transient
     t_w, x_w = t[window], x[window]
 
     stats = impact_statistics(impacts, t_start=transient, t_end=t_end)

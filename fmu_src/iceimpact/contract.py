@@ -208,14 +208,52 @@ def number_text(value: float | int) -> str:
     return repr(float(value)) if math.isfinite(value) else str(value)
 
 
-def markdown_table() -> str:
-    """The variables as the Markdown table of docs/fmu.md (a test keeps the page in step)."""
+def markdown_table(variables: tuple[Variable, ...] = VARIABLES, *, fold: str = "",
+                   fold_note: str = "") -> str:
+    """The variables as a Markdown table (docs/fmu.md: this contract's; a test keeps the page in
+    step).
+
+    ``fold`` names a prefix of numbered groups, such as ``"mode"`` for ``mode1.f``, ``mode2.f``,
+    ...: the rows of groups 2 and above are then summarised in one row after group 1's, which
+    says how their start values differ from group 1's; ``fold_note`` is its meaning column.
+    """
     kinds = {float: "Real", int: "Integer", bool: "Boolean"}
+    groups = {v.name: _group(v.name, fold) for v in variables}
     rows = ["| name | causality | type | unit | start | allowed | meaning |",
             "|---|---|---|---|---|---|---|"]
-    for v in VARIABLES:
+    last_of_first = max((i for i, v in enumerate(variables) if groups[v.name] == 1), default=-1)
+    for i, v in enumerate(variables):
+        if groups[v.name] > 1:
+            continue
         causality = v.causality + (" (tunable)" if v.tunable else "")
         start = "" if v.start is None else number_text(v.start)
         rows.append(f"| `{v.name}` | {causality} | {kinds[v.kind]} | {v.unit or '–'} | {start} | "
                     f"{v.allowed} | {v.description} |")
+        if i == last_of_first:
+            rows.append(_folded_row(variables, groups, fold, fold_note, kinds))
     return "\n".join(rows) + "\n"
+
+
+def _group(name: str, prefix: str) -> int:
+    """The group number of ``<prefix><n>.<field>`` (``mode2.f``: 2), else 0."""
+    head, dot, _ = name.partition(".")
+    number = head[len(prefix):]
+    return int(number) if prefix and dot and head.startswith(prefix) and number.isdigit() else 0
+
+
+def _folded_row(variables: tuple[Variable, ...], groups: dict[str, int], prefix: str, note: str,
+                kinds: dict[type, str]) -> str:
+    folded = [v for v in variables if groups[v.name] > 1]
+    first = {v.name.partition(".")[2]: v for v in variables if groups[v.name] == 1}
+    differ: dict[str, str] = {}
+    for v in folded:
+        field = v.name.partition(".")[2]
+        if v.start != first[field].start:
+            differ.setdefault(field, number_text(v.start))
+    start = f"as {prefix} 1" + ("" if not differ else ", but " + ", ".join(
+        f"{field} = {text}" for field, text in differ.items()))
+    causality = " / ".join(dict.fromkeys(v.causality for v in folded))
+    kind = " / ".join(dict.fromkeys(kinds[v.kind] for v in folded))
+    last = max(groups.values())
+    return (f"| `{prefix}2.*` … `{prefix}{last}.*` | {causality} | {kind} | | {start} | "
+            f"as {prefix} 1 | {note} |")

@@ -224,6 +224,26 @@ class Loads:
         return self.t_end - self.t_start
 
 
+def sample_window(t: Any, x: Any, transient: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Samples ``t`` (s) and ``x`` as flat float arrays, and the mask of ``t >= transient``.
+
+    Raises ValueError if the shapes differ, there is no sample, or ``transient`` (s) is not a
+    finite number >= 0 at or before the last sample.
+    """
+    t = np.asarray(t, dtype=float).ravel()
+    x = np.asarray(x, dtype=float).ravel()
+    if x.shape != t.shape:
+        raise ValueError(f"x: shape {x.shape} differs from t's {t.shape}")
+    if t.size == 0:
+        raise ValueError("t: no samples")
+    if not (math.isfinite(transient) and transient >= 0.0):
+        raise ValueError(f"transient = {transient!r} must be a finite number >= 0 (s)")
+    t_end = float(t[-1])
+    if transient > t_end:
+        raise ValueError(f"transient = {transient!r} s is beyond the last sample t = {t_end!r} s")
+    return t, x, t >= transient
+
+
 def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndarray | None = None,
                  impulse: np.ndarray | None = None, transient: float = 0.0,
                  exponents: tuple[float, ...] = WOHLER_EXPONENTS, f_eq: float = F_EQ,
@@ -240,18 +260,8 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
     """
     from .analysis import impact_statistics
 
-    t = np.asarray(t, dtype=float).ravel()
-    x = np.asarray(x, dtype=float).ravel()
-    if x.shape != t.shape:
-        raise ValueError(f"x: shape {x.shape} differs from t's {t.shape}")
-    if t.size == 0:
-        raise ValueError("t: no samples")
-    if not (math.isfinite(transient) and transient >= 0.0):
-        raise ValueError(f"transient = {transient!r} must be a finite number >= 0 (s)")
+    t, x, window = sample_window(t, x, transient)
     t_end = float(t[-1])
-    if transient > t_end:
-        raise ValueError(f"transient = {transient!r} s is beyond the last sample t = {t_end!r} s")
-    window = t >= transient
     t_w = t[window]
     duration = t_end - float(transient)
 

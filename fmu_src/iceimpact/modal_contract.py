@@ -11,78 +11,32 @@ equal to IceImpact's built-in structure (m = 1600 kg, c = 200 N.s/m, k = 1e6 N/m
 phi = 1); modes 2 to 5 have the same frequency, damping and mass but ``phi = 0``, so a mode switched
 on without values of its own does not move the contact point.
 
-This module imports nothing from the package: it is a bottom layer.
+The variables are :class:`iceimpact.contract.Variable` rows (for a mode parameter, ``field`` is
+the :class:`~iceimpact.modal.Mode` field, or ``q0``/``v0``; the mode number is in the name), with
+the causalities, variabilities, number format and table layout of :mod:`iceimpact.contract`. This
+module imports nothing else from the package: it is a bottom layer.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+
+from . import contract
+from .contract import CONTINUOUS, INPUT, OUTPUT, PARAMETER, DefaultExperiment, Variable
 
 VERSION = "0.1.0"
 
 MODEL_IDENTIFIER = "ModalStructure"
-AUTHOR = "IceImpact contributors"
-LICENSE = "MIT"
+AUTHOR = contract.AUTHOR
+LICENSE = contract.LICENSE
 DESCRIPTION = ("A linear structure given by up to 5 modes, seen at one contact point: contact "
                "force in, displacement, velocity and acceleration out; exact for a force held "
                "over each step")
 
 MAX_MODES = 5
 
-
-@dataclass(frozen=True)
-class DefaultExperiment:
-    """The FMU's DefaultExperiment: IceImpact's (400 s at 1 ms steps), for coupled runs."""
-
-    start_time: float = 0.0   # s
-    stop_time: float = 400.0  # s
-    step_size: float = 1e-3   # s
-
-
+#: IceImpact's DefaultExperiment (400 s at 1 ms steps), for coupled runs.
 DEFAULT_EXPERIMENT = DefaultExperiment()
-
-# Causalities and variabilities, as FMI 2.0 spells them.
-PARAMETER, INPUT, OUTPUT = "parameter", "input", "output"
-FIXED, TUNABLE, CONTINUOUS, DISCRETE = "fixed", "tunable", "continuous", "discrete"
-
-
-@dataclass(frozen=True)
-class Variable:
-    """One FMI variable.
-
-    ``mode`` is the mode number (1 to 5) of a ``mode<k>.<field>`` parameter, else 0; ``field``
-    is the :class:`~iceimpact.modal.Mode` field (or ``q0``/``v0``) of a mode parameter.
-    ``minimum``/``maximum`` bound the allowed values (``min_exclusive`` makes the lower bound
-    strict); ``allowed`` is the range as a reader sees it in error messages and docs.
-    """
-
-    name: str
-    causality: str
-    kind: type                 # float (Real) or int (Integer)
-    unit: str                  # SI, as in modelDescription.xml; "" for Integer
-    description: str
-    start: float | int | None = None
-    allowed: str = "finite"
-    minimum: float | None = None
-    maximum: float | None = None
-    min_exclusive: bool = False
-    variability: str = FIXED
-    mode: int = 0
-    field: str = ""
-
-    @property
-    def tunable(self) -> bool:
-        return self.variability == TUNABLE
-
-    def in_range(self, value: float) -> bool:
-        """True if the finite number ``value`` lies within [minimum, maximum] (strict where
-        marked)."""
-        if self.minimum is not None and (value < self.minimum
-                                         or (self.min_exclusive and value == self.minimum)):
-            return False
-        return self.maximum is None or value <= self.maximum
-
 
 # IceImpact's built-in structure (iceimpact.contract / scene defaults) as one mode.
 _M, _C, _K = 1600.0, 200.0, 1.0e6
@@ -96,8 +50,8 @@ _NON_NEGATIVE = {"allowed": ">= 0", "minimum": 0.0}
 
 def _mode_parameters(k: int) -> tuple[Variable, ...]:
     def real(field: str, unit: str, description: str, start: float, **kw) -> Variable:
-        return Variable(f"mode{k}.{field}", PARAMETER, float, unit, f"mode {k}: {description}",
-                        start, mode=k, field=field, **kw)
+        return Variable(f"mode{k}.{field}", field, PARAMETER, float, unit,
+                        f"mode {k}: {description}", start, **kw)
 
     return (
         real("f", "Hz", "natural frequency (undamped)", DEFAULT_F, **_POSITIVE),
@@ -112,8 +66,9 @@ def _mode_parameters(k: int) -> tuple[Variable, ...]:
 
 
 MODES_PARAMETER = Variable(
-    "modes", PARAMETER, int, "", f"number of modes used (mode1 to mode<modes>; 1 to {MAX_MODES})",
-    1, allowed=f"1 <= modes <= {MAX_MODES}", minimum=1, maximum=MAX_MODES)
+    "modes", "modes", PARAMETER, int, "",
+    f"number of modes used (mode1 to mode<modes>; 1 to {MAX_MODES})", 1,
+    allowed=f"1 <= modes <= {MAX_MODES}", minimum=1, maximum=MAX_MODES)
 
 #: Parameters, in the order of their value references (append new ones at the end).
 PARAMETERS: tuple[Variable, ...] = (MODES_PARAMETER,) + tuple(
@@ -121,19 +76,20 @@ PARAMETERS: tuple[Variable, ...] = (MODES_PARAMETER,) + tuple(
 
 #: The input, held constant over each communication step (zero-order hold).
 INPUTS: tuple[Variable, ...] = (
-    Variable("force", INPUT, float, "N", "contact force on the structure at the contact point, "
-             "positive in the direction of x (IceImpact's contact.force)", 0.0,
+    Variable("force", "force", INPUT, float, "N",
+             "contact force on the structure at the contact point, positive in the direction of x "
+             "(IceImpact's contact.force)", 0.0,
              variability=CONTINUOUS),
 )
 FORCE_INPUT = INPUTS[0]
 
 #: Outputs: the contact point at the end of the last communication step.
 OUTPUTS: tuple[Variable, ...] = (
-    Variable("x", OUTPUT, float, "m", "displacement of the contact point",
+    Variable("x", "x", OUTPUT, float, "m", "displacement of the contact point",
              variability=CONTINUOUS, allowed=""),
-    Variable("v", OUTPUT, float, "m/s", "velocity of the contact point",
+    Variable("v", "v", OUTPUT, float, "m/s", "velocity of the contact point",
              variability=CONTINUOUS, allowed=""),
-    Variable("a", OUTPUT, float, "m/s2", "acceleration of the contact point under the current "
+    Variable("a", "a", OUTPUT, float, "m/s2", "acceleration of the contact point under the current "
              "value of force (at the end of a step: under the force of that step)",
              variability=CONTINUOUS, allowed=""),
 )
@@ -143,30 +99,8 @@ VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS
 BY_NAME: dict[str, Variable] = {v.name: v for v in VARIABLES}
 
 
-def number_text(value: float | int) -> str:
-    """A number as modelDescription.xml and the docs write it."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if float(value).is_integer() and abs(value) < 1e15:
-        return repr(int(value))
-    return repr(float(value)) if math.isfinite(value) else str(value)
-
-
 def markdown_table() -> str:
     """The variables as the Markdown table of docs/coupling.md (``mode2.*`` to ``mode5.*``
     summarised in one row)."""
-    kinds = {float: "Real", int: "Integer"}
-    rows = ["| name | causality | type | unit | start | allowed | meaning |",
-            "|---|---|---|---|---|---|---|"]
-    for v in VARIABLES:
-        if v.mode > 1:
-            continue
-        causality = v.causality + (" (tunable)" if v.tunable else "")
-        start = "" if v.start is None else number_text(v.start)
-        rows.append(f"| `{v.name}` | {causality} | {kinds[v.kind]} | {v.unit or '–'} | {start} | "
-                    f"{v.allowed} | {v.description} |")
-        if v.name == "mode1.v0":  # the last parameter of mode 1
-            rows.append(f"| `mode2.*` … `mode{MAX_MODES}.*` | parameter | Real | | as mode 1, "
-                        "but phi = 0 | as mode 1 | the same six parameters for modes 2 to "
-                        f"{MAX_MODES} |")
-    return "\n".join(rows) + "\n"
+    return contract.markdown_table(VARIABLES, fold="mode", fold_note=(
+        f"the same six parameters for modes 2 to {MAX_MODES}"))
