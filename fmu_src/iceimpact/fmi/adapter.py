@@ -24,7 +24,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES
+from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES, STRUCTURE_INPUTS
 from ..scene import ParameterError, Scene
 from ..simulator import Simulator, StepReport
 from ..solvers.base import SolverError
@@ -43,6 +43,9 @@ TUNERS: dict[str, Callable[[Simulator, Any], None]] = {
 
 _OUTPUT_FIELDS = {o.name: o.field for o in OUTPUTS}
 
+#: Parameters of the built-in structure that an external one (structure.model = 2) ignores.
+IGNORED_WITH_EXTERNAL = ("structure.c", "structure.x0", "structure.v0")
+
 
 class FmuModel:
     """One FMU instance's values, simulator and life-cycle rules (no FMI library involved)."""
@@ -53,6 +56,8 @@ class FmuModel:
         self._fail = fail if fail is not None else (lambda text: log(ERROR, text))
         self.values: dict[str, float | int] = {v.name: v.start for v in PARAMETERS}
         self.flow_u = float(FLOW_INPUT.start)
+        #: the external structure's inputs (structure.model = 2), by name
+        self.structure_in: dict[str, Any] = {v.name: v.start for v in STRUCTURE_INPUTS}
         self.sim: Simulator | None = None
         self.report: StepReport = Simulator(Scene()).report
         self.start_time = 0.0
@@ -68,6 +73,8 @@ class FmuModel:
             return self.pending.get(name, self.values[name])
         if name == FLOW_INPUT.name:
             return self.flow_u
+        if name in self.structure_in:
+            return self.structure_in[name]
         if name == "contact.t_last":  # in the master's time frame
             t = self.report.t_last
             return t + self.start_time if t >= 0.0 else -1.0
@@ -77,6 +84,8 @@ class FmuModel:
         """fmi2Set of a parameter or the input; validated when it takes effect."""
         if name == FLOW_INPUT.name:
             self.flow_u = value
+        elif name in self.structure_in:
+            self.structure_in[name] = value  # checked by the next doStep
         elif self.sim is None:
             self.values[name] = value
         elif SCENE_VARIABLES[name].tunable:
@@ -109,6 +118,13 @@ class FmuModel:
             self.sim, self.report = sim, sim.report
             self.pending.clear()
             self.penetration_logged = False
+            if scene.external:
+                ignored = [f"{name} = {self.values[name]!r}" for name in IGNORED_WITH_EXTERNAL
+                           if self.values[name] != SCENE_VARIABLES[name].start]
+                if ignored:
+                    self._log(WARNING, f"{where}: structure.model = 2 (external structure): "
+                              f"{', '.join(ignored)} ignored; the structure's state comes from "
+                              "the inputs structure.x_in, structure.v_in, structure.a_in")
             return True
         self._log(ERROR, self.error + "; the FMU will not step (fmi2Error) until the "
                   "parameter is corrected after fmi2Reset")
@@ -140,7 +156,8 @@ class FmuModel:
         try:
             for name, value in self.pending.items():
                 TUNERS[name](sim, value)
-            report = sim.advance(step_size, self.flow_u)
+            report = sim.advance(step_size, self.flow_u,
+                                 tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS))
         except (ParameterError, SolverError) as exc:
             if before is not None:
                 sim.restore(before)  # the tunables applied before the refusal are undone
@@ -164,6 +181,7 @@ class FmuModel:
         return {
             "values": dict(self.values),
             "flow_u": self.flow_u,
+            "structure_in": dict(self.structure_in),
             "start_time": self.start_time,
             "time": self.time,
             "pending": dict(self.pending),
@@ -179,6 +197,7 @@ class FmuModel:
                if record["simulator"] is not None else None)
         self.values = dict(record["values"])
         self.flow_u = record["flow_u"]
+        self.structure_in = dict(record["structure_in"])
         self.start_time = record["start_time"]
         self.time = record["time"]
         self.pending = dict(record["pending"])

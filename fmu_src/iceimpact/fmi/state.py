@@ -24,7 +24,7 @@ import json
 import math
 from typing import Any
 
-from ..contract import FLOW_INPUT, PARAMETERS, VERSION
+from ..contract import FLOW_INPUT, PARAMETERS, STRUCTURE_INPUTS, VERSION
 from ..solvers.base import StateError
 
 MAGIC = b"IceImpact FMU state\n"
@@ -34,7 +34,7 @@ MAX_BYTES = 1 << 16
 
 _PARAMETER_NAMES = {p.name for p in PARAMETERS}
 _TUNABLE_NAMES = {p.name for p in PARAMETERS if p.tunable}
-_RECORD_KEYS = {"values", "flow_u", "start_time", "time", "pending", "error",
+_RECORD_KEYS = {"values", "flow_u", "structure_in", "start_time", "time", "pending", "error",
                 "penetration_logged", "simulator"}
 
 
@@ -96,6 +96,13 @@ def check_record(record: Any) -> dict[str, Any]:
     for name, value in pending.items():
         _number(f"state.pending[{name!r}]", value, finite=False)  # refused at the next step if bad
     _number(f"state.flow_u ({FLOW_INPUT.name})", record["flow_u"], finite=False)  # likewise
+    inputs = record["structure_in"]
+    names = {v.name for v in STRUCTURE_INPUTS}
+    if not isinstance(inputs, dict) or set(inputs) != names:
+        raise StateError("state.structure_in", inputs, "an object holding "
+                         + ", ".join(sorted(names)))
+    for name, value in inputs.items():
+        _number(f"state.structure_in[{name!r}]", value, finite=False)  # checked by doStep
     _number("state.start_time", record["start_time"])
     _number("state.time", record["time"])
     if record["error"] is not None and not isinstance(record["error"], str):
