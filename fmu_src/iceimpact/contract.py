@@ -49,6 +49,7 @@ FIXED, TUNABLE, CONTINUOUS, DISCRETE = "fixed", "tunable", "continuous", "discre
 LINEAR_DRAG, QUADRATIC_DRAG = 1, 2                        # drag.model
 METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE = 1, 2, 3     # solver.method
 DETECTION_WINDOW, DETECTION_SIGN = 1, 2                   # solver.detection
+STRUCTURE_BUILTIN, STRUCTURE_EXTERNAL = 1, 2              # structure.model
 
 
 @dataclass(frozen=True)
@@ -146,14 +147,30 @@ PARAMETERS: tuple[Variable, ...] = (
           {DETECTION_WINDOW: "window", DETECTION_SIGN: "sign"}),
     _enum("solver.ode_method", "integrator of method 3: 1 = RK45, 2 = DOP853, 3 = LSODA, "
           "4 = Radau", 2, {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}),
+    _enum("structure.model", "structure: 1 = built-in SDOF (structure.m, c, k, x0, v0), "
+          "2 = external, in another FMU (inputs structure.x_in, v_in, a_in; structure.m is its "
+          "effective mass at the contact point; c, x0, v0 are ignored)", STRUCTURE_BUILTIN,
+          {STRUCTURE_BUILTIN: "built-in SDOF", STRUCTURE_EXTERNAL: "external"}),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).
 INPUTS: tuple[Variable, ...] = (
     Variable("flow.u", "flow_u", INPUT, float, "m/s",
              "flow speed, positive towards the structure", 0.1, variability=CONTINUOUS),
+    Variable("structure.x_in", "structure_x_in", INPUT, float, "m",
+             "external structure (structure.model = 2): displacement of the contact point at "
+             "the start of the communication step", 0.0, variability=CONTINUOUS),
+    Variable("structure.v_in", "structure_v_in", INPUT, float, "m/s",
+             "external structure (structure.model = 2): velocity of the contact point at the "
+             "start of the communication step", 0.0, variability=CONTINUOUS),
+    Variable("structure.a_in", "structure_a_in", INPUT, float, "m/s2",
+             "external structure (structure.model = 2), optional: acceleration of the contact "
+             "point at the start of the step under the last contact.force, for a second-order "
+             "extrapolation (0 = not given)", 0.0, variability=CONTINUOUS),
 )
 FLOW_INPUT = INPUTS[0]
+#: The external structure's inputs (structure.model = 2), in the order x, v, a.
+STRUCTURE_INPUTS: tuple[Variable, ...] = INPUTS[1:4]
 
 
 def _out(name: str, field: str, kind: type, unit: str, description: str,
@@ -189,7 +206,8 @@ OUTPUTS: tuple[Variable, ...] = (
          minimum=0.0),
     _out("structure.force", "spring_force", float, "N",
          "spring force k x of the structure: the base shear of the SDOF idealisation, the load "
-         "a design check takes (docs/design_loads.md)"),
+         "a design check takes (docs/design_loads.md); 0 with an external structure "
+         "(structure.model = 2), whose internal forces live in the other FMU"),
 )
 
 #: Every variable, in value-reference order per type as the slave registers them.

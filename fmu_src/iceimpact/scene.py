@@ -30,6 +30,8 @@ from .contract import (
     PARAMETERS,
     QUADRATIC_DRAG,
     SCENE_VARIABLES,
+    STRUCTURE_EXTERNAL,
+    STRUCTURE_INPUTS,
     Variable,
 )
 
@@ -88,6 +90,10 @@ class Scene:
     solver_rtol: float = _START["solver_rtol"]
     solver_detection: int = _START["solver_detection"]
     solver_ode_method: int = _START["solver_ode_method"]
+    structure_model: int = _START["structure_model"]
+    structure_x_in: float = _START["structure_x_in"]
+    structure_v_in: float = _START["structure_v_in"]
+    structure_a_in: float = _START["structure_a_in"]
 
     def __post_init__(self) -> None:
         validate(self)
@@ -118,10 +124,16 @@ class Scene:
         return dataclasses.replace(self, **changes)
 
     def to_fmi(self) -> dict[str, float | int]:
-        """The parameters (and the flow input start value) keyed by FMI variable name."""
+        """The parameters (and the inputs' start values) keyed by FMI variable name."""
         out: dict[str, float | int] = {p.name: getattr(self, p.field) for p in PARAMETERS}
-        out[FLOW_INPUT.name] = self.flow_u
+        for v in INPUTS:
+            out[v.name] = getattr(self, v.field)
         return out
+
+    @property
+    def external(self) -> bool:
+        """The structure lives in another FMU (structure.model = 2)."""
+        return self.structure_model == STRUCTURE_EXTERNAL
 
     def replace_fmi(self, values: dict[str, Any]) -> Scene:
         """A copy with FMI-named values changed (``{"ice.M": 800.0, "flow.u": 0.5}``)."""
@@ -249,7 +261,13 @@ def validate(scene: Scene) -> None:
     for spec in PARAMETERS:
         _check_number(spec, getattr(scene, spec.field))
     validate_flow(scene.flow_u)
-    if scene.ice_z0 > scene.structure_x0:
+    for spec in STRUCTURE_INPUTS:
+        _check_number(spec, getattr(scene, spec.field))
+    if scene.external and scene.solver_method != METHOD_EXACT:
+        raise ParameterError("structure.model", scene.structure_model,
+                             f"1 with solver.method = {scene.solver_method}: the external "
+                             "structure (structure.model = 2) needs solver.method = 1 (exact)")
+    if scene.ice_z0 > scene.structure_x0 and not scene.external:
         raise ParameterError("ice.z0", scene.ice_z0,
                              f"<= structure.x0 = {scene.structure_x0!r} (the ice starts upstream)")
     _check_scales(scene)

@@ -18,9 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from .contract import STRUCTURE_INPUTS
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, ParameterError, Scene, validate_flow
 from .solvers.base import Impact, Solver, SolverError
 from .solvers.event import EventSolver
+from .solvers.external import ExternalSolver
 from .solvers.fixed_step import FixedStepSolver
 from .solvers.ode import OdeSolver
 from .solvers.state import STATE_VERSION, Record, StateError, check_version
@@ -33,7 +35,10 @@ GAP_ROUNDING = 1e-12
 
 
 def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
-    """The solver object for ``scene.solver_method`` (``record_impacts``: keep the impact list)."""
+    """The solver object for ``scene.solver_method`` (``record_impacts``: keep the impact list);
+    with an external structure (structure.model = 2, method 1 only) :class:`ExternalSolver`."""
+    if scene.external:
+        return ExternalSolver(scene, record_impacts)
     try:
         cls = _SOLVERS[scene.solver_method]
     except KeyError:
@@ -59,7 +64,8 @@ class StepReport:
     impact_count: int    # impacts since the start
     t_last: float        # time of the latest impact, s (-1 before the first)
     sticking: bool       # bodies stick together at the end of the step
-    spring_force: float  # k x, the structure's spring force (base shear of the SDOF), N
+    spring_force: float  # k x, the structure's spring force (base shear of the SDOF), N; 0 with
+    #                      an external structure (its forces live in the other FMU)
 
 
 _REPORT_FIELDS = tuple(f.name for f in fields(StepReport))
@@ -123,10 +129,15 @@ class Simulator:
         """Start of the current sticking phase, s (None while the bodies are apart)."""
         return self.solver.sticking_since
 
-    def advance(self, h: float, u: float | None = None) -> StepReport:
+    def advance(self, h: float, u: float | None = None,
+                structure: tuple[float, float, float] | None = None) -> StepReport:
         """Advance by the communication step ``h`` (s) with flow speed ``u`` (m/s) held constant.
 
-        ``u`` defaults to the scene's ``flow.u``. Raises :class:`ParameterError` for a step that
+        ``u`` defaults to the scene's ``flow.u``. With an external structure (structure.model =
+        2), ``structure`` is ``(x_in, v_in, a_in)``, the contact point's displacement (m),
+        velocity (m/s) and acceleration (m/s2, 0 = not given) at the start of the step; it
+        defaults to the scene's start values of those inputs (ignored with the built-in
+        structure). Raises :class:`ParameterError` for a step that
         is not a positive finite number, too small to advance the time (t + h == t), or a flow
         speed that is not finite, and :class:`SolverError` when the method cannot go on. Either
         way the simulator is exactly as before the call: a later step from the same time
@@ -141,18 +152,34 @@ class Simulator:
         if not t_end > t:
             raise ParameterError("communication step", h, f"a step that advances the time "
                                  f"t = {t!r} s: t + h > t (smaller steps are lost to rounding)")
-        return self._step(t_end, h, u)
+        return self._step(t_end, h, u, structure)
 
-    def advance_to(self, t_end: float, u: float | None = None) -> StepReport:
+    def advance_to(self, t_end: float, u: float | None = None,
+                   structure: tuple[float, float, float] | None = None) -> StepReport:
         """Advance to the communication point ``t_end`` (s, > t), as :meth:`advance`."""
         t = self.solver.t
         if (isinstance(t_end, bool) or not isinstance(t_end, int | float)
                 or not (math.isfinite(t_end) and t_end > t)):
             raise ParameterError("communication point", t_end, f"a finite time > t = {t!r} s")
-        return self._step(float(t_end), t_end - t, u)
+        return self._step(float(t_end), t_end - t, u, structure)
 
-    def _step(self, t_end: float, h: float, u: float | None) -> StepReport:
+    def _structure_inputs(self, structure: Any) -> tuple[float, float, float]:
+        """The external structure's inputs of a step, checked (finite reals)."""
+        if structure is None:
+            return tuple(getattr(self.scene, v.field) for v in STRUCTURE_INPUTS)
+        if not isinstance(structure, tuple | list) or len(structure) != len(STRUCTURE_INPUTS):
+            raise ParameterError("structure inputs", structure, "(x_in, v_in, a_in)")
+        for spec, value in zip(STRUCTURE_INPUTS, structure, strict=True):
+            if (isinstance(value, bool) or not isinstance(value, int | float)
+                    or not math.isfinite(value)):
+                raise ParameterError(spec.name, value, f"a finite real number ({spec.unit})")
+        return tuple(float(value) for value in structure)
+
+    def _step(self, t_end: float, h: float, u: float | None,
+              structure: Any = None) -> StepReport:
         u = self.scene.flow_u if u is None else validate_flow(u, self.scene)
+        if self.scene.external:
+            self.solver.inputs = self._structure_inputs(structure)
         checkpoint = self.solver.snapshot()
         try:
             impulse = self.solver.advance_to(t_end, u)
@@ -186,7 +213,8 @@ class Simulator:
             t=s.t, x=s.x, v=s.v, z=s.z, w=s.w, gap=gap, penetration=penetration, impulse=impulse,
             force=impulse / h if h > 0.0 else 0.0, impacts=count - self._n_reported,
             impact_count=count, t_last=-1.0 if t_last is None else t_last,
-            sticking=self.solver.sticking, spring_force=self.scene.structure_k * s.x)
+            sticking=self.solver.sticking,
+            spring_force=0.0 if self.scene.external else self.scene.structure_k * s.x)
 
     def set_restitution(self, e: float) -> None:
         """Change ``impact.e`` (tunable) for impacts from now on; 0 <= e <= 1."""

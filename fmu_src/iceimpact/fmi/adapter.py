@@ -24,7 +24,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS
+from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES, STRUCTURE_INPUTS
 from ..scene import ParameterError, Scene
 from ..simulator import Simulator, StepReport
 from ..solvers.base import SolverError
@@ -39,6 +39,9 @@ TUNERS: dict[str, Callable[[Simulator, Any], None]] = {
 
 _OUTPUT_FIELDS = {o.name: o.field for o in OUTPUTS}
 
+#: Parameters of the built-in structure that an external one (structure.model = 2) ignores.
+IGNORED_WITH_EXTERNAL = ("structure.c", "structure.x0", "structure.v0")
+
 
 class FmuModel(FmuLifecycle):
     """One IceImpact.fmu instance's values, simulator and life-cycle rules (no FMI library)."""
@@ -51,6 +54,8 @@ class FmuModel(FmuLifecycle):
                  fail: Callable[[str], None] | None = None):
         super().__init__(log, fail)
         self.flow_u = float(FLOW_INPUT.start)
+        #: the external structure's inputs (structure.model = 2), by name
+        self.structure_in: dict[str, Any] = {v.name: v.start for v in STRUCTURE_INPUTS}
         self.sim: Simulator | None = None
         self.report: StepReport = Simulator(Scene()).report
         self.penetration_logged = False
@@ -63,15 +68,20 @@ class FmuModel(FmuLifecycle):
     def read(self, name: str) -> Any:
         if name == FLOW_INPUT.name:
             return self.flow_u
+        if name in self.structure_in:
+            return self.structure_in[name]
         if name == "contact.t_last":  # in the master's time frame
             t = self.report.t_last
             return t + self.start_time if t >= 0.0 else -1.0
         return getattr(self.report, _OUTPUT_FIELDS[name])
 
     def write_input(self, name: str, value: Any) -> bool:
-        if name != FLOW_INPUT.name:
+        if name == FLOW_INPUT.name:
+            self.flow_u = value
+        elif name in self.structure_in:
+            self.structure_in[name] = value  # checked by the next doStep
+        else:
             return False
-        self.flow_u = value
         return True
 
     # life cycle ----------------------------------------------------------------------------------
@@ -80,6 +90,13 @@ class FmuModel(FmuLifecycle):
         sim = Simulator(scene, record_impacts=False)
         self.sim, self.report = sim, sim.report
         self.penetration_logged = False
+        if scene.external:
+            ignored = [f"{name} = {self.values[name]!r}" for name in IGNORED_WITH_EXTERNAL
+                       if self.values[name] != SCENE_VARIABLES[name].start]
+            if ignored:
+                self._log(WARNING, f"structure.model = 2 (external structure): "
+                          f"{', '.join(ignored)} ignored; the structure's state comes from "
+                          "the inputs structure.x_in, structure.v_in, structure.a_in")
 
     def advance(self, current_time: float, step_size: float) -> bool:
         sim = self.sim
@@ -87,7 +104,8 @@ class FmuModel(FmuLifecycle):
         try:
             for name, value in self.pending.items():
                 TUNERS[name](sim, value)
-            report = sim.advance(step_size, self.flow_u)
+            report = sim.advance(step_size, self.flow_u,
+                                 tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS))
         except (ParameterError, SolverError) as exc:
             if before is not None:
                 sim.restore(before)  # the tunables applied before the refusal are undone
@@ -110,6 +128,7 @@ class FmuModel(FmuLifecycle):
         return {
             "values": dict(self.values),
             "flow_u": self.flow_u,
+            "structure_in": dict(self.structure_in),
             "start_time": self.start_time,
             "time": self.time,
             "pending": dict(self.pending),
@@ -125,6 +144,7 @@ class FmuModel(FmuLifecycle):
                if record["simulator"] is not None else None)
         self.values = dict(record["values"])
         self.flow_u = record["flow_u"]
+        self.structure_in = dict(record["structure_in"])
         self.start_time = record["start_time"]
         self.time = record["time"]
         self.pending = dict(record["pending"])

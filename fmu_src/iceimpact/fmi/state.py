@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..contract import FLOW_INPUT, MODEL_IDENTIFIER, PARAMETERS, VERSION
+from ..contract import FLOW_INPUT, MODEL_IDENTIFIER, PARAMETERS, STRUCTURE_INPUTS, VERSION
 from ..solvers.state import StateError
 from .state_codec import FORMAT, StateCodec, check_keys, check_number, check_values
 
@@ -32,8 +32,9 @@ MAX_BYTES = 1 << 16
 
 _PARAMETER_NAMES = {p.name for p in PARAMETERS}
 _TUNABLE_NAMES = {p.name for p in PARAMETERS if p.tunable}
-_RECORD_KEYS = {"values", "flow_u", "start_time", "time", "pending", "error",
+_RECORD_KEYS = {"values", "flow_u", "structure_in", "start_time", "time", "pending", "error",
                 "penetration_logged", "simulator"}
+_STRUCTURE_INPUT_NAMES = {v.name for v in STRUCTURE_INPUTS}
 
 
 def check_record(record: Any) -> dict[str, Any]:
@@ -50,6 +51,9 @@ def check_record(record: Any) -> dict[str, Any]:
         # refused at the next step if bad
         check_number(f"state.pending[{name!r}]", value, finite=False)
     check_number(f"state.flow_u ({FLOW_INPUT.name})", record["flow_u"], finite=False)  # likewise
+    inputs = check_values("state.structure_in", record["structure_in"], _STRUCTURE_INPUT_NAMES)
+    for name, value in inputs.items():
+        check_number(f"state.structure_in[{name!r}]", value, finite=False)  # checked by doStep
     check_number("state.start_time", record["start_time"])
     check_number("state.time", record["time"])
     if record["error"] is not None and not isinstance(record["error"], str):

@@ -453,6 +453,10 @@ class EventSolver(Solver):
             x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
                                                  self.seg.phase is Phase.STICK)
             self._begin(self.state.t, x, v, z, w, u)
+        return self._march(t_end, u)
+
+    def _march(self, t_end: float, u: float) -> float:
+        """Run the segments from the current one to ``t_end``; the impulse on the structure."""
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         while True:

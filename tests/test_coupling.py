@@ -1,0 +1,177 @@
+"""The ice as a co-simulation component: IceImpact with an external structure (structure.model =
+2) coupled to an independent structure by an independent master (tests/coupling_master.py) must
+converge to IceImpact's own monolithic run (structure.model = 1) as the communication step h
+shrinks.
+
+Error measure: ``max_t |x_coupled(t) - x_mono(t)| / max_t |x_mono(t)|`` over the communication
+points of the run, x being the structure's displacement (the coupled run's from the independent
+ExactSdof, the monolithic one's from IceImpact's built-in structure), both sampled every h.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from coupling_master import ExactSdof, gauss_seidel
+from iceimpact import ParameterError, Scene
+from iceimpact.fmi.adapter import FmuModel
+from iceimpact.simulator import Simulator, run
+
+M_STRUCTURE, C_STRUCTURE, K_STRUCTURE = 1600.0, 200.0, 1.0e6
+
+IMPACTING = {"drag_model": 2, "flow_u": 0.3, "ice_M": 1200.0, "impact_e": 0.7}
+HEAVY = {"drag_model": 2, "flow_u": 0.3, "ice_M": 4800.0, "impact_e": 0.3}
+
+
+class Ice:
+    """IceImpact's Simulator in external-structure mode, as the coupling master's ice."""
+
+    def __init__(self, scene: Scene):
+        self.sim = Simulator(scene.replace(structure_model=2), record_impacts=False)
+        self.gaps: list[float] = []
+
+    def step(self, t, h, x_in, v_in, a_in):
+        report = self.sim.advance(h, structure=(x_in, v_in, a_in))
+        self.gaps.append(report.gap)
+        return report.impulse
+
+
+def coupled_error(scene: Scene, t_end: float, h: float, second_order: bool = False):
+    """(error, coupled impact count, monolithic impact count, the ice's gaps)."""
+    mono = run(scene, t_end, dt=h)
+    ice = Ice(scene)
+    coupled = gauss_seidel(ice, ExactSdof(M_STRUCTURE, C_STRUCTURE, K_STRUCTURE), t_end, h,
+                           second_order=second_order)
+    n = min(len(coupled.x), len(mono.x))
+    assert np.allclose(coupled.t[:n], mono.t[:n], rtol=0, atol=1e-9)
+    error = float(np.max(np.abs(coupled.x[:n] - mono.x[:n])) / np.max(np.abs(mono.x)))
+    return error, ice.sim.impact_count, len(mono.impacts), ice.gaps
+
+
+@pytest.mark.parametrize("second_order", [False, True])
+def test_impacting_scene_converges_to_the_monolithic_run(second_order):
+    scene = Scene(**IMPACTING)
+    coarse, n_coarse, n_mono, gaps = coupled_error(scene, 6.0, 1e-3, second_order)
+    fine, n_fine, _, _ = coupled_error(scene, 6.0, 1e-4, second_order)
+    assert n_mono > 10
+    assert coarse / fine >= 3.0, (coarse, fine)
+    assert fine < 0.02, fine
+    assert abs(n_fine - n_mono) <= 0.2 * n_mono
+    assert min(gaps) >= 0.0
+
+
+@pytest.mark.parametrize("h", [1e-3, 1e-4])
+def test_heavy_floe_sticks_and_separates_without_chatter(h):
+    scene = Scene(**HEAVY)
+    error, n_coupled, n_mono, _ = coupled_error(scene, 6.0, h)
+    assert n_mono / 2 <= n_coupled <= 2 * n_mono, (n_coupled, n_mono)
+    # the first cycle (impacts, sticking, separation: up to 1.2 s) is first order in h
+    first, _, _, _ = coupled_error(scene, 1.2, h)
+    assert first < 25.0 * h, first
+    assert error < 0.7
+
+
+@pytest.mark.slow
+def test_heavy_floe_error_shrinks_with_the_step():
+    scene = Scene(**HEAVY)
+    errors = [coupled_error(scene, 6.0, h)[0] for h in (1e-3, 1e-4, 1e-5)]
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < 0.1, errors
+
+
+@pytest.mark.parametrize("ratio", [0.01, 0.1, 1.0, 10.0, 100.0])
+def test_sticking_is_stable_for_any_mass_ratio(ratio):
+    """The added-mass instability: a floe riding on the structure, M / m from 0.01 to 100."""
+    scene = Scene(drag_model=2, flow_u=0.3, ice_M=ratio * M_STRUCTURE, impact_e=0.0,
+                  ice_z0=0.0, ice_v0=0.0)
+    for second_order in (False, True):
+        ice = Ice(scene)
+        coupled = gauss_seidel(ice, ExactSdof(M_STRUCTURE, C_STRUCTURE, K_STRUCTURE), 2.0, 1e-3,
+                               second_order=second_order)
+        mono = run(scene, 2.0, dt=1e-3)
+        assert ice.sim.sticking and mono.sticking[-1]
+        error = np.max(np.abs(coupled.x - mono.x)) / np.max(np.abs(mono.x))
+        assert error < 0.25, (ratio, second_order, error)
+        assert np.max(np.abs(coupled.x)) < 1.1 * np.max(np.abs(mono.x))
+
+
+def test_lagging_structure_is_no_penetration_and_no_spurious_impact():
+    """After an impact the reported structure is behind the extrapolated one: the ice is put
+    back on it, and separates without a new impact."""
+    sim = Simulator(Scene(structure_model=2, ice_M=16000.0, impact_e=0.3, ice_z0=-2e-5,
+                          ice_v0=0.1, flow_u=0.0))
+    report = sim.advance(1e-3, structure=(0.0, 0.0, 0.0))
+    assert report.impacts == 1 and report.impulse > 0.0
+    # the master's structure: the impulse spread over the step, so it is behind
+    v_in = report.impulse / 1600.0
+    x_in = 0.5 * v_in * 1e-3
+    assert x_in < report.z
+    report = sim.advance(1e-3, structure=(x_in, v_in, 0.0))
+    assert report.gap >= 0.0 and report.penetration == 0.0
+    assert report.impacts == 0
+
+
+def test_methods_2_and_3_are_refused_with_an_external_structure():
+    for method in (2, 3):
+        with pytest.raises(ParameterError) as info:
+            Scene(structure_model=2, solver_method=method)
+        assert info.value.name == "structure.model" and "solver.method" in str(info.value)
+
+
+def test_non_finite_structure_input_is_refused_and_changes_nothing():
+    sim = Simulator(Scene(structure_model=2))
+    before = sim.save()
+    with pytest.raises(ParameterError, match="structure.v_in"):
+        sim.advance(1e-3, structure=(0.0, math.nan, 0.0))
+    assert sim.save() == before
+
+
+def test_saved_state_continues_to_the_last_bit():
+    scene = Scene(structure_model=2, **HEAVY)
+    structure = ExactSdof(M_STRUCTURE, C_STRUCTURE, K_STRUCTURE)
+    sim = Simulator(scene)
+    force, h, saved, inputs = 0.0, 1e-3, None, []
+    reports = []
+    for k in range(1500):
+        if k == 900:
+            saved = json.loads(json.dumps(sim.save()))
+        x, v = structure.x, structure.v
+        a = structure.acceleration(force)
+        inputs.append((x, v, a))
+        report = sim.advance(h, structure=(x, v, a))
+        reports.append(report)
+        force = report.impulse / h
+        structure.step(h, force)
+    again = Simulator.from_snapshot(saved)
+    for k in range(900, 1500):
+        assert again.advance(h, structure=inputs[k]) == reports[k]
+
+
+def test_fmu_model_in_external_mode_equals_the_simulator():
+    messages = []
+    model = FmuModel(lambda status, text: messages.append((status, text)))
+    for name, value in {"structure.model": 2, "structure.c": 500.0, "drag.model": 2,
+                        "ice.M": 4800.0, "impact.e": 0.3}.items():
+        model.set(name, value)
+    model.set("flow.u", 0.3)
+    assert model.initialize()
+    assert any("structure.c = 500.0 ignored" in text for _, text in messages)
+    sim = Simulator(Scene(structure_model=2, structure_c=500.0, **HEAVY))
+    structure = ExactSdof(M_STRUCTURE, C_STRUCTURE, K_STRUCTURE)
+    force, h = 0.0, 1e-3
+    for k in range(1200):
+        x, v, a = structure.x, structure.v, structure.acceleration(force)
+        model.set("structure.x_in", x)
+        model.set("structure.v_in", v)
+        model.set("structure.a_in", a)
+        assert model.do_step(k * h, h)
+        report = sim.advance(h, structure=(x, v, a))
+        assert model.get("contact.impulse") == report.impulse
+        assert model.get("structure.force") == 0.0
+        force = report.impulse / h
+        structure.step(h, force)
+    assert model.get("contact.count") == sim.impact_count > 0
