@@ -33,7 +33,7 @@ from iceimpact.fmi.adapter import FmuModel
 from iceimpact.fmi.pythonfmu_fixes import guard_native_exit, hold_module_dict
 from iceimpact_fmu_boot import fail_call
 
-hold_module_dict(globals())  # runs at each re-execution of this module by PythonFMU's loader
+hold_module_dict(globals())  # at each execution, should PythonFMU run this module itself
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 _CAUSALITY = {contract.PARAMETER: Fmi2Causality.parameter, contract.INPUT: Fmi2Causality.input,
