@@ -229,10 +229,13 @@ resources/slavemodule.txt names this module, so PythonFMU imports it under this 
 never picks up a module the host imported. PythonFMU 0.7.0 also executes this source again at
 every fmi2Instantiate to find the slave class, and drops one reference to the module's dictionary
 each time: so the file stays small (nothing is defined again per instance), gives the reference
-back, and takes the class from iceimpact_fmu/boot.py, which loads the slave and the model core
-once, under private names.
+back first (a bare increment of the count: a reference kept in a container would be released
+again when the container is, and free the dictionary at interpreter shutdown), and takes the class
+from iceimpact_fmu/boot.py, which loads the slave and the model core once, under private names.
 """
-globals().setdefault("_MODULE_DICT_REFS", []).append(globals())
+import ctypes as _ctypes
+
+_ctypes.pythonapi.Py_IncRef(_ctypes.py_object(globals()))
 import importlib.util as _util  # noqa: E402
 import os as _os  # noqa: E402
 import sys as _sys  # noqa: E402

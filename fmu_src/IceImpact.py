@@ -15,7 +15,7 @@ from iceimpact.fmi.adapter import FmuModel
 from iceimpact.fmi.pythonfmu_fixes import hold_module_dict
 from iceimpact.fmi.slave_base import FmuSlave
 
-hold_module_dict(globals())  # runs at each re-execution of this module by PythonFMU's loader
+hold_module_dict(globals())  # at each execution, should PythonFMU run this module itself
 
 
 class IceImpact(FmuSlave):

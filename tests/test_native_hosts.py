@@ -271,6 +271,40 @@ def test_instances_do_not_leak(fmu_dir):
     assert growth_kb <= 3 * 1024, f"RSS grew by {growth_kb} kB over 500 cycles"
 
 
+DICT_SCRIPT = """
+import sys
+sys.path.insert(0, {tests!r})
+from fmu_host import Instance
+from fmpy import read_model_description
+
+md = read_model_description({fmu_dir!r})
+for _ in range({n}):
+    Instance({fmu_dir!r}, md).free()
+module = next(m for name, m in sys.modules.items()
+              if name.startswith("_iceimpact_") and name.endswith("_fmu"))
+namespace = module.__dict__
+namespace.clear()  # what the interpreter does to a module still alive at shutdown
+print(sys.getrefcount(namespace))
+"""
+
+
+def test_instantiations_leave_the_entry_module_its_dictionary(fmu_dir):
+    """PythonFMU drops a reference to the entry module's dictionary at every fmi2Instantiate.
+
+    The entry module gives each back as a bare increment. It used to keep the dictionary in a
+    list inside itself, which balanced the count only while the list lived: clearing the
+    dictionary (the interpreter does it at shutdown) released the list and with it one reference
+    per instantiation too many, freed the dictionary while in use, and the decrements that
+    followed corrupted the heap (the full test suite aborted at exit). Run in a child process.
+    """
+    script = DICT_SCRIPT.format(tests=str(ROOT / "tests"), fmu_dir=str(fmu_dir), n=20)
+    done = subprocess.run([sys.executable, "-X", "faulthandler", "-c", script],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-4000:]
+    # this name, the module's and the call's reference at least: still alive, not freed
+    assert int(done.stdout.split()[-1]) >= 3, done.stdout
+
+
 # 6. Several FMUs in one process -------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def trivial_fmu_dir(tmp_path_factory) -> str:

@@ -19,17 +19,23 @@ _GUARDED_LIBRARIES: set[str] = set()
 
 
 def hold_module_dict(module_globals: dict[str, Any]) -> None:
-    """Give back the reference to the slave module's dictionary that each instantiation steals.
+    """Give back the reference to a slave module's dictionary that each instantiation steals.
 
     PythonFMU 0.7.0's native loader (findClass in PySlaveInstance.cpp) runs the slave module's
     source a second time for every fmi2Instantiate and then calls Py_DECREF on the *borrowed*
-    module dictionary: each instantiation steals one reference from it. Today that is hidden by
-    a leak in the same function (the classes of every re-execution are never released, and
-    their methods keep the dictionary alive); should the leak be fixed alone, the dictionary
-    would be freed while in use after enough instantiations. The slave calls this at module
-    level, so it runs on import and on each re-execution, and it keeps one reference per call.
+    module dictionary: each instantiation steals one reference from it. A module whose source
+    PythonFMU re-executes calls this first thing at module level (so also when the rest of the
+    body fails), once per execution, and the dictionary never runs out of references.
+
+    The reference is given back as a bare increment of the count, owned by nobody. Keeping
+    ``module_globals`` in a container instead (the earlier version appended it to a list in the
+    dictionary) only looks balanced: the count matches while the container lives, but when the
+    container is released, at interpreter shutdown at the latest, it releases every reference it
+    holds, one more than was counted per instantiation, and frees the dictionary while the module
+    still uses it; the further decrements then write into freed memory and corrupt the heap.
+    The increment leaks at most one dictionary per module, which lives as long as the process.
     """
-    module_globals.setdefault("_MODULE_DICT_REFS", []).append(module_globals)
+    ctypes.pythonapi.Py_IncRef(ctypes.py_object(module_globals))
 
 
 def guard_native_exit() -> None:
