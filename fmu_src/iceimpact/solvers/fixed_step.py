@@ -165,10 +165,17 @@ class FixedStepSolver(Solver):
             f"{q * abs(r):.3g} > {limit:g}, so the ice velocity would diverge; use "
             f"solver.dt < {limit / (self.drag.beta * abs(r)):.3g} s, or solver.method = 1")
 
+    def _pushes(self) -> bool:
+        """The steady state of eq. 27-29 presses the ice on the structure with k x = F_drag(0):
+        it exists only while the drag pushes (u >= 0). A contact cannot pull, so with a reversed
+        flow the bodies are never pinned (the ice drifts away instead)."""
+        return self.drag.force(0.0, self.u) >= 0.0
+
     def _steady(self, x, v, z, w, v_prev, w_prev) -> np.ndarray:
         """Conditions (i)-(iii) of Section 4.1 at each grid point of a chunk."""
         lim = STEADY_THRESHOLD
-        return ((np.maximum(np.abs(x), np.abs(z)) < lim)
+        return (self._pushes()
+                & (np.maximum(np.abs(x), np.abs(z)) < lim)
                 & (np.maximum(np.abs(v), np.abs(w)) < lim)
                 & (np.maximum(np.abs(v - v_prev), np.abs(w - w_prev)) < lim * self.dt))
 
@@ -176,7 +183,7 @@ class FixedStepSolver(Solver):
                    w_prev: float) -> bool:
         """Conditions (i)-(iii) of Section 4.1 at one grid point."""
         lim = STEADY_THRESHOLD
-        return (abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
+        return (self._pushes() and abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
                 and abs(v - v_prev) < lim * self.dt and abs(w - w_prev) < lim * self.dt)
 
     def _fill(self, n0: int, grid: Grid) -> None:
