@@ -19,7 +19,8 @@ On a fixed grid of step dt = ``solver.dt`` (s), anchored at the last impact:
   The impact applies eq. 16-17 to the velocities at that grid point; both closed forms restart
   there from the structure's position (eq. 18-24: ``z = x_k``), the local time resets to 0 and the
   global grid goes on.
-- **Steady state** (eq. 27-29): when (i) ``max(|z|, |x|) < 1e-4 m``, (ii) ``max(|w|, |v|) <
+- **Steady state** (eq. 27-29), only while the drag pushes (u >= 0: a contact cannot pull):
+  when (i) ``max(|z|, |x|) < 1e-4 m``, (ii) ``max(|w|, |v|) <
   1e-4 m/s`` and (iii) ``max(|z''|, |x''|) < 1e-4 m/s^2`` hold at a grid point, the bodies are
   pinned at ``x = z = F / k``, ``v = w = 0``, with ``F = b u`` (linear drag, eq. 28-29) or
   ``F = B u |u|`` (quadratic drag, the same balance), and stay there while u is unchanged; the
