@@ -1,13 +1,23 @@
 """Random search for faults at the extremes: hypothesis scenes, each run with a time limit.
 
     python tests/random_search.py --method 1 --seed 23 --examples 2000
+    python tests/random_search.py --method 1 --seed 5 --examples 3000 --scales --flows
 
 Each random scene (the strategy of tests/test_properties.py, with the chosen solver method;
 method 2 uses the gap-sign test unless --detection 1) runs for 3 s (method 3: 1 s) at a random
-communication step of 1 ms to 10 s, with a 30 s wall-time limit. Printed: every scene that stalls
-(TIMEOUT), produces a non-finite output or a negative gap beyond its method's tolerance (FAIL),
-or is slow (SLOW). Scenes the model refuses (ParameterError) are skipped. docs/robustness.md
-reports the searches.
+communication step of 1 ms to 10 s, with a 30 s wall-time limit.
+
+``--scales`` draws the scales out to what validation accepts (omega_n up to the method's limit,
+masses from 1e-6 to 1e9 kg, flows up to the drag-rate limit, steps down to 0.1 ms); ``--flows``
+drives the flow input with a random sequence: constant, reversing at every step, random signs,
+zero, reversed one step in four. Scenes the model refuses (ParameterError, at the start or at a
+step, or a SolverError naming the limit, such as method 2's unstable Euler step) are
+counted and skipped.
+
+Printed: every scene that stalls (TIMEOUT), produces a non-finite output, a negative gap beyond
+its method's tolerance, a tensile (negative) contact impulse beyond rounding, or energy created
+while the flow is zero (FAIL), or is slow (SLOW); then the counts. docs/robustness.md reports
+the searches.
 """
 
 from __future__ import annotations
@@ -20,12 +30,19 @@ import time
 from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
 
-from iceimpact import ParameterError, Simulator
+from iceimpact import ParameterError, Scene, Simulator, SolverError
+from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE
 from test_properties import scenes
 
 TIME_LIMIT = 30.0  # s of wall time per scene
 # m; method 3: 10 atol; method 2 reports its grid penetration instead
-GAP_TOLERANCE = {1: 1e-12, 3: 1e-10}
+GAP_TOLERANCE = {1: 1e-12, 2: math.inf, 3: 1e-10}
+# relative to the scene's momentum scale: rounding (methods 1, 2), integration error (3)
+IMPULSE_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
+# relative growth of the energy at u = 0 (docs/robustness.md, the extremes matrix)
+ENERGY_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
+FLOWS = ("constant", "reversing", "random signs", "zero", "reversed 1 in 4")
+OMEGA_MAX = {1: OMEGA_MAX_EXACT, 2: 1e12, 3: OMEGA_MAX_ODE}
 
 
 class _Stalled(Exception):
@@ -36,6 +53,58 @@ def _alarm(signum, frame):
     raise _Stalled
 
 
+@st.composite
+def scale_scenes(draw, method: int):
+    """Valid scenes out to the scales validation accepts for ``method``."""
+    m = 10 ** draw(st.floats(-6.0, 9.0))
+    omega_n = 10 ** draw(st.floats(-3.0, math.log10(OMEGA_MAX[method])))
+    zeta = draw(st.one_of(st.just(0.0), st.just(1.0), st.floats(0.0, 50.0)))
+    k = m * omega_n ** 2
+    M = m * 10 ** draw(st.floats(-4.0, 4.0))
+    A = 10 ** draw(st.floats(-3.0, 3.0))
+    Cd = draw(st.one_of(st.just(0.0), st.floats(0.0, 2.0)))
+    drag = draw(st.sampled_from([1, 2]))
+    B = 0.5 * 999.0 * Cd * A
+    u_max = 100.0 if B == 0.0 else min(1e4, 0.4 * DRAG_RATE_MAX * M / (2.0 * B))
+    x0 = draw(st.one_of(st.just(0.0), st.floats(-1.0, 1.0)))
+    v0 = draw(st.floats(-1.0, 1.0))
+    try:
+        return _scene(draw, m, k, zeta, M, A, Cd, drag, u_max, x0, v0, method)
+    except ParameterError:  # a combination validation refuses: not a scene to run
+        assume(False)
+
+
+def _scene(draw, m, k, zeta, M, A, Cd, drag, u_max, x0, v0, method):
+    return Scene(
+        structure_m=m, structure_k=k, structure_c=2.0 * zeta * math.sqrt(k * m),
+        structure_x0=x0, structure_v0=v0, ice_M=M, ice_A=A, ice_Cd=Cd,
+        ice_z0=x0 - draw(st.one_of(st.just(0.0), st.floats(0.0, 0.1))),
+        ice_v0=draw(st.one_of(st.just(v0), st.just(0.0), st.floats(-u_max / 2, u_max / 2))),
+        impact_e=draw(st.one_of(st.just(0.0), st.just(1.0), st.floats(0.0, 1.0))),
+        drag_model=drag, drag_v_lin=10 ** draw(st.floats(-3.0, 1.0)),
+        flow_u=draw(st.one_of(st.just(0.0), st.floats(-u_max, u_max))),
+        solver_method=method)
+
+
+def flow_at(kind: str, i: int, u: float, signs: list[bool]) -> float:
+    """Flow speed of communication step i under a sequence ``kind`` around speed u."""
+    if kind == "reversing":
+        return u if i % 2 == 0 else -u
+    if kind == "random signs":
+        return u if signs[i % len(signs)] else -u
+    if kind == "zero":
+        return 0.0
+    if kind == "reversed 1 in 4":
+        return -u if i % 4 == 3 else u
+    return u
+
+
+def energy(scene: Scene, s) -> float:
+    """Mechanical energy 1/2 m v^2 + 1/2 k x^2 + 1/2 M w^2, J."""
+    return 0.5 * (scene.structure_m * s.v ** 2 + scene.structure_k * s.x ** 2
+                  + scene.ice_M * s.w ** 2)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--method", type=int, choices=(1, 2, 3), default=1)
@@ -43,17 +112,24 @@ def main() -> None:
     parser.add_argument("--examples", type=int, default=500)
     parser.add_argument("--detection", type=int, choices=(1, 2), default=2,
                         help="impact test of method 2: 1 = eq. 26 window, 2 = gap sign")
+    parser.add_argument("--scales", action="store_true",
+                        help="scales out to the validation limits")
+    parser.add_argument("--flows", action="store_true", help="random flow sequences")
     args = parser.parse_args()
     signal.signal(signal.SIGALRM, _alarm)
     found: list[str] = []
-    count = 0
+    count = refused = 0
+    strategy = scale_scenes(args.method) if args.scales else scenes()
+    steps = [1e-4, 1e-3, 0.01, 0.37, 10.0] if args.scales else [1e-3, 0.01, 0.37, 10.0]
+    flows = st.sampled_from(FLOWS) if args.flows else st.just("constant")
 
     @seed(args.seed)
     @settings(max_examples=args.examples, deadline=None, database=None,
               suppress_health_check=list(HealthCheck))
-    @given(scene=scenes(), h=st.sampled_from([1e-3, 0.01, 0.37, 10.0]))
-    def check(scene, h):
-        nonlocal count
+    @given(scene=strategy, h=st.sampled_from(steps), flow=flows,
+           signs=st.lists(st.booleans(), min_size=1, max_size=16))
+    def check(scene, h, flow, signs):
+        nonlocal count, refused
         try:
             scene = scene.replace(solver_method=args.method, solver_detection=args.detection)
         except ParameterError:
@@ -61,31 +137,53 @@ def main() -> None:
         count += 1
         sim = Simulator(scene)
         t_end = 3.0 if args.method != 3 else 1.0
+        if h < 1e-3:
+            t_end = min(t_end, 0.05)
+        u0 = scene.flow_u if scene.flow_u != 0.0 or flow == "zero" else 0.1
+        e_last = energy(scene, sim.solver.state)
+        e_scale = max(e_last, 1e-300)
         start = time.perf_counter()
         signal.setitimer(signal.ITIMER_REAL, TIME_LIMIT)
+        i = 0
         try:
             while sim.t < t_end - 1e-12:
-                r = sim.advance(min(h, t_end - sim.t))
+                u = flow_at(flow, i, u0, signs)
+                i += 1
+                try:
+                    r = sim.advance(min(h, t_end - sim.t), u)
+                except (ParameterError, SolverError):  # a refusal that names the limit
+                    refused += 1
+                    break
                 values = [r.x, r.v, r.z, r.w, r.gap, r.penetration, r.impulse, r.force, r.t_last]
                 if not all(map(math.isfinite, values)):
                     raise AssertionError(f"non-finite output {values}")
-                gap = sim.solver.state.x - sim.solver.state.z
-                if args.method != 2 and gap < -GAP_TOLERANCE[args.method]:
-                    raise AssertionError(f"gap {gap} m")
+                s = sim.solver.state
+                if s.x - s.z < -GAP_TOLERANCE[args.method]:
+                    raise AssertionError(f"gap {s.x - s.z} m")
+                momentum = ((scene.structure_m + scene.ice_M) * (abs(s.v) + abs(s.w) + abs(u))
+                            + scene.structure_k * abs(s.x) * h)
+                if r.impulse < -IMPULSE_TOLERANCE[args.method] * momentum - 1e-300:
+                    raise AssertionError(f"tensile contact impulse {r.impulse} N.s at "
+                                         f"t = {r.t} (scale {momentum:.3g})")
+                e_now = energy(scene, s)
+                if flow == "zero" and e_now > e_last + ENERGY_TOLERANCE[args.method] * e_scale:
+                    raise AssertionError(f"energy created at u = 0: {e_last} -> {e_now} J "
+                                         f"at t = {r.t}")
+                e_last = e_now
         except _Stalled:
-            found.append(f"TIMEOUT at t = {sim.t} s, h = {h} s: {scene}")
+            found.append(f"TIMEOUT at t = {sim.t} s, h = {h} s, flow {flow}: {scene}")
             print(found[-1], flush=True)
         except Exception as exc:
-            found.append(f"FAIL {exc!r}, h = {h} s: {scene}")
+            found.append(f"FAIL {exc!r}, h = {h} s, flow {flow}: {scene}")
             print(found[-1], flush=True)
         finally:
             signal.setitimer(signal.ITIMER_REAL, 0.0)
         wall = time.perf_counter() - start
         if wall > 10.0:
-            print(f"SLOW {wall:.1f} s, h = {h} s: {scene}", flush=True)
+            print(f"SLOW {wall:.1f} s, h = {h} s, flow {flow}: {scene}", flush=True)
 
     check()
-    print(f"{count} scenes, {len(found)} faults")
+    print(f"{count} scenes, {refused} refused at a step, {len(found)} faults")
 
 
 if __name__ == "__main__":

@@ -202,7 +202,58 @@ def validate_flow(u: Any, scene: Scene | None = None) -> float:
         if not (math.isfinite(drag) and math.isfinite(0.5 * scene.ice_M * u * u)):
             raise ParameterError(FLOW_INPUT.name, u, "a flow speed whose drag force on the ice "
                                  "and kinetic energy of the ice are finite (" + _OVERFLOW + ")")
+        if _integrates_quadratic_drag(scene) and _drag_rate(scene, abs(u)) > DRAG_RATE_MAX:
+            limit = DRAG_RATE_MAX * scene.ice_M / (2.0 * scene.drag_B)
+            raise ParameterError(FLOW_INPUT.name, u, _drag_rate_text(scene, limit, "|flow.u|"))
     return u
+
+
+def _integrates_quadratic_drag(scene: Scene) -> bool:
+    """Method 1 or 3 with quadratic drag: a rate 2 B |speed| / M is integrated."""
+    return (scene.drag_model == QUADRATIC_DRAG
+            and scene.solver_method in (METHOD_EXACT, METHOD_ODE))
+
+
+def _drag_rate(scene: Scene, speed: float) -> float:
+    """Relaxation rate 2 B speed / M of the quadratic drag at a relative speed (1/s)."""
+    return 2.0 * scene.drag_B * speed / scene.ice_M
+
+
+def _drag_rate_text(scene: Scene, limit: float, what: str) -> str:
+    return (f"{what} <= {limit:.3g} m/s with quadratic drag and solver.method = "
+            f"{scene.solver_method}: the drag rate 2 B {what} / ice.M must stay <= "
+            f"{DRAG_RATE_MAX:g} 1/s, the stiffest the explicit integration of the drag "
+            f"finishes in bounded time (B = fluid.rho ice.Cd ice.A / 2 = {scene.drag_B:.6g} kg/m)")
+
+
+def _check_work(scene: Scene) -> None:
+    """Refuse scenes whose time scales the method cannot resolve in bounded work (see
+    OMEGA_MAX_EXACT, OMEGA_MAX_ODE, DRAG_RATE_MAX; docs/robustness.md)."""
+    s = scene
+    if s.solver_method == METHOD_FIXED_STEP:
+        return  # closed forms (and eq. 36) on a grid: work is the number of grid points
+    omega_max = OMEGA_MAX_EXACT if s.solver_method == METHOD_EXACT else OMEGA_MAX_ODE
+    if s.omega_n > omega_max:
+        why = ("the chatter time (1e-2 of the structure's period) must stay above the time "
+               f"resolution of the exact method's root search ({TIME_RESOLUTION:g} s x t) "
+               f"up to t = {RESOLVED_HORIZON:g} s") if s.solver_method == METHOD_EXACT else (
+               "the ODE integrators take 10-20 steps per period of the structure; use "
+               "solver.method = 1 or 2 for a stiffer structure")
+        raise ParameterError("sqrt(structure.k / structure.m)", s.omega_n,
+                             f"omega_n <= {omega_max:.3g} rad/s with solver.method = "
+                             f"{s.solver_method}: {why}")
+    if _integrates_quadratic_drag(s):
+        speed = max(abs(s.flow_u), abs(s.ice_v0 - s.flow_u))
+        if _drag_rate(s, speed) > DRAG_RATE_MAX:
+            limit = DRAG_RATE_MAX * s.ice_M / (2.0 * s.drag_B)
+            raise ParameterError("max(|flow.u|, |ice.v0 - flow.u|)", speed,
+                                 _drag_rate_text(s, limit, "|speed|"))
+    elif s.solver_method == METHOD_ODE and s.drag_model == LINEAR_DRAG:
+        if s.drag_b / s.ice_M > DRAG_RATE_MAX:
+            raise ParameterError("B * drag.v_lin / ice.M", s.drag_b / s.ice_M,
+                                 f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the "
+                                 "explicit integration of the drag finishes in bounded time "
+                                 "only below this rate")
 
 
 #: The explicit Euler step of the quadratic drag (eq. 36) maps r = w - u to r (1 - q |r|) with
@@ -211,6 +262,30 @@ EULER_STABILITY_LIMIT = 2.0
 
 #: Why a combination of finite parameters can still be refused.
 _OVERFLOW = "this scene's scales overflow double precision"
+
+#: Time resolution of the exact method's root search at t <= 1 s (s): a few ulps of the time.
+TIME_RESOLUTION = 8.9e-16
+#: Simulated time up to which the exact method must resolve the structure's motion (s).
+RESOLVED_HORIZON = 1e6
+#: Largest omega_n (rad/s) of methods 1 and 3. Method 1 closes every bounce shorter than the
+#: chatter time (1e-2 of the structure's period, contact_rules.CHATTER_FRACTION) and resolves
+#: longer ones with its root search, whose time resolution is TIME_RESOLUTION * max(1, t). Above
+#: this omega_n the chatter time 2 pi 1e-2 / omega_n falls below that resolution before
+#: RESOLVED_HORIZON: bounces in between can be neither closed nor resolved and the search creeps
+#: at the resolution (omega_n = 1e15 rad/s: no progress in 20 s). Method 3 is held to its own,
+#: lower limit (OMEGA_MAX_ODE).
+OMEGA_MAX_EXACT = 2.0 * math.pi * 1e-2 / (TIME_RESOLUTION * RESOLVED_HORIZON)  # 7.06e7 rad/s
+#: Largest omega_n (rad/s) of method 3: its integrators take ~10-20 steps per period of the
+#: structure, so its work grows with omega_n x horizon; 1e4 rad/s costs ~2.5 s of wall time
+#: per simulated second (one 1 s solve_ivp chunk is integrated whole even for a 1 ms step;
+#: 1e5: ~10 s, 1e6: no 1 s chunk within 20 s).
+OMEGA_MAX_ODE = 1e4
+#: Largest relaxation rate of the drag (1/s) for the integrated phases: the ice's flight in
+#: method 3 (b/M, or 2 B |w - u| / M) and the quadratic-drag sticking phase of method 1
+#: (2 B |v - u| / (m + M) <= 2 B |v - u| / M). Their explicit integrators (DOP853, RK45) are
+#: stable only for steps below ~3.3 / rate: at 1e6 1/s that is ~3e5 steps (about 10 s of wall
+#: time) per simulated second; flow.u = 1e12 m/s (rate 6e11 1/s) did not finish 20 ms in 60 s.
+DRAG_RATE_MAX = 1e6
 
 
 def _check_scales(scene: Scene) -> None:
@@ -271,6 +346,7 @@ def validate(scene: Scene) -> None:
         raise ParameterError("ice.z0", scene.ice_z0,
                              f"<= structure.x0 = {scene.structure_x0!r} (the ice starts upstream)")
     _check_scales(scene)
+    _check_work(scene)
     validate_flow(scene.flow_u, scene)
     if scene.solver_method == METHOD_FIXED_STEP and scene.drag_model == QUADRATIC_DRAG:
         relative = abs(scene.ice_v0 - scene.flow_u)
@@ -306,6 +382,9 @@ def load_scene(path: str | Path) -> Scene:
         raise
     except (OSError, UnicodeDecodeError) as exc:
         raise ParameterError("scene file", str(path), f"a readable TOML file ({exc})") from None
+    except ValueError as exc:  # tomllib: an integer of more than 4300 digits
+        raise ParameterError("scene file", str(path), f"a TOML file with numbers Python can "
+                             f"read ({_value_text(str(exc))})") from None
     flat: dict[str, Any] = {}
     spelled: dict[str, str] = {}
 

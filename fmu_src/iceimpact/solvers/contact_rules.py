@@ -302,13 +302,29 @@ class ContactRules:
             return ContactDecision(Outcome.STICK, v_common, v_common, hold, impulse)
         return ContactDecision(Outcome.STICK, v, v, hold)
 
-    def at_contact(self, t: float, x: float, v: float, w: float, u: float) -> ContactDecision:
+    def tensile(self, lam: float, x: float, v: float, w: float, u: float) -> bool:
+        """The contact force lam (N) at state (x, v, w) pulls beyond its rounding: the bodies
+        must part, and no hold may keep them together.
+
+        lam = mu (a_z - a_x) is computed from the free accelerations, whose rounding is a few ulps
+        of the terms they add up (the spring term omega_n^2 x of a_x may cancel its damping
+        term); ROUNDING_SPEED of that sum is rounding, not a force."""
+        a_x, a_z = self.free_accels(x, v, w, u)
+        scale = self.mu * (abs(a_x) + abs(a_z) + self.omega_n * self.omega_n * abs(x))
+        return lam < -(ROUNDING_SPEED * scale + 1e-300)
+
+    def at_contact(self, t: float, x: float, v: float, w: float, u: float,
+                   reanchor: bool = False) -> ContactDecision:
         """What follows at time t (s) with the bodies at zero gap at x (m), velocities v, w.
 
         An approach is an impact; contact with no relative velocity that keeps re-forming is
-        held (:class:`DegenerateContacts`); bodies pressed together (lam >= 0) with no relative
-        velocity stick; all else parts. The method's :class:`ContactPolicy` decides the
-        rounding-level cases.
+        held (:class:`DegenerateContacts`) unless its force pulls beyond rounding; bodies pressed
+        together (lam >= 0) with no relative velocity stick; all else parts. The method's
+        :class:`ContactPolicy` decides the rounding-level cases.
+
+        ``reanchor``: the decision follows a change of the flow speed (the closed forms restart
+        at the bodies' state, :func:`reanchor_on_flow_change`), not a contact re-forming; it is
+        not counted as a degenerate contact.
         """
         policy = self.policy
         closing = w - v
@@ -320,13 +336,14 @@ class ContactRules:
             closing = 0.0
         if closing > 0.0:  # approaching at contact: impact now
             return ContactDecision(Outcome.IMPACT, v, w)
-        if rounding:
+        lam = self.free_contact_force(x, v, w, u)
+        if rounding and not reanchor and not self.tensile(lam, x, v, w, u):
             # contact that keeps re-forming with no speed (contact force zero to rounding, e.g.
-            # everything at rest with no flow): hold the bodies together for a while
+            # everything at rest with no flow): hold the bodies together for a while. A contact
+            # that pulls is never held: a contact can only push
             hold = self.degenerate.hold(t)
             if hold > 0.0:
                 return self._stick(v, w, hold)
-        lam = self.free_contact_force(x, v, w, u)
         if policy.stick_slow_parting:
             # pressed together and parting too slowly for a resolvable bounce (rounding of a
             # separation, the tail of a chatter): stick

@@ -394,14 +394,16 @@ class EventSolver(Solver):
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
         return self.osc.acceleration(x, v), self.drag.accel_bounds(w, u)[0]
 
-    def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float) -> None:
-        """Start the segment that follows time t from state (x, v, z, w)."""
+    def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
+               reanchor: bool = False) -> None:
+        """Start the segment that follows time t from state (x, v, z, w) (``reanchor``: after a
+        change of the flow speed, see :meth:`ContactRules.at_contact`)."""
         self.u = u
         self.tau = 0.0
         if x - z > 0.0:
             self._fly(t, x, v, z, w, u)
             return
-        decision = self.rules.at_contact(t, x, v, w, u)
+        decision = self.rules.at_contact(t, x, v, w, u, reanchor)
         if decision.outcome is Outcome.IMPACT:
             self._impact(t, x, decision.v, decision.w, u)
         elif decision.outcome is Outcome.STICK:
@@ -452,7 +454,7 @@ class EventSolver(Solver):
         if u != self.u:  # zero-order hold: a new flow speed re-anchors the closed forms here
             x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
                                                  self.seg.phase is Phase.STICK)
-            self._begin(self.state.t, x, v, z, w, u)
+            self._begin(self.state.t, x, v, z, w, u, reanchor=True)
         return self._march(t_end, u)
 
     def _march(self, t_end: float, u: float) -> float:

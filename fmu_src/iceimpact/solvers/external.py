@@ -142,7 +142,7 @@ class ExternalSolver(EventSolver):
                 self._stick(t, x_in, v_in, u)
         else:
             # the structure lags its extrapolation: no penetration, the ice goes back to it
-            self._begin(t, x_in, v_in, min(z, x_in), w, u)
+            self._begin(t, x_in, v_in, min(z, x_in), w, u, reanchor=True)
         impulse = self._march(t_end, u)
         self.previous = (v_in, h, impulse / h)
         return impulse

@@ -19,7 +19,8 @@ On a fixed grid of step dt = ``solver.dt`` (s), anchored at the last impact:
   The impact applies eq. 16-17 to the velocities at that grid point; both closed forms restart
   there from the structure's position (eq. 18-24: ``z = x_k``), the local time resets to 0 and the
   global grid goes on.
-- **Steady state** (eq. 27-29): when (i) ``max(|z|, |x|) < 1e-4 m``, (ii) ``max(|w|, |v|) <
+- **Steady state** (eq. 27-29), only while the drag pushes (u >= 0: a contact cannot pull):
+  when (i) ``max(|z|, |x|) < 1e-4 m``, (ii) ``max(|w|, |v|) <
   1e-4 m/s`` and (iii) ``max(|z''|, |x''|) < 1e-4 m/s^2`` hold at a grid point, the bodies are
   pinned at ``x = z = F / k``, ``v = w = 0``, with ``F = b u`` (linear drag, eq. 28-29) or
   ``F = B u |u|`` (quadratic drag, the same balance), and stay there while u is unchanged; the
@@ -165,10 +166,17 @@ class FixedStepSolver(Solver):
             f"{q * abs(r):.3g} > {limit:g}, so the ice velocity would diverge; use "
             f"solver.dt < {limit / (self.drag.beta * abs(r)):.3g} s, or solver.method = 1")
 
+    def _pushes(self) -> bool:
+        """The steady state of eq. 27-29 presses the ice on the structure with k x = F_drag(0):
+        it exists only while the drag pushes (u >= 0). A contact cannot pull, so with a reversed
+        flow the bodies are never pinned (the ice drifts away instead)."""
+        return self.drag.force(0.0, self.u) >= 0.0
+
     def _steady(self, x, v, z, w, v_prev, w_prev) -> np.ndarray:
         """Conditions (i)-(iii) of Section 4.1 at each grid point of a chunk."""
         lim = STEADY_THRESHOLD
-        return ((np.maximum(np.abs(x), np.abs(z)) < lim)
+        return (self._pushes()
+                & (np.maximum(np.abs(x), np.abs(z)) < lim)
                 & (np.maximum(np.abs(v), np.abs(w)) < lim)
                 & (np.maximum(np.abs(v - v_prev), np.abs(w - w_prev)) < lim * self.dt))
 
@@ -176,7 +184,7 @@ class FixedStepSolver(Solver):
                    w_prev: float) -> bool:
         """Conditions (i)-(iii) of Section 4.1 at one grid point."""
         lim = STEADY_THRESHOLD
-        return (abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
+        return (self._pushes() and abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
                 and abs(v - v_prev) < lim * self.dt and abs(w - w_prev) < lim * self.dt)
 
     def _fill(self, n0: int, grid: Grid) -> None:

@@ -224,23 +224,32 @@ class OdeSolver(Solver):
             self.sol = self._integrate(self.t_lo, self.y_lo)[0].sol
         return self.sol(t)
 
-    def _begin(self, t: float, x: float, v: float, z: float, w: float) -> None:
+    def _begin(self, t: float, x: float, v: float, z: float, w: float,
+               reanchor: bool = False) -> None:
         """Start the segment that follows time t from state (x, v, z, w) (contact rules of
-        :mod:`~iceimpact.solvers.contact_rules` with :data:`INTEGRATED_POLICY`)."""
-        if _same_instant(t, self._last_event_t):
-            self._events_here += 1
-        else:
-            self._events_here, self._last_event_t = 0, t
+        :mod:`~iceimpact.solvers.contact_rules` with :data:`INTEGRATED_POLICY`; ``reanchor``:
+        after a change of the flow speed, which is no event)."""
+        if not reanchor:
+            if _same_instant(t, self._last_event_t):
+                self._events_here += 1
+            else:
+                self._events_here, self._last_event_t = 0, t
         if x - z > 0.0:
             self._segment(Phase.FLIGHT, t, [x, v, z, w])
             return
-        if self._events_here > MAX_EVENTS_AT_ONE_INSTANT:
-            # degenerate contact or integration noise: plastic contact, held for a moment
+        if self._events_here > MAX_EVENTS_AT_ONE_INSTANT and not reanchor:
+            # degenerate contact or integration noise: plastic contact, held for a moment,
+            # unless the contact force pulls (then the merged bodies part)
             v_common, impulse = self.rules.plastic_merge(v, w)
             self.pending_impulse += impulse
-            self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
+            lam = self.rules.free_contact_force(x, v_common, v_common, self.u)
+            if self.rules.tensile(lam, x, v_common, v_common, self.u):
+                self._segment(Phase.FLIGHT, t, [x, v_common, x, v_common])
+            else:
+                self._segment(Phase.STICK, t, [x, v_common, 0.0],
+                              hold=self.rules.chatter_time)
             return
-        decision = self.rules.at_contact(t, x, v, w, self.u)
+        decision = self.rules.at_contact(t, x, v, w, self.u, reanchor)
         if decision.outcome is Outcome.IMPACT:
             self._impact(t, x, v, w)
         elif decision.outcome is Outcome.STICK:
@@ -262,7 +271,7 @@ class OdeSolver(Solver):
             s = self.state
             self.u = u
             x, v, z, w = reanchor_on_flow_change(s.x, s.v, s.z, s.w, self.phase is Phase.STICK)
-            self._begin(s.t, x, v, z, w)
+            self._begin(s.t, x, v, z, w, reanchor=True)
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         while True:

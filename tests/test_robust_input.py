@@ -1,0 +1,270 @@
+"""Hostile input, faults and misuse: a contact that pulls, accepted scenes that hang, and fuzzing
+of the entry points that take outside data (scene files, CLI arguments). docs/robustness.md."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import random
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from iceimpact import ParameterError, Scene, Simulator, load_scene
+from iceimpact.cli import main as cli_main
+from iceimpact.fmi.adapter import FmuModel
+from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE, TIME_RESOLUTION
+from iceimpact.solvers.contact_rules import CHATTER_FRACTION
+
+# --- a contact that pulls ---------------------------------------------------------------------
+
+#: the ice resting on the structure (Figure 2 scene otherwise)
+RESTING = {"structure_x0": 0.0, "ice_z0": 0.0, "ice_v0": 0.0}
+
+
+def _toggled(i: int) -> float:
+    """+0.1 m/s, reversed one communication step in four."""
+    return -0.1 if i % 4 == 3 else 0.1
+
+
+@pytest.mark.parametrize("method", [1, 2, 3])
+@pytest.mark.parametrize("h", [1e-4, 5e-4])
+def test_a_contact_never_pulls(method, h):
+    """With the flow turning, the bodies separate: no step's contact impulse is tensile (the
+    degenerate-contact hold used to count each re-anchor at a flow change as a contact
+    re-forming and then held the bodies together against the drag)."""
+    for drag in (1, 2):
+        sim = Simulator(Scene(**RESTING, drag_model=drag, solver_method=method,
+                              solver_detection=2))
+        steps = 40 if method == 3 else 400
+        for i in range(steps):
+            r = sim.advance(h, _toggled(i))
+            assert r.impulse >= 0.0, (i, r)
+            if i % 4 == 3 and method != 2:  # the drag pulls the ice away: the bodies part
+                assert not r.sticking, (i, r)
+            assert r.gap >= 0.0
+
+
+def test_a_reversed_flow_does_not_pin_method_2():
+    """Method 2's steady state (eq. 27-29) presses the ice on the structure with F = b u: with
+    u < 0 it would pull, so the ice drifts away instead."""
+    for drag in (1, 2):
+        sim = Simulator(Scene(**RESTING, drag_model=drag, solver_method=2, flow_u=-1e-5))
+        for _ in range(50):
+            r = sim.advance(0.1)
+            assert r.impulse >= 0.0 and not r.sticking
+        assert sim.solver.state.z < 0.0
+
+
+def test_a_contact_never_pulls_through_the_fmu():
+    logs: list[str] = []
+    for method in (1, 3):
+        fmu = FmuModel(lambda status, text: logs.append(text))
+        for name, value in {"structure.x0": 0.0, "ice.z0": 0.0, "ice.v0": 0.0,
+                            "solver.method": method}.items():
+            fmu.set(name, value)
+        assert fmu.initialize()
+        t = 0.0
+        for i in range(40 if method == 3 else 80):
+            fmu.set("flow.u", _toggled(i))
+            assert fmu.do_step(t, 5e-4)
+            t += 5e-4
+            assert fmu.get("contact.impulse") >= 0.0
+            assert fmu.get("contact.force") >= 0.0
+        assert not logs
+
+
+# --- accepted scenes that hang: the limits ------------------------------------------------------
+
+def test_the_limits_follow_from_the_numerics():
+    # the chatter time stays above the root search's time resolution up to t = 1e6 s
+    assert math.isclose(2.0 * math.pi * CHATTER_FRACTION / OMEGA_MAX_EXACT,
+                        TIME_RESOLUTION * 1e6)
+
+
+@pytest.mark.parametrize("method, k", [(1, 1e40), (3, 1e40), (1, 1600 * 1e8 ** 2),
+                                       (3, 1600 * 2e4 ** 2)])
+def test_a_structure_too_stiff_to_resolve_is_refused(method, k):
+    scene = dict(structure_k=k, ice_z0=-0.01, ice_v0=0.0, flow_u=0.0, solver_method=method)
+    with pytest.raises(ParameterError, match=r"omega_n <= .* rad/s with solver.method"):
+        Scene(**scene)
+    Scene(**{**scene, "solver_method": 2})  # method 2's grid has no such limit
+
+
+@pytest.mark.parametrize("method", [1, 3])
+def test_the_stiffest_structure_accepted_runs_in_bounded_time(method):
+    """Just inside the limit, the ice in contact moving towards the structure (an impact at
+    t = 0, then the structure rings): 20 steps of 1 ms finish quickly and soundly."""
+    omega = 0.99 * (OMEGA_MAX_EXACT if method == 1 else OMEGA_MAX_ODE)
+    sim = Simulator(Scene(structure_k=1600 * omega ** 2, structure_x0=0.0, ice_z0=0.0,
+                          ice_v0=0.01, flow_u=0.0, solver_method=method))
+    for _ in range(20):
+        r = sim.advance(1e-3)
+        assert r.gap >= 0.0 and r.impulse >= 0.0 and math.isfinite(r.x)
+    assert sim.impact_count >= 1
+
+
+@pytest.mark.parametrize("method", [1, 3])
+def test_a_drag_too_stiff_to_integrate_is_refused(method):
+    with pytest.raises(ParameterError, match=r"flow.u.*\|speed\| <= 1.6e\+06 m/s with quadratic"):
+        Scene(drag_model=2, flow_u=1e12, solver_method=method)
+    # mid-run: the step is refused and changes nothing
+    sim = Simulator(Scene(drag_model=2, solver_method=method))
+    sim.advance(1e-3)
+    before = sim.save()
+    with pytest.raises(ParameterError,
+                       match=r"flow.u = 1000000000000.0 is not allowed: \|flow.u\| <= "):
+        sim.advance(1e-3, 1e12)
+    assert sim.save() == before
+    Scene(drag_model=1, flow_u=1e12, solver_method=1)  # linear drag: closed forms
+
+
+def test_a_stiff_linear_drag_is_refused_for_method_3():
+    with pytest.raises(ParameterError, match=r"B \* drag.v_lin / ice.M"):
+        Scene(ice_M=1e-6, solver_method=3)
+    Scene(ice_M=1e-6, solver_method=1)
+
+
+def test_the_drag_rate_limit_through_the_fmu():
+    logs: list[str] = []
+    fmu = FmuModel(lambda status, text: logs.append(text))
+    fmu.set("drag.model", 2)
+    assert fmu.initialize()
+    assert fmu.do_step(0.0, 1e-3)
+    x = fmu.get("structure.x")
+    fmu.set("flow.u", 1e12)
+    assert not fmu.do_step(1e-3, 1e-3)  # fmi2Discard, nothing changed
+    assert "flow.u = 1000000000000.0 is not allowed" in logs[-1] and "1/s" in logs[-1]
+    assert fmu.get("structure.x") == x
+    fmu.set("flow.u", 0.1)
+    assert fmu.do_step(1e-3, 1e-3)
+
+
+def test_the_drag_rate_limit_at_the_limit_runs():
+    u = 0.99 * DRAG_RATE_MAX * 1600.0 / (2.0 * 499.5)
+    sim = Simulator(Scene(drag_model=2, flow_u=u))
+    for _ in range(5):
+        r = sim.advance(1e-3)
+        assert math.isfinite(r.x) and r.gap >= 0.0 and r.impulse >= 0.0
+
+
+# --- fuzz: scene files ----------------------------------------------------------------------------
+
+VALID_TOML = b"""\
+"impact.e" = 0.5
+[structure]
+m = 1600.0
+k = 1.0e6
+c = 200.0
+[ice]
+M = 800.0
+z0 = -0.01
+[flow]
+u = 0.1
+"""
+
+
+def _load_bytes(tmp_path, data: bytes):
+    path = tmp_path / "scene.toml"
+    path.write_bytes(data)
+    return load_scene(path)
+
+
+def _only_parameter_errors(tmp_path, data: bytes) -> None:
+    try:
+        _load_bytes(tmp_path, data)
+    except ParameterError as exc:
+        text = str(exc)
+        assert " is not allowed: " in text and len(text) < 2000, text
+    # any other exception fails the test
+
+
+@settings(max_examples=150, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=st.binary(max_size=300))
+def test_scene_file_random_bytes(tmp_path, data):
+    _only_parameter_errors(tmp_path, data)
+
+
+def test_scene_file_truncated_and_bit_flipped(tmp_path):
+    assert _load_bytes(tmp_path, VALID_TOML).ice_M == 800.0
+    for n in range(len(VALID_TOML)):
+        _only_parameter_errors(tmp_path, VALID_TOML[:n])
+    rng = random.Random(12)
+    for _ in range(300):
+        data = bytearray(VALID_TOML)
+        for _ in range(rng.randint(1, 3)):
+            i = rng.randrange(len(data))
+            data[i] ^= 1 << rng.randrange(8)
+        _only_parameter_errors(tmp_path, bytes(data))
+
+
+@pytest.mark.parametrize("text, name", [
+    ('"structure.k" = 1e400', "structure.k"),                # TOML overflow: inf in the file
+    ('"structure.k" = ' + "9" * 5000, "scene file"),          # beyond Python's int parsing
+    ('"structure.k" = ' + "9" * 400, "structure.k"),          # an integer no double holds
+    ('"ice.M" = 1e308\n"ice.v0" = 1e300', "ice.M * ice.v0^2 / 2"),
+    ('"structure.k" = 1e40', "sqrt(structure.k / structure.m)"),
+    ('"flow.u" = 1e12\n"drag.model" = 2', "max(|flow.u|, |ice.v0 - flow.u|)"),
+    ('"ice.M" = 1.0\n"ice.M" = 2.0', "scene file"),           # duplicate key: TOML error
+    ('"ice.M" = 1.0\n[ice]\nM = 2.0', "ice.M"),               # twice, two spellings
+    ('"ice.M" = "heavy"', "ice.M"),
+    ('"ice.M" = true', "ice.M"),
+    ('"ice.M" = [1.0]', "ice.M"),
+    ('"ice.M" = 1979-05-27', "ice.M"),
+    ('"ice.M" = nan', "ice.M"),
+    ('"ice.M" = -inf', "ice.M"),
+    ('"drag.model" = 1.5', "drag.model"),
+    ('"solver.method" = 99999999999999999999999', "solver.method"),
+    ("[ice]\nM = { a = 1 }", "ice.M.a"),
+    ('"ice.mass" = 1.0', "ice.mass"),
+])
+def test_scene_file_bad_values(tmp_path, text, name):
+    with pytest.raises(ParameterError) as info:
+        _load_bytes(tmp_path, text.encode())
+    assert info.value.name == name
+    assert " is not allowed: " in str(info.value) and len(str(info.value)) < 2000
+
+
+# --- fuzz: CLI arguments ------------------------------------------------------------------
+
+def _cli(argv: list[str]) -> tuple[int, str]:
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            status = cli_main(argv)
+        except SystemExit as exc:
+            status = exc.code
+    return status, err.getvalue()
+
+
+_VALUES = st.one_of(
+    st.sampled_from(["nan", "inf", "-inf", "1e400", "-1e400", "0", "-0", "-1", "1e-400",
+                     "9" * 5000, "", " ", "1e40", "1e12", "0x10", "1_000", "true", "=",
+                     "1,5", "\x00", "１"]),
+    st.text(max_size=12), st.floats(allow_nan=True, allow_infinity=True).map(repr))
+_NAMES = st.one_of(st.sampled_from(["structure.k", "ice.M", "flow.u", "drag.model",
+                                    "solver.method", "impact.e", "solver.dt", "ice.mass", "",
+                                    " ice.M ", "structure"]), st.text(max_size=8))
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(name=_NAMES, value=_VALUES, option=st.sampled_from(["--set", "--t-end", "--dt"]))
+def test_cli_bad_arguments_exit_2_with_a_message(name, value, option):
+    arg = f"{name}={value}" if option == "--set" else value
+    argv = ["simulate", option, arg, "--t-end", "1e-3", "--dt", "1e-3"]
+    if option != "--set":
+        argv = ["simulate", "--t-end", "1e-3", "--dt", "1e-3", option, arg]
+    status, err = _cli(argv)
+    if status == 0:  # a valid value: the run went through
+        return
+    assert status == 2, (argv, status, err)
+    assert "error:" in err and "Traceback" not in err, err
+
+
+def test_cli_refuses_a_scene_it_cannot_run_in_bounded_time():
+    status, err = _cli(["simulate", "--set", "structure.k=1e40", "--t-end", "1e-3",
+                        "--dt", "1e-3"])
+    assert status == 2 and "omega_n <=" in err and "Traceback" not in err
