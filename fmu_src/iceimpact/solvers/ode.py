@@ -238,16 +238,12 @@ class OdeSolver(Solver):
             self._segment(Phase.FLIGHT, t, [x, v, z, w])
             return
         if self._events_here > MAX_EVENTS_AT_ONE_INSTANT and not reanchor:
-            # degenerate contact or integration noise: plastic contact, held for a moment,
-            # unless the contact force pulls (then the merged bodies part)
+            # degenerate contact or integration noise (events repeating at one instant): plastic
+            # contact, held for a moment, so that the work stays bounded (a flight from here
+            # would meet the same noise event again)
             v_common, impulse = self.rules.plastic_merge(v, w)
             self.pending_impulse += impulse
-            lam = self.rules.free_contact_force(x, v_common, v_common, self.u)
-            if self.rules.tensile(lam, x, v_common, v_common, self.u):
-                self._segment(Phase.FLIGHT, t, [x, v_common, x, v_common])
-            else:
-                self._segment(Phase.STICK, t, [x, v_common, 0.0],
-                              hold=self.rules.chatter_time)
+            self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
             return
         decision = self.rules.at_contact(t, x, v, w, self.u, reanchor)
         if decision.outcome is Outcome.IMPACT:
