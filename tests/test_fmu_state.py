@@ -305,3 +305,28 @@ def test_structure_force_is_the_spring_force():
     for k in range(1500):
         assert model.do_step(k * DT, DT)
         assert model.get("structure.force") == 2.5e6 * model.get("structure.x")
+
+
+def test_a_non_finite_result_is_refused_and_changes_nothing():
+    """A defect that would put NaN in an output: the step is refused (fmi2Discard through the
+    adapter), the outputs and the state stay as they were, and the run goes on."""
+    model = model_after(200)
+    before, outputs = model.snapshot(), {n: model.get(n) for n in ("structure.x", "ice.z")}
+    solver = model.sim.solver
+    real_advance = solver.advance_to
+
+    def broken(t_end, u):
+        real_advance(t_end, u)
+        solver.state.x = float("nan")
+        return 0.0
+
+    solver.advance_to = broken
+    assert not model.do_step(model.time, DT)
+    after = model.snapshot()
+    assert "non-finite x" in after["simulator"].pop("failed")  # the refusal, recorded
+    before["simulator"].pop("failed")
+    assert after == before
+    assert {n: model.get(n) for n in outputs} == outputs
+    solver.advance_to = real_advance
+    assert model.do_step(model.time, DT)
+    assert np.isfinite(model.get("structure.x"))

@@ -69,6 +69,7 @@ class StepReport:
 
 
 _REPORT_FIELDS = tuple(f.name for f in fields(StepReport))
+_REAL_REPORT_FIELDS = tuple(f.name for f in fields(StepReport) if f.type == "float")
 _REPORT_COUNTS = ("impacts", "impact_count")
 _SAVE_KEYS = ("version", "scene", "solver", "report", "reported_impacts", "failed")
 
@@ -178,11 +179,18 @@ class Simulator:
     def _step(self, t_end: float, h: float, u: float | None,
               structure: Any = None) -> StepReport:
         u = self.scene.flow_u if u is None else validate_flow(u, self.scene)
-        if self.scene.external:
-            self.solver.inputs = self._structure_inputs(structure)
+        inputs = self._structure_inputs(structure) if self.scene.external else None
         checkpoint = self.solver.snapshot()
         try:
+            if inputs is not None:
+                self.solver.inputs = inputs
             impulse = self.solver.advance_to(t_end, u)
+            report = self._report(impulse, h)
+            bad = [name for name in _REAL_REPORT_FIELDS
+                   if not math.isfinite(getattr(report, name))]
+            if bad:  # never let NaN or inf reach an output
+                raise SolverError(f"the method produced a non-finite {', '.join(bad)} at "
+                                  f"t = {t_end!r} s")
         except BaseException as exc:
             self.solver.restore(checkpoint)  # a refused step changes nothing
             if isinstance(exc, SolverError):
@@ -191,7 +199,7 @@ class Simulator:
                 raise SolverError(self.failed) from exc
             raise
         self.failed = None
-        self.report = self._report(impulse, h)
+        self.report = report
         self._n_reported = self.solver.impact_count
         return self.report
 
