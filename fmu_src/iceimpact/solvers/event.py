@@ -56,10 +56,38 @@ def _time_eps(t: float) -> float:
     return 8.9e-16 * max(1.0, abs(t))
 
 
-class Flight:
+class _SearchedSegment:
+    """Snapshot of a segment given in closed form from its anchor, with a root search: the
+    anchor values named by ``ANCHOR``, the search start and its frontier (Flight, LinearStick)."""
+
+    ANCHOR: tuple[str, ...] = ()
+
+    def snapshot(self, tau: float) -> dict[str, Any]:
+        return {"phase": self.phase.value, "t0": self.t0,
+                "anchor": [getattr(self, name) for name in self.ANCHOR], "start": self.start,
+                "search": self.search.frontier()}
+
+    @classmethod
+    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
+        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
+        rec.expect_keys(("phase", "t0", "anchor", "start", "search"))
+        t0 = rec.real("t0", low=0.0)
+        anchor = rec.reals("anchor", len(cls.ANCHOR))
+        start = rec.real("start", low=0.0)
+        frontier = RootSearch.read_frontier(rec.record("search"), start)
+
+        def make() -> Any:
+            seg = cls(solver, t0, *anchor, u, start)
+            seg.search.set_frontier(frontier)
+            return seg
+        return make
+
+
+class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
     phase = Phase.FLIGHT
+    ANCHOR = ("x0", "v0", "z0", "w0")
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
@@ -98,31 +126,13 @@ class Flight:
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
 
-    def snapshot(self, tau: float) -> dict[str, Any]:
-        return {"phase": self.phase.value, "t0": self.t0,
-                "anchor": [self.x0, self.v0, self.z0, self.w0], "start": self.start,
-                "search": self.search.frontier()}
-
-    @classmethod
-    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Flight]:
-        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
-        rec.expect_keys(("phase", "t0", "anchor", "start", "search"))
-        t0 = rec.real("t0", low=0.0)
-        anchor = rec.reals("anchor", 4)
-        start = rec.real("start", low=0.0)
-        frontier = RootSearch.read_frontier(rec.record("search"), start)
-
-        def make() -> Flight:
-            seg = cls(solver, t0, *anchor, u, start)
-            seg.search.set_frontier(frontier)
-            return seg
-        return make
 
 
-class LinearStick:
+class LinearStick(_SearchedSegment):
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k)."""
 
     phase = Phase.STICK
+    ANCHOR = ("x0", "v0")
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
@@ -169,24 +179,6 @@ class LinearStick:
         xb, vb = self.osc.response(self.x0, self.v0, tau_b)
         return -self.b * ((xb - xa) - self.u * (tau_b - tau_a)) - self.M * (vb - va)
 
-    def snapshot(self, tau: float) -> dict[str, Any]:
-        return {"phase": self.phase.value, "t0": self.t0, "anchor": [self.x0, self.v0],
-                "start": self.start, "search": self.search.frontier()}
-
-    @classmethod
-    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], LinearStick]:
-        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
-        rec.expect_keys(("phase", "t0", "anchor", "start", "search"))
-        t0 = rec.real("t0", low=0.0)
-        anchor = rec.reals("anchor", 2)
-        start = rec.real("start", low=0.0)
-        frontier = RootSearch.read_frontier(rec.record("search"), start)
-
-        def make() -> LinearStick:
-            seg = cls(solver, t0, *anchor, u, start)
-            seg.search.set_frontier(frontier)
-            return seg
-        return make
 
 
 class _Separation:
