@@ -127,7 +127,6 @@ class Flight(_SearchedSegment):
         return 0.0  # no contact force in flight
 
 
-
 class LinearStick(_SearchedSegment):
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k)."""
 
@@ -178,7 +177,6 @@ class LinearStick(_SearchedSegment):
         xa, va = self.osc.response(self.x0, self.v0, tau_a)
         xb, vb = self.osc.response(self.x0, self.v0, tau_b)
         return -self.b * ((xb - xa) - self.u * (tau_b - tau_a)) - self.M * (vb - va)
-
 
 
 class _Separation:
