@@ -20,16 +20,18 @@ import argparse
 import importlib.util
 import json
 import platform
-import statistics
 import sys
 import tempfile
-import time
 from datetime import UTC, datetime
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "fmu_src"))
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from fmu_state import _median_time  # noqa: E402  (the core-level benchmark's timer)
+
 DT = 1e-3
 VALUES = {"structure.k": 1e8}
 
@@ -39,15 +41,6 @@ def _build(dest: Path) -> Path:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.build(dest)
-
-
-def _median(fn, repeat: int) -> tuple[float, object]:
-    times, result = [], None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), result
 
 
 def main() -> None:
@@ -86,15 +79,16 @@ def main() -> None:
                 states.append(state)
                 return state
 
-            t_get, state = _median(get, args.repeat)
-            t_ser, blob = _median(lambda state=state: slave.serializeFMUstate(state), args.repeat)
+            t_get, state = _median_time(get, args.repeat)
+            t_ser, blob = _median_time(lambda state=state: slave.serializeFMUstate(state),
+                                       args.repeat)
 
             def restore(blob=blob):
                 restored = slave.deSerializeFMUstate(blob)
                 slave.setFMUstate(restored)
                 slave.freeFMUstate(restored)
 
-            t_set, _ = _median(restore, args.repeat)
+            t_set, _ = _median_time(restore, args.repeat)
             for s in states:
                 slave.freeFMUstate(s)
             rows.append({"impacts": count, "t_s": k * DT, "get_ms": 1e3 * t_get,
