@@ -1,4 +1,5 @@
-"""An independent structure and a plain Gauss-Seidel master, for the ice-structure coupling tests.
+"""An independent structure and plain Gauss-Seidel and Jacobi masters, for the ice-structure
+coupling tests.
 
 This module is the independent check of a coupled run: it imports nothing from ``iceimpact``
 (nor from the FMUs' sources) and shares no code with them. It has two parts.
@@ -33,7 +34,13 @@ This module is the independent check of a coupled run: it imports nothing from `
     2. ``impulse = ice.step(t, h, x, v, a)``;
     3. ``F = impulse / h`` is held over ``[t, t + h]`` on the structure: ``structure.step(h, F)``.
 
-    Returns a :class:`CoupledRun` of arrays: ``t`` (the ``n + 1`` communication points), ``x``,
+``jacobi(ice, structure, t_end, h, t0=0.0, second_order=False)``
+    The same loop as a Jacobi (parallel) master, the fixed-step scheme of ECOS and libcosim:
+    both components step from the values exchanged at ``t``, so the structure holds over
+    ``[t, t + h]`` the force the ice returned for the *previous* step (0 over the first), and
+    ``a = acceleration(F_held)`` is under the force it held over the previous step.
+
+    Both return a :class:`CoupledRun` of arrays: ``t`` (the ``n + 1`` communication points), ``x``,
     ``v`` (the structure at those points) and ``impulse``, ``force`` (per step, ``n`` values).
     The step sizes are ``t[k+1] - t[k]`` with ``t[k] = t0 + k h`` (the last one may be shorter so
     that the run ends at ``t_end``).
@@ -125,22 +132,38 @@ def gauss_seidel(ice: Ice, structure: Structure, t_end: float, h: float, t0: flo
                  second_order: bool = False) -> CoupledRun:
     """Couple ``ice`` and ``structure`` from ``t0`` to ``t_end`` with steps ``h`` (see the
     module docstring)."""
+    return _loop(ice, structure, t_end, h, t0, second_order, parallel=False)
+
+
+def jacobi(ice: Ice, structure: Structure, t_end: float, h: float, t0: float = 0.0,
+           second_order: bool = False) -> CoupledRun:
+    """Couple ``ice`` and ``structure`` with a Jacobi master: the structure holds the ice's
+    force of the previous step (see the module docstring)."""
+    return _loop(ice, structure, t_end, h, t0, second_order, parallel=True)
+
+
+def _loop(ice: Ice, structure: Structure, t_end: float, h: float, t0: float,
+          second_order: bool, parallel: bool) -> CoupledRun:
     if not (h > 0.0 and t_end > t0):
-        raise ValueError(f"gauss_seidel needs h > 0 and t_end > t0 (got h = {h}, t0 = {t0}, "
-                         f"t_end = {t_end})")
+        raise ValueError(f"the coupling loop needs h > 0 and t_end > t0 (got h = {h}, "
+                         f"t0 = {t0}, t_end = {t_end})")
     n = max(1, math.ceil((t_end - t0) / h - 1e-9))
     times = [min(t0 + k * h, t_end) for k in range(n)] + [t_end]
     xs, vs, impulses, forces = [structure.x], [structure.v], [], []
-    force = 0.0
+    held = 0.0      # the force the structure held over the previous step, N
+    returned = 0.0  # the ice's force of the previous step, N
     for k in range(n):
         t, step = times[k], times[k + 1] - times[k]
-        a = structure.acceleration(force) if second_order else 0.0
+        a = structure.acceleration(held) if second_order else 0.0
         impulse = float(ice.step(t, step, structure.x, structure.v, a))
-        force = impulse / step
-        structure.step(step, force)
+        if parallel:   # Jacobi: this step's force reaches the structure next step
+            held, returned = returned, impulse / step
+        else:          # Gauss-Seidel, ice first: this step's force, over this step
+            held = returned = impulse / step
+        structure.step(step, held)
         xs.append(structure.x)
         vs.append(structure.v)
         impulses.append(impulse)
-        forces.append(force)
+        forces.append(returned)
     return CoupledRun(np.array(times), np.array(xs), np.array(vs), np.array(impulses),
                       np.array(forces))

@@ -50,6 +50,7 @@ LINEAR_DRAG, QUADRATIC_DRAG = 1, 2                        # drag.model
 METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE = 1, 2, 3     # solver.method
 DETECTION_WINDOW, DETECTION_SIGN = 1, 2                   # solver.detection
 STRUCTURE_BUILTIN, STRUCTURE_EXTERNAL = 1, 2              # structure.model
+SCHEME_GAUSS_SEIDEL, SCHEME_JACOBI = 1, 2                 # coupling.scheme
 
 
 @dataclass(frozen=True)
@@ -151,6 +152,12 @@ PARAMETERS: tuple[Variable, ...] = (
           "2 = external, in another FMU (inputs structure.x_in, v_in, a_in; structure.m is its "
           "effective mass at the contact point; c, x0, v0 are ignored)", STRUCTURE_BUILTIN,
           {STRUCTURE_BUILTIN: "built-in SDOF", STRUCTURE_EXTERNAL: "external"}),
+    _enum("coupling.scheme", "external structure (structure.model = 2): how the master passes "
+          "contact.force to the structure. 1 = Gauss-Seidel, ice first (the structure feels a "
+          "step's force over that same step, before its x, v reach the ice again); 2 = Jacobi "
+          "(both step from the same values, the structure feels a step's force over the next "
+          "step: ECOS, libcosim). Ignored with the built-in structure", SCHEME_GAUSS_SEIDEL,
+          {SCHEME_GAUSS_SEIDEL: "Gauss-Seidel, ice first", SCHEME_JACOBI: "Jacobi"}),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).

@@ -30,6 +30,7 @@ from .contract import (
     PARAMETERS,
     QUADRATIC_DRAG,
     SCENE_VARIABLES,
+    SCHEME_JACOBI,
     STRUCTURE_EXTERNAL,
     STRUCTURE_INPUTS,
     Variable,
@@ -94,6 +95,7 @@ class Scene:
     structure_x_in: float = _START["structure_x_in"]
     structure_v_in: float = _START["structure_v_in"]
     structure_a_in: float = _START["structure_a_in"]
+    coupling_scheme: int = _START["coupling_scheme"]
 
     def __post_init__(self) -> None:
         validate(self)
@@ -134,6 +136,12 @@ class Scene:
     def external(self) -> bool:
         """The structure lives in another FMU (structure.model = 2)."""
         return self.structure_model == STRUCTURE_EXTERNAL
+
+    @property
+    def jacobi(self) -> bool:
+        """An external structure coupled by a Jacobi master (coupling.scheme = 2): the structure
+        feels a step's contact force over the next step."""
+        return self.external and self.coupling_scheme == SCHEME_JACOBI
 
     def replace_fmi(self, values: dict[str, Any]) -> Scene:
         """A copy with FMI-named values changed (``{"ice.M": 800.0, "flow.u": 0.5}``)."""

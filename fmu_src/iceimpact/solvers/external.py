@@ -56,30 +56,55 @@ from .state import Record, StateError
 
 class ExternalStick:
     """Ice riding on the external structure for the rest of a step: the combined body of mass
-    m + M under the structure's own force F_o and the drag at the start, the contact force
-    ``lam = (m D - M F_o) / (m + M)`` held (the separation is looked for at step starts)."""
+    ``m + M`` under the structure's own force ``F_o(t)`` (linear in time within the step) and
+    the drag ``D`` (linearised about the velocity at the anchor). The contact force
+    ``lam = (m D - M F_o) / (m + M)`` is then linear in time, ``lam0 + lam1 tau``, and the
+    bodies separate at its root if it falls within the step (the first instant it would pull).
+
+    With ``a0 = (F_o + D) / (m + M)`` and ``j = (F_o' + D' a0) / (m + M)`` (``D'`` = dD/dv) the
+    motion is ``x0 + v0 tau + a0 tau^2 / 2 + j tau^3 / 6``; the contact impulse over an interval
+    is the integral of lam, which equals the drag impulse on the ice minus its momentum change
+    to the same order. Separation is not looked for before ``start`` (a degenerate contact's
+    hold, :class:`~iceimpact.solvers.contact_rules.DegenerateContacts`)."""
 
     phase = Phase.STICK
 
     def __init__(self, solver: ExternalSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
         m, M = solver.m, solver.M
-        drag = solver.drag.force(v0, u)
-        other = solver.other_force
-        self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
-        self.a = (other + drag) / (m + M)
-        self.lam = max(0.0, (m * drag - M * other) / (m + M))
+        total = m + M
+        other, other_rate = solver.other_force_at(t0), solver.other_force_rate
+        drag, drag_rate = solver.drag.force(v0, u), solver.drag.force_rate(v0, u)
+        self.t0, self.x0, self.v0, self.u, self.start = t0, x0, v0, u, start
+        self.a = (other + drag) / total
+        self.jerk = (other_rate + drag_rate * self.a) / total
+        self.lam0 = (m * drag - M * other) / total
+        self.lam1 = (m * drag_rate * self.a - M * other_rate) / total
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
-        x = self.x0 + (self.v0 + 0.5 * self.a * tau) * tau
-        v = self.v0 + self.a * tau
+        x = self.x0 + (self.v0 + (0.5 * self.a + self.jerk * tau / 6.0) * tau) * tau
+        v = self.v0 + (self.a + 0.5 * self.jerk * tau) * tau
         return x, v, x, v
 
+    def contact_force(self, tau: float) -> float:
+        """lam at tau, N."""
+        return self.lam0 + self.lam1 * tau
+
     def next_event(self, tau_end: float) -> float | None:
-        return None
+        """The separation: the first tau >= start where lam < 0 (None if not before tau_end)."""
+        lam_start = self.contact_force(self.start)
+        if separates(lam_start):
+            tau = self.start
+        elif self.lam1 < 0.0:
+            tau = max(-self.lam0 / self.lam1, self.start)
+        else:
+            return None
+        return tau if tau <= tau_end else None
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
-        return self.lam * (tau_b - tau_a) if tau_b > tau_a else 0.0
+        if tau_b <= tau_a:
+            return 0.0
+        return (self.lam0 + 0.5 * self.lam1 * (tau_a + tau_b)) * (tau_b - tau_a)
 
 
 class ExternalSolver(EventSolver):
@@ -101,71 +126,143 @@ class ExternalSolver(EventSolver):
         self.u = scene.flow_u
         self.tau = 0.0
         self.pending_impulse = 0.0
+        self.jacobi = scene.jacobi
+        #: the structure's own force F_o at the step start (N), its rate over the step (N/s)
         self.other_force = 0.0
-        #: (v_in, step length, contact force) of the last step, None before the first
-        self.previous: tuple[float, float, float] | None = None
+        self.other_force_rate = 0.0
+        self.step_start = 0.0
+        #: the last step: v_in, its length, the contact force the structure felt over it, the
+        #: contact force IceImpact returned for it, the raw estimate of F_o made at its start and
+        #: the time that estimate refers to (None before the first step)
+        self.previous: tuple[float, float, float, float, float | None, float] | None = None
         self.seg = None
 
-    def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
-        self.seg = ExternalStick(self, t, x, v, u)
-        self._set_sticking(True, t)
+    # the structure's own force ------------------------------------------------------------------
+    def unfelt_impulse(self, h: float) -> float:
+        """Impulse IceImpact delivered that the structure given at this step start has not felt
+        yet, N.s: 0 with a Gauss-Seidel master; with a Jacobi master the last step's contact
+        force, which the master holds on the structure over this step of length h."""
+        if not self.jacobi or self.previous is None:
+            return 0.0
+        return self.previous[3] * h
 
-    def estimate_other_force(self, v_in: float, a_in: float) -> float:
-        """F_o = m a_s - F_prev, N: the structure's forces other than the contact (see the
-        module docstring)."""
+    def measure_other_force(self, t: float, v_in: float,
+                            a_in: float) -> tuple[float | None, float]:
+        """A raw estimate of F_o, N, and the time it refers to, s: ``m a_in - F_felt`` at the
+        step start with ``a_in`` given, else the mean over the last step, ``m (v_in - v_prev) /
+        h_prev - F_felt``, which refers to its midpoint (None before the first step)."""
         previous = self.previous
-        force = previous[2] if previous is not None else 0.0
+        if previous is None:
+            return (self.m * a_in if a_in != 0.0 else None), t
+        v_prev, h_prev, felt = previous[0], previous[1], previous[2]
         if a_in != 0.0:
-            accel = a_in
-        elif previous is not None:
-            accel = (v_in - previous[0]) / previous[1]
-        else:
-            accel = 0.0
-        return self.m * accel - force
+            return self.m * a_in - felt, t
+        return self.m * (v_in - v_prev) / h_prev - felt, t - 0.5 * h_prev
+
+    def estimate_other_force(self, raw: float | None, ref: float,
+                             t: float) -> tuple[float, float]:
+        """F_o at the step start t, N, and its rate over the step, N/s: the raw estimate of this
+        step (:meth:`measure_other_force`) and the last one's, extrapolated linearly to t."""
+        if raw is None:
+            return 0.0, 0.0
+        previous = self.previous
+        rate = 0.0
+        if previous is not None and previous[4] is not None and ref > previous[5]:
+            rate = (raw - previous[4]) / (ref - previous[5])
+        return raw + rate * (t - ref), rate
+
+    def other_force_at(self, t: float) -> float:
+        """F_o at time t within the current step, N."""
+        return self.other_force + self.other_force_rate * (t - self.step_start)
+
+    def _structure_at(self, t: float) -> None:
+        """Anchor the extrapolated structure's acceleration F_o(t) / m for a segment from t."""
+        self.osc = ExtrapolatedStructure(self.other_force_at(t) / self.m)
+
+    # segments -----------------------------------------------------------------------------------
+    def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
+               reanchor: bool = False) -> None:
+        self._structure_at(t)
+        super()._begin(t, x, v, z, w, u, reanchor)
+
+    def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
+                          lam: float) -> None:
+        self._structure_at(t)
+        super()._fly_from_contact(t, x, v, w, u, lam)
+
+    def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
+        self.seg = ExternalStick(self, t, x, v, u, start=hold)
+        self._set_sticking(True, t)
 
     def advance_to(self, t_end: float, u: float) -> float:
         x_in, v_in, a_in = self.inputs
         t = self.state.t
         h = t_end - t
-        self.other_force = self.estimate_other_force(v_in, a_in)
-        self.osc = ExtrapolatedStructure(self.other_force / self.m)
+        raw, ref = self.measure_other_force(t, v_in, a_in)
+        self.other_force, self.other_force_rate = self.estimate_other_force(raw, ref, t)
+        self.step_start = t
+        self._structure_at(t)
+        # a Jacobi master's structure feels the last step's impulse over this step: the
+        # extrapolated structure takes it at the step start
+        unfelt = self.unfelt_impulse(h)
+        v_s = v_in + unfelt / self.m
         self.u = u
         self.tau = 0.0
         z, w = self.state.z, self.state.w
         if self.sticking:
             # the ice rides on the structure: it takes the structure's state, then stays if the
             # combined body's contact force is compressive
-            lam = self.rules.free_contact_force(x_in, v_in, v_in, u)
+            lam = self.rules.free_contact_force(x_in, v_s, v_s, u)
             if separates(lam):
-                self._fly_from_contact(t, x_in, v_in, v_in, u, lam)
+                self._fly_from_contact(t, x_in, v_s, v_s, u, lam)
             else:
-                self._stick(t, x_in, v_in, u)
+                self._stick(t, x_in, v_s, u)
         else:
             # the structure lags its extrapolation: no penetration, the ice goes back to it
-            self._begin(t, x_in, v_in, min(z, x_in), w, u, reanchor=True)
+            self._begin(t, x_in, v_s, min(z, x_in), w, u, reanchor=True)
         impulse = self._march(t_end, u)
-        self.previous = (v_in, h, impulse / h)
+        output = impulse / h
+        felt = (unfelt / h) if self.jacobi else output
+        self.previous = (v_in, h, felt, output, raw, ref)
         return impulse
 
     # snapshots ----------------------------------------------------------------------------------
-    _KEYS = ("u", "previous", "degenerate")
+    _KEYS = ("u", "previous", "other_force", "degenerate")
 
     def _snapshot(self) -> dict[str, Any]:
-        return {"u": self.u, "previous": None if self.previous is None else list(self.previous),
+        previous = None if self.previous is None else list(self.previous[:4])
+        other = None if self.previous is None else list(self.previous[4:])
+        return {"u": self.u, "previous": previous, "other_force": other,
                 "degenerate": self.rules.degenerate.snapshot()}
 
     def _read(self, rec: Record, t: float) -> Callable[[], None]:
         u = rec.real("u")
-        previous = rec.reals("previous", 3, allow_none=True)
+        previous = rec.reals("previous", 4, allow_none=True)
         if previous is not None and not (previous[1] > 0.0 and math.isfinite(previous[1])):
             raise StateError(rec.field("previous") + "[1]", previous[1], "a step length > 0 (s)")
+        other = rec.raw("other_force")
+        if previous is None:
+            if other is not None:
+                raise StateError(rec.field("other_force"), other, "null when previous is null")
+        else:
+            if (not isinstance(other, list) or len(other) != 2
+                    or not all(_finite_or_none(value, i == 0) for i, value in enumerate(other))):
+                raise StateError(rec.field("other_force"), other,
+                                 "[the raw estimate of F_o (N) or null, its time (s)]")
         degenerate = self.rules.degenerate.read(rec.record("degenerate"))
 
         def apply() -> None:
             self.u = u
-            self.previous = None if previous is None else tuple(previous)
+            self.previous = None if previous is None else (*previous, *other)
             self.rules.degenerate.set(degenerate)
             self.seg = None
             self.tau = 0.0
             self.pending_impulse = 0.0
         return apply
+
+
+def _finite_or_none(value: Any, none_allowed: bool) -> bool:
+    if value is None:
+        return none_allowed
+    return (isinstance(value, int | float) and not isinstance(value, bool)
+            and math.isfinite(value))
