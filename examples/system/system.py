@@ -8,15 +8,17 @@ The system (``IceOnStructure.ssp``: ``SystemStructure.ssd`` and both FMUs under 
     structure.v       -> ice.structure.v_in
     structure.a       -> ice.structure.a_in
 
-The masters (fixed communication step h):
+The masters (fixed communication step h), each with IceImpact's ``coupling.scheme`` set to its
+scheme:
 
 - ``fmpy_master(..., scheme="gauss-seidel")``: a scripted loop over FMPy's ``FMU2Slave``, ice
   first: the ice steps against the structure's state at the step start, then the structure steps
-  with the ice's force of that same step (the scheme of tests/coupling_master.py);
+  with the ice's force of that same step (the scheme of tests/coupling_master.py;
+  ``coupling.scheme = 1``);
 - ``fmpy_master(..., scheme="jacobi")``: both step from the values of the previous step end, then
-  the outputs are passed on (the structure's force is one step older);
+  the outputs are passed on (the structure's force is one step older; ``coupling.scheme = 2``);
 - ``ecospy_run``: the SSP run by ECOS (ecospy), whose fixed-step algorithm is the Jacobi scheme:
-  it equals the FMPy Jacobi master to rounding;
+  it equals the FMPy Jacobi master to rounding (the SSP binds ``coupling.scheme = 2``);
 - ``libcosimpy_run``: the same system in libcosim (libcosimpy), also a Jacobi scheme.
 
 Run ``python examples/system/system.py --fmus dist`` after ``python build_fmu.py``: it writes the
@@ -38,10 +40,12 @@ import numpy as np
 #: The scene: an impacting floe (tests/test_coupling.py's first scene).
 ICE = {"structure.model": 2, "drag.model": 2, "ice.M": 1200.0, "impact.e": 0.7,
        "structure.m": 1600.0}
+#: IceImpact's coupling.scheme for each master's scheme
+SCHEMES = {"gauss-seidel": 1, "jacobi": 2}
 FLOW_U = 0.3
 #: ModalStructure's default is one mode equal to IceImpact's built-in structure.
 STRUCTURE: dict[str, float] = {}
-INTEGERS = {"structure.model", "drag.model", "solver.method", "modes"}
+INTEGERS = {"structure.model", "coupling.scheme", "drag.model", "solver.method", "modes"}
 
 CONNECTIONS = [("ice", "contact.force", "structure", "force"),
                ("structure", "x", "ice", "structure.x_in"),
@@ -77,16 +81,24 @@ def _component(name: str, fmu: str, inputs: list[str], outputs: list[str],
             + "\n    </ssd:Component>")
 
 
-def system_structure(ice: dict, structure: dict, flow_u: float) -> str:
+def connections(second_order: bool = True) -> list[tuple[str, str, str, str]]:
+    """The connections; without ``a -> structure.a_in`` (first-order extrapolation, IceImpact's
+    ``structure.a_in`` stays 0) unless ``second_order``."""
+    return CONNECTIONS if second_order else CONNECTIONS[:3]
+
+
+def system_structure(ice: dict, structure: dict, flow_u: float,
+                     second_order: bool = True) -> str:
     """SystemStructure.ssd of the coupled system (parameters bound in the file)."""
     components = [
         _component("ice", "IceImpact.fmu",
                    ["structure.x_in", "structure.v_in", "structure.a_in"], ["contact.force"],
-                   {**ice, "flow.u": flow_u}),
+                   {**ice, "coupling.scheme": SCHEMES["jacobi"], "flow.u": flow_u}),
         _component("structure", "ModalStructure.fmu", ["force"], ["x", "v", "a"], structure),
     ]
-    connections = [f'      <ssd:Connection startElement="{a}" startConnector="{ca}" '
-                   f'endElement="{b}" endConnector="{cb}"/>' for a, ca, b, cb in CONNECTIONS]
+    links = [f'      <ssd:Connection startElement="{a}" startConnector="{ca}" '
+             f'endElement="{b}" endConnector="{cb}"/>'
+             for a, ca, b, cb in connections(second_order)]
     return ('<?xml version="1.0" encoding="UTF-8"?>\n'
             '<ssd:SystemStructureDescription version="1.0" name="IceOnStructure"\n'
             '    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"\n'
@@ -94,15 +106,16 @@ def system_structure(ice: dict, structure: dict, flow_u: float) -> str:
             '    xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">\n'
             '  <ssd:System name="IceOnStructure">\n    <ssd:Elements>\n'
             + "\n".join(components) + "\n    </ssd:Elements>\n    <ssd:Connections>\n"
-            + "\n".join(connections) + "\n    </ssd:Connections>\n  </ssd:System>\n"
+            + "\n".join(links) + "\n    </ssd:Connections>\n  </ssd:System>\n"
             "</ssd:SystemStructureDescription>\n")
 
 
 def write_ssp(fmus: Path, path: Path, ice: dict = ICE, structure: dict = STRUCTURE,
-              flow_u: float = FLOW_U) -> Path:
+              flow_u: float = FLOW_U, second_order: bool = True) -> Path:
     """IceOnStructure.ssp: SystemStructure.ssd and the two FMUs from the folder ``fmus``."""
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd", system_structure(ice, structure, flow_u))
+        z.writestr("SystemStructure.ssd",
+                   system_structure(ice, structure, flow_u, second_order))
         for name in ("IceImpact.fmu", "ModalStructure.fmu"):
             z.write(fmus / name, f"resources/{name}")
     return path
@@ -147,19 +160,19 @@ class Slave:
 
 
 def fmpy_master(fmus: Path, t_end: float, h: float, scheme: str = "gauss-seidel",
-                ice: dict = ICE, structure: dict = STRUCTURE,
-                flow_u: float = FLOW_U) -> dict[str, np.ndarray]:
+                ice: dict = ICE, structure: dict = STRUCTURE, flow_u: float = FLOW_U,
+                second_order: bool = True) -> dict[str, np.ndarray]:
     """The coupled run through FMPy: time, the structure's x and the ice's contact.force at the
     communication points (index k: time k h)."""
-    ice_fmu = Slave(fmus / "IceImpact.fmu", "ice", {**ice, "flow.u": flow_u})
+    ice_fmu = Slave(fmus / "IceImpact.fmu", "ice",
+                    {**ice, "coupling.scheme": SCHEMES[scheme], "flow.u": flow_u})
     st = Slave(fmus / "ModalStructure.fmu", "structure", structure)
     n = round(t_end / h)
     t, x, force = np.arange(n + 1) * h, [st.get("x")], [0.0]
     try:
         for k in range(n):
             # the ice gets the structure at the step start (both schemes)
-            for source, sink in (("x", "structure.x_in"), ("v", "structure.v_in"),
-                                 ("a", "structure.a_in")):
+            for _, source, _, sink in connections(second_order)[1:]:
                 ice_fmu.set(sink, st.get(source))
             if scheme == "jacobi":  # the force of the previous step end
                 st.set("force", ice_fmu.get("contact.force"))
@@ -182,6 +195,7 @@ def monolithic(fmus: Path, t_end: float, h: float, ice: dict = ICE,
     from fmpy import simulate_fmu
 
     values = {**ice, "structure.model": 1, "flow.u": flow_u}
+    values.pop("coupling.scheme", None)
     result = simulate_fmu(str(fmus / "IceImpact.fmu"), start_time=0.0, stop_time=t_end,
                           output_interval=h, start_values=values,
                           output=["structure.x", "contact.force"])
@@ -211,7 +225,8 @@ def ecospy_run(ssp: Path, t_end: float, h: float) -> dict[str, np.ndarray]:
 
 
 def libcosimpy_run(fmus: Path, t_end: float, h: float, ice: dict = ICE,
-                   structure: dict = STRUCTURE, flow_u: float = FLOW_U) -> dict[str, np.ndarray]:
+                   structure: dict = STRUCTURE, flow_u: float = FLOW_U,
+                   second_order: bool = True) -> dict[str, np.ndarray]:
     """The same system in libcosim (fixed-step algorithm, Jacobi), built by hand."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimObserver import CosimObserver
@@ -225,13 +240,14 @@ def libcosimpy_run(fmus: Path, t_end: float, h: float, ice: dict = ICE,
     for name, index in slaves.items():
         refs[name] = {v.name.decode(): v.reference
                       for v in execution.slave_variables(index)}
-    for name, values in (("ice", {**ice, "flow.u": flow_u}), ("structure", structure)):
+    ice = {**ice, "coupling.scheme": SCHEMES["jacobi"], "flow.u": flow_u}
+    for name, values in (("ice", ice), ("structure", structure)):
         for key, value in values.items():
             if key in INTEGERS:
                 execution.integer_initial_value(slaves[name], refs[name][key], int(value))
             else:
                 execution.real_initial_value(slaves[name], refs[name][key], float(value))
-    for a, ca, b, cb in CONNECTIONS:
+    for a, ca, b, cb in connections(second_order):
         execution.connect_real_variables(slaves[a], refs[a][ca], slaves[b], refs[b][cb])
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer)
