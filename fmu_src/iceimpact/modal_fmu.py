@@ -5,8 +5,9 @@
 step-size checks) around the :class:`~iceimpact.modal.ModalStructure` built from the values, and
 adds what is the structure FMU's own:
 
-- every parameter is fixed; one set after initialization is refused and logged as an error (the
-  call itself returns fmi2OK);
+- every parameter is fixed; one set after initialization is refused: the call returns
+  fmi2Error with a message naming the parameter, the value refused and the value kept (as
+  IceImpact.fmu does), and the value in use stays;
 - a step with a non-finite force, or whose response overflows, is refused (fmi2Discard) and
   changes nothing;
 - the state is a small explicit record (:meth:`~ModalFmuModel.snapshot` /
@@ -114,7 +115,6 @@ class ModalFmuModel(FmuLifecycle):
     PARAMETERS = PARAMETERS
     CORE_NAME = "structure"
     CODEC = CODEC
-    REFUSALS_FAIL = False
 
     def __init__(self, log: Callable[[int, str], None], fail: Callable[[str], None]):
         super().__init__(log, fail)

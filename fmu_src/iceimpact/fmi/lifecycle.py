@@ -50,9 +50,6 @@ class FmuLifecycle:
     CORE_NAME = "model"
     #: The layout of this FMU's serialized state.
     CODEC: StateCodec
-    #: A refused fmi2Set (a fixed parameter after initialization) or fmi2SetFMUstate makes the
-    #: call return fmi2Error (``fail``); False: the refusal is logged as an error only.
-    REFUSALS_FAIL = True
 
     def __init__(self, log: Callable[[int, str], None],
                  fail: Callable[[str], None] | None = None):
@@ -110,11 +107,9 @@ class FmuLifecycle:
                         f"{self.values[name]!r}, is kept (use fmi2Reset to change it)")
 
     def refuse(self, text: str) -> None:
-        """Report a refused call (see :attr:`REFUSALS_FAIL`)."""
-        if self.REFUSALS_FAIL:
-            self._fail(text)
-        else:
-            self._log(ERROR, text)
+        """Report a refused call (a fixed parameter set after initialization, a state that does
+        not fit): logged as an error, and the FMI call returns fmi2Error (``fail``)."""
+        self._fail(text)
 
     # life cycle ----------------------------------------------------------------------------------
     def setup_experiment(self, start_time: Any) -> None:
