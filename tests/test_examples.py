@@ -119,3 +119,29 @@ def test_demo_csv_is_decimated_and_keeps_the_impulses(fmu: Path, tmp_path: Path)
     # cumulative and state outputs: the full-rate values at the row's time
     for name in ("contact.count", "contact.t_last", "structure.x", "ice.z", "contact.active"):
         np.testing.assert_array_equal(dec[name], full[name][::10], err_msg=name)
+
+
+def test_ice_on_tower_quick_mode(fmu: Path, tmp_path: Path) -> None:
+    """examples/ice_on_tower.py: a 3-mode tower (ModalStructure.fmu) struck through IceImpact.fmu
+    in external-structure mode, and two SDOF idealisations with the built-in structure."""
+    if not (fmu.parent / "ModalStructure.fmu").exists():
+        subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--fmu", "ModalStructure"],
+                       check=True, cwd=ROOT)
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "ice_on_tower.py"), "--quick",
+         "--fmus", str(fmu.parent), "--out", str(tmp_path)],
+        capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert (tmp_path / "ice_on_tower.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    summary = json.loads((tmp_path / "ice_on_tower.json").read_text())
+    runs = summary["runs"]
+    tower, local, first = (runs["3-mode tower"], runs["SDOF, impulse mass"],
+                           runs["SDOF, first mode"])
+    assert min(r["impacts"] for r in runs.values()) >= 1
+    # the same free flight to the structure at rest: the first impact in the same step
+    assert tower["first impact (s)"] == local["first impact (s)"] == first["first impact (s)"]
+    # the tower at rest opposes its impulse mass to the first impact: the same impulse as the
+    # SDOF of that mass (eq. 16-17), unlike the SDOF of the first mode alone
+    assert tower["1st step impulse (N.s)"] == pytest.approx(local["1st step impulse (N.s)"],
+                                                             rel=1e-9)
+    assert abs(first["1st step impulse (N.s)"] / tower["1st step impulse (N.s)"] - 1.0) > 0.1

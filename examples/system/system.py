@@ -150,6 +150,9 @@ class Slave:
     def get(self, name: str) -> float:
         return self.fmu.getReal([self.vr[name]])[0]
 
+    def get_integer(self, name: str) -> int:
+        return self.fmu.getInteger([self.vr[name]])[0]
+
     def step(self, t: float, h: float) -> None:
         self.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
 
@@ -162,13 +165,13 @@ class Slave:
 def fmpy_master(fmus: Path, t_end: float, h: float, scheme: str = "gauss-seidel",
                 ice: dict = ICE, structure: dict = STRUCTURE, flow_u: float = FLOW_U,
                 second_order: bool = True) -> dict[str, np.ndarray]:
-    """The coupled run through FMPy: time, the structure's x and the ice's contact.force at the
-    communication points (index k: time k h)."""
+    """The coupled run through FMPy: time, the structure's x, the ice's contact.force and
+    contact.count at the communication points (index k: time k h); ``count``: the last one."""
     ice_fmu = Slave(fmus / "IceImpact.fmu", "ice",
                     {**ice, "coupling.scheme": SCHEMES[scheme], "flow.u": flow_u})
     st = Slave(fmus / "ModalStructure.fmu", "structure", structure)
     n = round(t_end / h)
-    t, x, force = np.arange(n + 1) * h, [st.get("x")], [0.0]
+    t, x, force, counts = np.arange(n + 1) * h, [st.get("x")], [0.0], [0]
     try:
         for k in range(n):
             # the ice gets the structure at the step start (both schemes)
@@ -183,10 +186,12 @@ def fmpy_master(fmus: Path, t_end: float, h: float, scheme: str = "gauss-seidel"
             st.step(k * h, h)
             x.append(st.get("x"))
             force.append(ice_fmu.get("contact.force"))
+            counts.append(ice_fmu.get_integer("contact.count"))
     finally:
         ice_fmu.close()
         st.close()
-    return {"time": t, "x": np.array(x), "force": np.array(force)}
+    return {"time": t, "x": np.array(x), "force": np.array(force), "counts": np.array(counts),
+            "count": counts[-1]}
 
 
 def monolithic(fmus: Path, t_end: float, h: float, ice: dict = ICE,
@@ -198,8 +203,9 @@ def monolithic(fmus: Path, t_end: float, h: float, ice: dict = ICE,
     values.pop("coupling.scheme", None)
     result = simulate_fmu(str(fmus / "IceImpact.fmu"), start_time=0.0, stop_time=t_end,
                           output_interval=h, start_values=values,
-                          output=["structure.x", "contact.force"])
-    return {"time": result["time"], "x": result["structure.x"], "force": result["contact.force"]}
+                          output=["structure.x", "contact.force", "contact.count"])
+    return {"time": result["time"], "x": result["structure.x"], "force": result["contact.force"],
+            "counts": result["contact.count"], "count": int(result["contact.count"][-1])}
 
 
 # ecospy and libcosimpy ----------------------------------------------------------------------------
@@ -219,9 +225,10 @@ def ecospy_run(ssp: Path, t_end: float, h: float) -> dict[str, np.ndarray]:
         sim.init(parameter_set="initialValues")
         first = (0.0, sim.get_real("structure::x"), sim.get_real("ice::contact.force"))
         sim.step(round(t_end / h))
+        count = sim.get_integer("ice::contact.count")
         sim.terminate()
     data = np.array([first] + rows)
-    return {"time": data[:, 0], "x": data[:, 1], "force": data[:, 2]}
+    return {"time": data[:, 0], "x": data[:, 1], "force": data[:, 2], "count": count}
 
 
 def libcosimpy_run(fmus: Path, t_end: float, h: float, ice: dict = ICE,
@@ -260,7 +267,8 @@ def libcosimpy_run(fmus: Path, t_end: float, h: float, ice: dict = ICE,
     x = [0.0] + [r[0] for r in rows]
     force = [0.0] + [r[1] for r in rows]
     t = np.arange(n + 1) * h
-    return {"time": t, "x": np.array(x), "force": np.array(force)}
+    count = observer.last_integer_values(slaves["ice"], [refs["ice"]["contact.count"]])[0]
+    return {"time": t, "x": np.array(x), "force": np.array(force), "count": count}
 
 
 def relative_error(run: dict, reference: dict) -> float:
