@@ -3,40 +3,55 @@ component.
 
 The structure lives in another FMU. At the start of each communication step the master gives the
 contact point's displacement ``x_in``, velocity ``v_in`` and, optionally, acceleration ``a_in``
-(under the contact force of the previous step); IceImpact returns the impulse the ice delivered
-during the step, which the master applies to the structure as the force ``impulse / h`` held over
-the same step (Gauss-Seidel, ice first).
+(under the contact force the structure held over the previous step); IceImpact returns the
+impulse the ice delivered during the step, which the master applies to the structure as the force
+``impulse / h`` held over a step: the same step with a Gauss-Seidel master that steps the ice
+first (``coupling.scheme = 1``), the next one with a Jacobi master (``coupling.scheme = 2``, the
+fixed-step algorithms of ECOS and libcosim).
 
 Within a step (docs/coupling.md, "External-structure mode"):
 
-- **The structure's own forces.** ``F_o`` (spring, damping, anything but the contact) is estimated
-  at the step start from the structure's acceleration and the force IceImpact applied:
-  ``F_o = m a_s - F_prev``, with ``a_s = a_in`` when the master gives it (non-zero), else the mean
-  acceleration over the last step, ``(v_in - v_in_prev) / h_prev`` (exact for a structure stepped
-  with the force held). ``m`` is ``structure.m``, the effective mass at the contact point.
-- **Flight.** The structure moves as a mass ``m`` under ``F_o``
-  (:class:`~iceimpact.physics.external.ExtrapolatedStructure`): a polynomial, so the event
-  solver's :class:`~iceimpact.solvers.event.Flight` finds every impact as the exact first root of
-  the gap, with its no-miss guarantee. An impact applies eq. 16-17 with ``m`` and the flight that
-  follows is anchored on the structure's velocity jump. The chatter and Zeno closures are those of
-  :mod:`~iceimpact.solvers.contact_rules` (their time scale is the period ``2 pi sqrt(m / k)``:
-  ``structure.k`` only sets it in this mode).
-- **Sticking.** The ice rides on the structure. The contact force is that of the combined body of
-  mass ``m + M`` under ``F_o`` and the drag ``D``: ``(m + M) a = F_o + D``, so
-  ``lam = (m D - M F_o) / (m + M)``, held over the step (the master holds it too). Estimating
-  ``F_o`` from the structure's acceleration means the previous contact force enters ``lam`` scaled
-  by ``M / (m + M) < 1``: the classic remedy of the added-mass instability, stable for any mass
-  ratio (``lam = D - M a_s`` would feed the ice's inertia back with a factor ``M / m`` and
-  diverge for ``M > m``). The bodies separate at the first step start where ``lam < 0``.
-- **The structure's lag.** The master applies the impulse of a step spread over that step, so the
-  structure it reports next is behind IceImpact's extrapolation (which jumped in velocity at the
-  impact): the ice can be a little past the reported structure at a step start. Contact cannot be
-  tensile nor penetrate, so the ice is put back at the structure (``z = x_in``, its velocity
-  kept) and the contact rules decide at zero gap: an impact only if the ice still approaches the
-  reported structure. While the bodies stick the ice takes the structure's reported state.
+- **The structure's own forces.** ``F_o`` (spring, damping, anything but the contact) is measured
+  from the structure's acceleration and the contact force it felt: ``F_o = m a_in - F_felt`` at
+  the step start when the master gives ``a_in`` (non-zero), else the mean over the last step,
+  ``m (v_in - v_in_prev) / h_prev - F_felt`` (exact for a structure stepped with the force held),
+  which refers to that step's midpoint. ``F_felt`` is the force IceImpact returned for the last
+  step (Gauss-Seidel) or for the one before (Jacobi). Two successive measurements give the rate
+  ``F_o'``; ``F_o(t)`` is extrapolated linearly from the latest over the step. ``m`` is
+  ``structure.m``, the effective (impulse) mass at the contact point.
+- **Flight.** From each anchor (step start, impact, separation) the structure moves as a mass
+  ``m`` under ``F_o`` at the anchor (:class:`~iceimpact.physics.external.ExtrapolatedStructure`):
+  a polynomial, so the event solver's :class:`~iceimpact.solvers.event.Flight` finds every impact
+  as the exact first root of the gap, with its no-miss guarantee. An impact applies eq. 16-17 with
+  ``m`` and the flight that follows is anchored on the structure's velocity jump. The chatter and
+  Zeno closures are those of :mod:`~iceimpact.solvers.contact_rules` (their time scale is the
+  period ``2 pi sqrt(m / k)``: ``structure.k`` only sets it in this mode).
+- **Sticking** (:class:`ExternalStick`). The ice rides on the structure. The contact force is
+  that of the combined body of mass ``m + M`` under ``F_o`` and the drag ``D``: ``(m + M) a =
+  F_o + D``, so ``lam = (m D - M F_o) / (m + M)`` (the contact force of eq. 12-17's free
+  accelerations, :func:`~iceimpact.physics.contact.contact_force`). Measuring ``F_o`` from the
+  structure's acceleration and the force it felt means the previous contact force enters ``lam``
+  scaled by ``M / (m + M) < 1``: the classic remedy of the added-mass instability, stable for any
+  mass ratio (``lam = D - M a_s`` would feed the ice's inertia back with a factor ``M / m`` and
+  diverge for ``M > m``). Within the step ``lam`` is linear in time (``F_o'``, and ``D``
+  linearised along the combined body's velocity); the bodies separate at its root, the first
+  instant it would pull, wherever it falls in the step.
+- **The structure's lag.** A Gauss-Seidel master applies the impulse of a step spread over that
+  step, so the structure it reports next is behind IceImpact's extrapolation (which jumped in
+  velocity at the impact): the ice can be a little past the reported structure at a step start.
+  Contact cannot be tensile nor penetrate, so the ice is put back at the structure (``z =
+  x_in``, its velocity kept) and the contact rules decide at zero gap: an impact only if the ice
+  still approaches the structure. While the bodies stick the ice takes the structure's state.
+- **A Jacobi master** gives IceImpact a structure that has not felt the last step's impulse at
+  all (it holds it over this step). IceImpact gives that impulse to its extrapolated structure at
+  the step start, ``v_s = v_in + F_prev h / m``, so that the ice, which bounced off a structure
+  that took the impulse, does not strike the reported one again; the rest is as above. The
+  one-step delay of the force remains the scheme's own first-order error (it damps a riding
+  floe's motion: an apparent damping of about ``M k h / (m + M)`` on a spring ``k``).
 
 Every step starts afresh from the inputs: the state that carries over is the ice's, the sticking
-flag, and the previous step's ``v_in``, length and force (the snapshot's ``previous``).
+flag, and the last step's ``v_in``, length, felt and returned forces and ``F_o`` measurement (the
+snapshot's ``previous`` and ``other_force``).
 """
 
 from __future__ import annotations
@@ -45,6 +60,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from ..physics.contact import contact_force
 from ..physics.external import ExtrapolatedStructure
 from ..physics.ice import make_drag
 from ..scene import Scene
@@ -78,8 +94,9 @@ class ExternalStick:
         self.t0, self.x0, self.v0, self.u, self.start = t0, x0, v0, u, start
         self.a = (other + drag) / total
         self.jerk = (other_rate + drag_rate * self.a) / total
-        self.lam0 = (m * drag - M * other) / total
-        self.lam1 = (m * drag_rate * self.a - M * other_rate) / total
+        # lam = mu (a_z - a_x) of the free accelerations (eq. 12-17), and its rate
+        self.lam0 = contact_force(other / m, drag / M, m, M)
+        self.lam1 = contact_force(other_rate / m, drag_rate * self.a / M, m, M)
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         x = self.x0 + (self.v0 + (0.5 * self.a + self.jerk * tau / 6.0) * tau) * tau
