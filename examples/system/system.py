@@ -3,7 +3,7 @@ to ModalStructure.fmu, by three masters, on one system.
 
 The system (``IceOnStructure.ssp``: ``SystemStructure.ssd`` and both FMUs under ``resources/``)::
 
-    ice.contact.force -> structure.force
+    ice.coupling.force -> structure.force
     structure.x       -> ice.structure.x_in
     structure.v       -> ice.structure.v_in
     structure.a       -> ice.structure.a_in
@@ -47,7 +47,7 @@ FLOW_U = 0.3
 STRUCTURE: dict[str, float] = {}
 INTEGERS = {"structure.model", "coupling.scheme", "drag.model", "solver.method", "modes"}
 
-CONNECTIONS = [("ice", "contact.force", "structure", "force"),
+CONNECTIONS = [("ice", "coupling.force", "structure", "force"),
                ("structure", "x", "ice", "structure.x_in"),
                ("structure", "v", "ice", "structure.v_in"),
                ("structure", "a", "ice", "structure.a_in")]
@@ -92,7 +92,8 @@ def system_structure(ice: dict, structure: dict, flow_u: float,
     """SystemStructure.ssd of the coupled system (parameters bound in the file)."""
     components = [
         _component("ice", "IceImpact.fmu",
-                   ["structure.x_in", "structure.v_in", "structure.a_in"], ["contact.force"],
+                   ["structure.x_in", "structure.v_in", "structure.a_in"],
+                   ["coupling.force", "contact.force"],
                    {**ice, "coupling.scheme": SCHEMES["jacobi"], "flow.u": flow_u}),
         _component("structure", "ModalStructure.fmu", ["force"], ["x", "v", "a"], structure),
     ]
@@ -178,11 +179,11 @@ def fmpy_master(fmus: Path, t_end: float, h: float, scheme: str = "gauss-seidel"
             for _, source, _, sink in connections(second_order)[1:]:
                 ice_fmu.set(sink, st.get(source))
             if scheme == "jacobi":  # the force of the previous step end
-                st.set("force", ice_fmu.get("contact.force"))
+                st.set("force", ice_fmu.get("coupling.force"))
                 ice_fmu.step(k * h, h)
             else:                   # ice first, its force of this same step
                 ice_fmu.step(k * h, h)
-                st.set("force", ice_fmu.get("contact.force"))
+                st.set("force", ice_fmu.get("coupling.force"))
             st.step(k * h, h)
             x.append(st.get("x"))
             force.append(ice_fmu.get("contact.force"))

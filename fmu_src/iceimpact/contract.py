@@ -215,6 +215,13 @@ OUTPUTS: tuple[Variable, ...] = (
          "spring force k x of the structure: the base shear of the SDOF idealisation, the load "
          "a design check takes (docs/design_loads.md); 0 with an external structure "
          "(structure.model = 2), whose internal forces live in the other FMU"),
+    _out("coupling.force", "coupling_force", float, "N",
+         "external structure (structure.model = 2): the force for the master to hold on the "
+         "structure over its next step. contact.force, except with a Jacobi master "
+         "(coupling.scheme = 2) while the ice rides on the structure: the contact force "
+         "predicted for the next step, the structure feeling it one step late (what it "
+         "predicts more than delivered is given back at the separation, so the impulses add "
+         "up to the contact impulses)"),
 )
 
 #: Every variable, in value-reference order per type as the slave registers them.

@@ -66,6 +66,8 @@ class StepReport:
     sticking: bool       # bodies stick together at the end of the step
     spring_force: float  # k x, the structure's spring force (base shear of the SDOF), N; 0 with
     #                      an external structure (its forces live in the other FMU)
+    coupling_force: float  # the force for the master to hold on an external structure over its
+    #                        next step, N (= force, but with a Jacobi master while riding)
 
 
 _REPORT_FIELDS = tuple(f.name for f in fields(StepReport))
@@ -217,12 +219,14 @@ class Simulator:
             gap = 0.0
         count = self.solver.impact_count
         t_last = self.solver.t_last
+        force = impulse / h if h > 0.0 else 0.0
         return StepReport(
             t=s.t, x=s.x, v=s.v, z=s.z, w=s.w, gap=gap, penetration=penetration, impulse=impulse,
-            force=impulse / h if h > 0.0 else 0.0, impacts=count - self._n_reported,
+            force=force, impacts=count - self._n_reported,
             impact_count=count, t_last=-1.0 if t_last is None else t_last,
             sticking=self.solver.sticking,
-            spring_force=0.0 if self.scene.external else self.scene.structure_k * s.x)
+            spring_force=0.0 if self.scene.external else self.scene.structure_k * s.x,
+            coupling_force=self.solver.coupling_force if self.scene.external else force)
 
     def set_restitution(self, e: float) -> None:
         """Change ``impact.e`` (tunable) for impacts from now on; 0 <= e <= 1."""

@@ -13,10 +13,10 @@ flight; nothing else. Two structures answer:
 Within one step the external structure is a point mass ``m`` (``structure.m``, its effective mass
 at the contact point) under a constant force ``F_o``, the structure's own forces (spring,
 damping, other loads) as estimated for the flight's anchor (:mod:`iceimpact.solvers.external`):
-``x_s(tau) = x_a + v_a tau + a tau^2 / 2`` with ``a = F_o / m``. An impact makes the mass jump in velocity (the impact law with ``m``), and
-the next flight is anchored on that jump, so the ice meets a structure that felt the impact. The
-displacement is a polynomial: ``x_s'' = a`` and ``x_s''' = 0`` for all later times, the bounds the
-no-miss root search needs.
+``x_s(tau) = x_a + v_a tau + a tau^2 / 2`` with ``a = F_o / m``. An impact makes the mass jump
+in velocity (the impact law with ``m``), and the next flight is anchored on that jump, so the ice
+meets a structure that felt the impact. The displacement is a polynomial: ``x_s'' = a`` and
+``x_s''' = 0`` for all later times, the bounds the no-miss root search needs.
 """
 
 from __future__ import annotations

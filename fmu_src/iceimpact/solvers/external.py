@@ -91,6 +91,7 @@ class ExternalStick:
         total = m + M
         other, other_rate = solver.other_force_at(t0), solver.other_force_rate
         drag, drag_rate = solver.drag.force(v0, u), solver.drag.force_rate(v0, u)
+        self.solver = solver
         self.t0, self.x0, self.v0, self.u, self.start = t0, x0, v0, u, start
         self.a = (other + drag) / total
         self.jerk = (other_rate + drag_rate * self.a) / total
@@ -121,7 +122,20 @@ class ExternalStick:
     def impulse(self, tau_a: float, tau_b: float) -> float:
         if tau_b <= tau_a:
             return 0.0
-        return (self.lam0 + 0.5 * self.lam1 * (tau_a + tau_b)) * (tau_b - tau_a)
+        value = (self.lam0 + 0.5 * self.lam1 * (tau_a + tau_b)) * (tau_b - tau_a)
+        self.solver.stick_impulse += value
+        return value
+
+    def mean_force_ahead(self, tau: float, h: float) -> float:
+        """Mean over [tau, tau + h] of lam continued as it is (0 once it would pull), N: what
+        the riding ice will press on the structure over the next step if nothing changes."""
+        lam, rate = self.contact_force(tau), self.lam1
+        if lam <= 0.0:
+            return 0.0
+        if rate >= 0.0 or lam + rate * h >= 0.0:
+            return lam + 0.5 * rate * h
+        parting = lam / -rate  # < h
+        return 0.5 * lam * parting / h
 
 
 class ExternalSolver(EventSolver):
@@ -148,6 +162,11 @@ class ExternalSolver(EventSolver):
         self.other_force = 0.0
         self.other_force_rate = 0.0
         self.step_start = 0.0
+        #: the force for the master to hold over its next step (N), and, with a Jacobi master,
+        #: the impulse returned so far beyond the contact impulses (N.s, see jacobi_force)
+        self.coupling_force = 0.0
+        self.lead = 0.0
+        self.stick_impulse = 0.0  # contact impulse of the riding ice in the current step, N.s
         #: the last step: v_in, its length, the contact force the structure felt over it, the
         #: contact force IceImpact returned for it, the raw estimate of F_o made at its start and
         #: the time that estimate refers to (None before the first step)
@@ -226,6 +245,8 @@ class ExternalSolver(EventSolver):
         self.u = u
         self.tau = 0.0
         z, w = self.state.z, self.state.w
+        self.stick_impulse = 0.0
+        started_riding = self.sticking
         if self.sticking:
             # the ice rides on the structure: it takes the structure's state, then stays if the
             # combined body's contact force is compressive
@@ -238,18 +259,47 @@ class ExternalSolver(EventSolver):
             # the structure lags its extrapolation: no penetration, the ice goes back to it
             self._begin(t, x_in, v_s, min(z, x_in), w, u, reanchor=True)
         impulse = self._march(t_end, u)
-        output = impulse / h
-        felt = (unfelt / h) if self.jacobi else output
-        self.previous = (v_in, h, felt, output, raw, ref)
+        returned = (self.jacobi_force(impulse, h, started_riding) if self.jacobi
+                    else impulse / h)
+        felt = (unfelt / h) if self.jacobi else returned
+        self.previous = (v_in, h, felt, returned, raw, ref)
+        self.coupling_force = returned
         return impulse
 
+    def jacobi_force(self, impulse: float, h: float, started_riding: bool) -> float:
+        """The force a Jacobi master holds on the structure over its next step, N.
+
+        The structure feels it one step late. For impacts that is the scheme's delay (the
+        velocity jump at the next step start stands for it); for the contact force of a riding
+        floe it would act as an apparent damping ``~ M k h / (m + M)`` of the riding motion. So
+        while the ice rides on the structure at the step end the force returned carries, instead
+        of this step's riding contact impulse, the mean contact force the riding ice will press
+        with over the next step (:meth:`ExternalStick.mean_force_ahead`), the one the structure
+        should feel then; the riding impulse of a step that started riding was returned, as such
+        a prediction, by the step before. The impacts' impulses are returned as they are. What
+        the predictions returned beyond the contact impulses (:attr:`lead`, N.s: their errors,
+        and a riding phase entered and left within one step) is taken back at the end of the
+        first step that ends in flight, so that the impulses returned add up to the contact
+        impulses."""
+        riding = self.stick_impulse if started_riding else 0.0
+        returned = (impulse - riding) / h
+        seg = self.seg
+        if isinstance(seg, ExternalStick):
+            returned += seg.mean_force_ahead(self.tau, h)
+        self.lead += returned * h - impulse
+        if not isinstance(seg, ExternalStick):
+            returned -= self.lead / h
+            self.lead = 0.0
+        return returned
+
     # snapshots ----------------------------------------------------------------------------------
-    _KEYS = ("u", "previous", "other_force", "degenerate")
+    _KEYS = ("u", "previous", "other_force", "coupling_force", "lead", "degenerate")
 
     def _snapshot(self) -> dict[str, Any]:
         previous = None if self.previous is None else list(self.previous[:4])
         other = None if self.previous is None else list(self.previous[4:])
         return {"u": self.u, "previous": previous, "other_force": other,
+                "coupling_force": self.coupling_force, "lead": self.lead,
                 "degenerate": self.rules.degenerate.snapshot()}
 
     def _read(self, rec: Record, t: float) -> Callable[[], None]:
@@ -266,11 +316,13 @@ class ExternalSolver(EventSolver):
                     or not all(_finite_or_none(value, i == 0) for i, value in enumerate(other))):
                 raise StateError(rec.field("other_force"), other,
                                  "[the raw estimate of F_o (N) or null, its time (s)]")
+        coupling_force, lead = rec.real("coupling_force"), rec.real("lead")
         degenerate = self.rules.degenerate.read(rec.record("degenerate"))
 
         def apply() -> None:
             self.u = u
             self.previous = None if previous is None else (*previous, *other)
+            self.coupling_force, self.lead = coupling_force, lead
             self.rules.degenerate.set(degenerate)
             self.seg = None
             self.tau = 0.0
