@@ -115,6 +115,8 @@ def test_heavy_floe_under_a_jacobi_master_does_not_chatter(h):
     assert n_mono / 2 <= n_coupled <= 2 * n_mono, (n_coupled, n_mono)
     first, _, _, _ = coupled_error(scene, 1.2, h, scheme=JACOBI)
     assert first < 35.0 * h, first
+    # measured: 42 %, 6.8 %, 0.25 % at 1, 0.1, 0.01 ms (the riding force predicted one step)
+    assert error < {1e-3: 0.6, 1e-4: 0.1}[h], error
 
 
 def test_jacobi_coupling_force_conserves_the_contact_impulse():

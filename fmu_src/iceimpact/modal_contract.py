@@ -78,7 +78,7 @@ PARAMETERS: tuple[Variable, ...] = (MODES_PARAMETER,) + tuple(
 INPUTS: tuple[Variable, ...] = (
     Variable("force", "force", INPUT, float, "N",
              "contact force on the structure at the contact point, positive in the direction of x "
-             "(IceImpact's contact.force)", 0.0,
+             "(IceImpact's coupling.force)", 0.0,
              variability=CONTINUOUS),
 )
 FORCE_INPUT = INPUTS[0]
