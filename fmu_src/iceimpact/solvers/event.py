@@ -96,7 +96,7 @@ class Flight(_SearchedSegment):
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
         self.gap0 = x0 - z0
-        self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0))
+        self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0), self.gap_and_rate)
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
@@ -109,6 +109,12 @@ class Flight(_SearchedSegment):
         dx, _ = self.osc.displacement_change(self.x0, self.v0, tau)
         dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
         return self.gap0 + (dx - dz)
+
+    def gap_and_rate(self, tau: float) -> tuple[float, float]:
+        """Gap and its rate v - w."""
+        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        return self.gap0 + (dx - dz), v - w
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
@@ -142,7 +148,8 @@ class LinearStick(_SearchedSegment):
         self.start = start
         self.osc = Oscillator(solver.m + solver.M, solver.c + self.b, solver.k,
                               offset=self.b * u / solver.k)
-        self.search = RootSearch(self.probe, self.force, start, _time_eps(t0))
+        self.search = RootSearch(self.probe, self.force, start, _time_eps(t0),
+                                 self.force_and_rate)
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         x, v = self.osc.response(self.x0, self.v0, tau)
@@ -153,6 +160,13 @@ class LinearStick(_SearchedSegment):
         x, v = self.osc.response(self.x0, self.v0, tau)
         return sticking_contact_force(self.drag.force(v, self.u),
                                       self.M * self.osc.acceleration(x, v))
+
+    def force_and_rate(self, tau: float) -> tuple[float, float]:
+        """Contact force (N) and its rate (N/s): -b a - M j, a and j the acceleration and jerk."""
+        x, v = self.osc.response(self.x0, self.v0, tau)
+        a, j, _ = self.osc.derivatives(x, v)
+        return (sticking_contact_force(self.drag.force(v, self.u), self.M * a),
+                -self.b * a - self.M * j)
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Contact force, its two derivatives, bounds on |lam''| and |lam'''| from here on."""
