@@ -47,6 +47,18 @@ def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
     return cls(scene, record_impacts)
 
 
+def reported_gap(gap):
+    """(gap, penetration) as reported from x - z (m, a float or an array): a negative x - z is
+    reported as a zero gap, and as a penetration beyond the rounding of contact
+    (``GAP_ROUNDING``)."""
+    if isinstance(gap, np.ndarray):
+        return (np.where(gap < 0.0, 0.0, gap),
+                np.where(gap <= -GAP_ROUNDING, -gap, 0.0))
+    if gap < 0.0:
+        return 0.0, (-gap if gap <= -GAP_ROUNDING else 0.0)
+    return gap, 0.0
+
+
 @dataclass(frozen=True)
 class StepReport:
     """Outputs at the end of one communication step (the FMU's outputs, SI units)."""
@@ -210,11 +222,7 @@ class Simulator:
         # so the ice can be up to one step's closing distance past the structure, or pass
         # through it when its eq. 26 window misses an impact. A negative x - z is reported as a
         # penetration, not as a negative gap.
-        gap = s.x - s.z
-        penetration = 0.0
-        if gap < 0.0:
-            penetration = -gap if gap <= -GAP_ROUNDING else 0.0
-            gap = 0.0
+        gap, penetration = reported_gap(s.x - s.z)
         count = self.solver.impact_count
         t_last = self.solver.t_last
         return StepReport(
@@ -375,6 +383,8 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
     times = _sample_times(t_end, dt, sample_times)
     sim = Simulator(scene)
     u = scene.flow_u
+    if isinstance(sim.solver, EventSolver) and not scene.external:
+        return _run_sampled(sim, times, u)
     reports = [sim.report]
     for t in times.tolist():
         reports.append(sim.advance_to(t, u))
@@ -386,3 +396,26 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
                   w=column("w"), impulse=column("impulse"), sticking=column("sticking", bool),
                   impacts=impacts_array(sim.impacts), sticking_since=sim.sticking_since,
                   gap=column("gap"), penetration=column("penetration"))
+
+
+def _run_sampled(sim: Simulator, times: np.ndarray, u: float) -> Result:
+    """:func:`run` with the exact method: one march through every sample time, the states and
+    impulses evaluated in vectorised closed forms (:meth:`EventSolver.sample`); the same values
+    as stepping the simulator, to rounding."""
+    first = sim.report
+    samples = sim.solver.sample(times, u)
+
+    def column(name: str, dtype: type = float) -> np.ndarray:
+        return np.concatenate(([getattr(first, name)], getattr(samples, name))).astype(dtype)
+
+    x, z = column("x"), column("z")
+    gap, penetration = reported_gap(x - z)
+    for name in ("x", "v", "z", "w", "impulse"):
+        bad = ~np.isfinite(getattr(samples, name))
+        if bad.any():  # as Simulator.advance: no NaN or inf reaches an output
+            raise SolverError(f"the method produced a non-finite {name} at "
+                              f"t = {times[np.argmax(bad)]!r} s")
+    return Result(scene=sim.scene, t=np.concatenate(([first.t], times)), x=x, v=column("v"),
+                  z=z, w=column("w"), impulse=column("impulse"),
+                  sticking=column("sticking", bool), impacts=impacts_array(sim.impacts),
+                  sticking_since=sim.sticking_since, gap=gap, penetration=penetration)

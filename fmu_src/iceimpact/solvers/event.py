@@ -20,6 +20,7 @@ contact force would turn tensile.
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from collections.abc import Callable
 from typing import Any
 
@@ -61,10 +62,26 @@ class _SearchedSegment:
     anchor values named by ``ANCHOR``, the search start and its frontier (Flight, LinearStick)."""
 
     ANCHOR: tuple[str, ...] = ()
+    #: a contact force acts during the segment (its impulse is not zero)
+    PUSHES = False
+
+    def anchor(self) -> tuple[float, ...]:
+        return tuple(getattr(self, name) for name in self.ANCHOR)
+
+    def state_array(self, anchor: tuple[np.ndarray, ...],
+                    tau: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Vectorised :meth:`state` for segments of this kind with the same parameters and flow
+        speed as this one: one anchor (arrays, ``ANCHOR`` order) and tau per sample."""
+        raise NotImplementedError
+
+    def impulse_array(self, anchor: tuple[np.ndarray, ...], tau_a: np.ndarray,
+                      tau_b: np.ndarray) -> np.ndarray:
+        """Vectorised :meth:`impulse`, as :meth:`state_array`."""
+        return np.zeros(np.shape(tau_a))
 
     def snapshot(self, tau: float) -> dict[str, Any]:
         return {"phase": self.phase.value, "t0": self.t0,
-                "anchor": [getattr(self, name) for name in self.ANCHOR], "start": self.start,
+                "anchor": list(self.anchor()), "start": self.start,
                 "search": self.search.frontier()}
 
     @classmethod
@@ -105,6 +122,12 @@ class Flight(_SearchedSegment):
         dz, w = self.drag.displacement_change(self.w0, self.u, tau)
         return self.x0 + dx, v, self.z0 + dz, w
 
+    def state_array(self, anchor, tau):
+        x0, v0, z0, w0 = anchor
+        dx, v = self.osc.displacement_change_array(x0, v0, tau)
+        dz, w = self.drag.displacement_change_array(w0, self.u, tau)
+        return x0 + dx, v, z0 + dz, w
+
     def gap(self, tau: float) -> float:
         dx, _ = self.osc.displacement_change(self.x0, self.v0, tau)
         dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
@@ -138,6 +161,7 @@ class LinearStick(_SearchedSegment):
 
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
+    PUSHES = True
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
@@ -153,6 +177,10 @@ class LinearStick(_SearchedSegment):
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         x, v = self.osc.response(self.x0, self.v0, tau)
+        return x, v, x, v
+
+    def state_array(self, anchor, tau):
+        x, v = self.osc.response_array(*anchor, tau)
         return x, v, x, v
 
     def force(self, tau: float) -> float:
@@ -190,7 +218,16 @@ class LinearStick(_SearchedSegment):
             return 0.0
         xa, va = self.osc.response(self.x0, self.v0, tau_a)
         xb, vb = self.osc.response(self.x0, self.v0, tau_b)
-        return -self.b * ((xb - xa) - self.u * (tau_b - tau_a)) - self.M * (vb - va)
+        return self._impulse(xa, va, xb, vb, tau_b - tau_a)
+
+    def impulse_array(self, anchor, tau_a, tau_b):
+        xa, va = self.osc.response_array(*anchor, tau_a)
+        xb, vb = self.osc.response_array(*anchor, tau_b)
+        return np.where(tau_b > tau_a, self._impulse(xa, va, xb, vb, tau_b - tau_a), 0.0)
+
+    def _impulse(self, xa, va, xb, vb, duration):
+        """Drag impulse on the ice, -b (dx - u dt), minus its momentum change M dv."""
+        return -self.b * ((xb - xa) - self.u * duration) - self.M * (vb - va)
 
 
 class _Separation:
@@ -377,6 +414,73 @@ def _floats(y) -> list[float]:
     return [float(c) for c in y]
 
 
+class Samples:
+    """States (m, m/s), contact impulses (N.s) and sticking flags at a run's sample times."""
+
+    __slots__ = ("x", "v", "z", "w", "impulse", "sticking")
+
+    def __init__(self, n: int):
+        self.x, self.v, self.z, self.w = (np.empty(n) for _ in range(4))
+        self.impulse = np.zeros(n)
+        self.sticking = np.zeros(n, dtype=bool)
+
+    def set(self, i: int, state: State, sticking: bool) -> None:
+        self.x[i], self.v[i], self.z[i], self.w[i] = state.x, state.v, state.z, state.w
+        self.sticking[i] = sticking
+
+
+class _SampleGroup:
+    """The samples falling in segments of one kind (Flight or LinearStick), gathered during a
+    sampled march and evaluated at once by the representative segment's array closed forms."""
+
+    def __init__(self, representative: _SearchedSegment):
+        self.rep = representative
+        self.anchors: list[tuple[float, ...]] = []  # per segment
+        self.t0: list[float] = []
+        self.first: list[int] = []                  # its samples: first..stop-1
+        self.stop: list[int] = []
+        # force-carrying pieces: anchor index, tau_a, tau_b, position in the impulse values
+        self.pieces: list[tuple[int, float, float, int]] = []
+
+    def add(self, seg: _SearchedSegment, tau_from: float, times: list[float], i: int, j: int,
+            tau_event: float | None, targets: list[int], values: list[float]) -> None:
+        """Samples i..j-1 in ``seg`` (from ``tau_from``); its event, if any, before sample j."""
+        k = len(self.anchors)
+        self.anchors.append(seg.anchor())
+        self.t0.append(seg.t0)
+        self.first.append(i)
+        self.stop.append(j)
+        if not seg.PUSHES:
+            return
+        t0 = seg.t0
+        tau_a = tau_from
+        for m in range(i, j):
+            tau_b = times[m] - t0
+            self.pieces.append((k, tau_a, tau_b, len(values)))
+            targets.append(m)
+            values.append(0.0)
+            tau_a = tau_b
+        if tau_event is not None:
+            self.pieces.append((k, tau_a, tau_event, len(values)))
+            targets.append(j)
+            values.append(0.0)
+
+    def evaluate(self, times: np.ndarray, out: Samples, values: np.ndarray) -> None:
+        first = np.array(self.first, dtype=int)
+        counts = np.array(self.stop, dtype=int) - first
+        rows = np.repeat(np.arange(len(counts)), counts)
+        # sample indices: each segment's run first..stop-1, concatenated
+        index = np.arange(len(rows)) + np.repeat(first - (np.cumsum(counts) - counts), counts)
+        anchors = np.array(self.anchors, dtype=float).reshape(len(self.anchors), -1)
+        tau = times[index] - np.array(self.t0)[rows]
+        x, v, z, w = self.rep.state_array(tuple(anchors[rows].T), tau)
+        out.x[index], out.v[index], out.z[index], out.w[index] = x, v, z, w
+        out.sticking[index] = self.rep.phase is Phase.STICK
+        if self.pieces:
+            k, tau_a, tau_b, position = (np.array(c) for c in zip(*self.pieces, strict=True))
+            values[position] = self.rep.impulse_array(tuple(anchors[k].T), tau_a, tau_b)
+
+
 class EventSolver(Solver):
     """Exact event-driven solver (method 1)."""
 
@@ -474,18 +578,77 @@ class EventSolver(Solver):
                 self.tau = tau_end
                 break
             impulse += seg.impulse(self.tau, tau_event)
-            x, v, z, w = seg.state(tau_event)
-            t_event = seg.t0 + tau_event
-            if seg.phase is Phase.FLIGHT:
-                self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
-            else:  # contact force turns tensile: separate with equal velocities
-                self._fly_from_contact(t_event, x, v, v, u,
-                                       self.rules.free_contact_force(x, v, v, u))
-            impulse += self.pending_impulse
-            self.pending_impulse = 0.0
+            impulse += self._event(seg, tau_event, u)
         x, v, z, w = self.seg.state(self.tau)
         self.state = State(t_end, x, v, z, w)
         return impulse
+
+    def _event(self, seg, tau_event: float, u: float) -> float:
+        """The event ending ``seg`` at ``tau_event``: the segments that follow; the impulse of
+        its impacts."""
+        x, v, z, w = seg.state(tau_event)
+        t_event = seg.t0 + tau_event
+        if seg.phase is Phase.FLIGHT:
+            self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
+        else:  # contact force turns tensile: separate with equal velocities
+            self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
+        impulse, self.pending_impulse = self.pending_impulse, 0.0
+        return impulse
+
+    def sample(self, times: np.ndarray, u: float) -> Samples:
+        """Advance to each of ``times`` (increasing, after the current time) in turn with flow
+        speed u, as ``advance_to(t, u)`` at each would, and return what each step reports.
+
+        The march visits the same segments and events; the states at the sample times and the
+        contact impulses are then evaluated per kind of segment in one vectorised pass of the
+        closed forms (equal to the scalar ones to rounding). A quadratic-drag sticking phase,
+        which has no closed form, is sampled as it is marched."""
+        if u != self.u:
+            x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
+                                                 self.seg.phase is Phase.STICK)
+            self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+        t_list = times.tolist()
+        n = len(t_list)
+        out = Samples(n)
+        # impulse contributions in the order the scalar march adds them: (sample, value); the
+        # values of force-carrying pieces are filled in by the vectorised pass
+        targets: list[int] = [0]
+        values: list[float] = [self.pending_impulse]
+        self.pending_impulse = 0.0
+        groups: dict[type, _SampleGroup] = {}
+        i = 0
+        horizon = t_list[-1]
+        while i < n:
+            seg = self.seg
+            if not isinstance(seg, _SearchedSegment):  # no closed form: march to this sample
+                targets.append(i)
+                values.append(self._march(t_list[i], u))
+                out.set(i, self.state, self.sticking)
+                i += 1
+                continue
+            t0 = seg.t0
+            tau_event = seg.next_event(horizon - t0)
+            j = n if tau_event is None else bisect_left(t_list, tau_event, i, n,
+                                                        key=lambda t: t - t0)
+            group = groups.get(type(seg))
+            if group is None:
+                group = groups[type(seg)] = _SampleGroup(seg)
+            group.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
+            if tau_event is None:
+                self.tau = horizon - t0
+                x, v, z, w = seg.state(self.tau)
+                self.state = State(horizon, x, v, z, w)
+                break
+            targets.append(j)
+            values.append(self._event(seg, tau_event, u))
+            i = j
+        impulse = np.zeros(n)
+        values_array = np.array(values)
+        for group in groups.values():
+            group.evaluate(times, out, values_array)
+        np.add.at(impulse, targets, values_array)
+        out.impulse = impulse
+        return out
 
     # snapshots ----------------------------------------------------------------------------------
     _KEYS = ("u", "tau", "pending_impulse", "degenerate", "segment")
