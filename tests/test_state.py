@@ -359,15 +359,40 @@ def test_step_failing_midway_changes_nothing(method, error):
     steps(sim, [(0.01, 0.1)] * 50)
     steps(clean, [(0.01, 0.1)] * 50)
     solver = sim.solver
+    before = sim.save()
     solver._record = _Fails(solver._record, 3, error)
     with pytest.raises(type(error)):
         sim.advance(12.0)
     assert solver._record.calls == 3  # two impacts were made before the failure
     del solver._record
+    assert {k: v for k, v in sim.save().items() if k != "failed"} == {
+        k: v for k, v in before.items() if k != "failed"}
     assert sim.advance(12.0) == clean.advance(12.0)
     assert sim.report.impacts >= 3
     assert steps(sim, SUFFIX) == steps(clean, SUFFIX)
     assert sim.impacts == clean.impacts
+
+
+def test_step_failing_midway_from_a_linear_sticking_phase_changes_nothing():
+    """The exact method's quick checkpoint of a linear sticking phase: a step that re-anchors
+    it on a flow reversal, marches to the separation and fails there changes nothing."""
+    scene = Scene(impact_e=0.0, flow_u=0.5)
+    sim, clean = Simulator(scene), Simulator(scene)
+    steps(sim, [(0.01, 0.5)] * 300)
+    steps(clean, [(0.01, 0.5)] * 300)
+    assert sim.sticking and type(sim.solver.seg).__name__ == "LinearStick"
+    before = sim.save()
+    solver = sim.solver
+    solver._fly_from_contact = _Fails(solver._fly_from_contact, 1, SolverError("at separation"))
+    with pytest.raises(SolverError):
+        sim.advance(12.0, -0.2)
+    assert solver._fly_from_contact.calls == 1
+    del solver._fly_from_contact
+    assert {k: v for k, v in sim.save().items() if k != "failed"} == {
+        k: v for k, v in before.items() if k != "failed"}
+    assert sim.advance(12.0, -0.2) == clean.advance(12.0, -0.2)
+    assert not sim.sticking
+    assert steps(sim, SUFFIX) == steps(clean, SUFFIX)
 
 
 @pytest.mark.parametrize("h", [0.0, -0.01, math.nan, math.inf, True, "0.01", None])
@@ -483,3 +508,20 @@ def test_sample_times_must_be_a_sequence_of_numbers():
         run(Scene(), 1.0, sample_times=[[0.1, 0.2]])
     with pytest.raises(ParameterError, match="sample_times"):
         run(Scene(), 1.0, sample_times=["soon"])
+
+
+def test_step_reports_are_ordinary_frozen_reports():
+    """The simulator builds its StepReport without the dataclass __init__: the same object."""
+    import dataclasses
+
+    from iceimpact.simulator import StepReport
+
+    sim = Simulator(Scene(impact_e=0.5))
+    for _ in range(3):
+        report = sim.advance(0.5)
+    values = {f.name: getattr(report, f.name) for f in dataclasses.fields(StepReport)}
+    assert values == report.__dict__
+    twin = StepReport(**values)
+    assert report == twin and hash(report) == hash(twin) and repr(report) == repr(twin)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        report.x = 0.0

@@ -22,6 +22,7 @@ the FMI library.
 from __future__ import annotations
 
 from collections.abc import Callable
+from operator import attrgetter
 from typing import Any
 
 from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES, STRUCTURE_INPUTS
@@ -70,10 +71,23 @@ class FmuModel(FmuLifecycle):
             return self.flow_u
         if name in self.structure_in:
             return self.structure_in[name]
-        if name == "contact.t_last":  # in the master's time frame
-            t = self.report.t_last
-            return t + self.start_time if t >= 0.0 else -1.0
+        if name == "contact.t_last":
+            return self.t_last()
         return getattr(self.report, _OUTPUT_FIELDS[name])
+
+    def t_last(self) -> float:
+        """contact.t_last in the master's time frame, s (-1 before the first impact)."""
+        t = self.report.t_last
+        return t + self.start_time if t >= 0.0 else -1.0
+
+    def getter(self, name: str) -> Callable[[], Any]:
+        if name == "contact.t_last":
+            return self.t_last
+        field = _OUTPUT_FIELDS.get(name)
+        if field is None:
+            return super().getter(name)
+        read_field = attrgetter(field)
+        return lambda: read_field(self.report)  # what read() gives, without its dispatch
 
     def write_input(self, name: str, value: Any) -> bool:
         if name == FLOW_INPUT.name:
@@ -104,8 +118,9 @@ class FmuModel(FmuLifecycle):
         try:
             for name, value in self.pending.items():
                 TUNERS[name](sim, value)
-            report = sim.advance(step_size, self.flow_u,
-                                 tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS))
+            structure = (tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS)
+                         if sim.external else None)
+            report = sim.advance(step_size, self.flow_u, structure)
         except (ParameterError, SolverError) as exc:
             if before is not None:
                 sim.restore(before)  # the tunables applied before the refusal are undone

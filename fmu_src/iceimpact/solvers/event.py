@@ -651,6 +651,32 @@ class EventSolver(Solver):
         return out
 
     # snapshots ----------------------------------------------------------------------------------
+    def checkpoint(self) -> Any:
+        """The solver's fields and the segment object with its search frontier: a flight or a
+        linear sticking phase changes nothing else while marching (a quadratic one, with its
+        integration chunks, takes a full snapshot)."""
+        seg = self.seg
+        if not isinstance(seg, _SearchedSegment):
+            return super().checkpoint()
+        search = seg.search
+        degenerate = self.rules.degenerate
+        return (self.state, self.e, self.impact_count, self.t_last, len(self.impacts),
+                self.sticking, self.sticking_since, self.u, self.tau, self.pending_impulse,
+                degenerate.run, degenerate.last, seg, search.a, search.root, search.iterations,
+                search.creep)
+
+    def rollback(self, checkpoint: Any) -> None:
+        if isinstance(checkpoint, dict):
+            super().rollback(checkpoint)
+            return
+        (self.state, self.e, self.impact_count, self.t_last, n_impacts, self.sticking,
+         self.sticking_since, self.u, self.tau, self.pending_impulse, run, last, seg,
+         *frontier) = checkpoint
+        del self.impacts[n_impacts:]
+        self.rules.degenerate.set((run, last))
+        seg.search.set_frontier(tuple(frontier))
+        self.seg = seg
+
     _KEYS = ("u", "tau", "pending_impulse", "degenerate", "segment")
 
     def _snapshot(self) -> dict[str, Any]:

@@ -106,6 +106,10 @@ class ExternalSolver(EventSolver):
         self.previous: tuple[float, float, float] | None = None
         self.seg = None
 
+    # the structure's inputs and force are state too: a full snapshot undoes a step
+    checkpoint = Solver.checkpoint
+    rollback = Solver.rollback
+
     def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
         self.seg = ExternalStick(self, t, x, v, u)
         self._set_sticking(True, t)
