@@ -113,13 +113,24 @@ class Flight(_SearchedSegment):
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
         self.gap0 = x0 - z0
+        self._last: tuple[float, float, float, float, float] = (math.nan,) * 5
         self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0), self.gap_and_rate)
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
-    def state(self, tau: float) -> tuple[float, float, float, float]:
+    def _motion(self, tau: float) -> tuple[float, float, float, float, float]:
+        """(tau, x - x0, v, z - z0, w) at tau; the last one is kept, since the root search asks
+        again for the point it just tested (a probe after a sign test, the state at a root)."""
+        last = self._last
+        if last[0] == tau:
+            return last
         dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
         dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        self._last = last = (tau, dx, v, dz, w)
+        return last
+
+    def state(self, tau: float) -> tuple[float, float, float, float]:
+        _, dx, v, dz, w = self._motion(tau)
         return self.x0 + dx, v, self.z0 + dz, w
 
     def state_array(self, anchor, tau):
@@ -129,20 +140,17 @@ class Flight(_SearchedSegment):
         return x0 + dx, v, z0 + dz, w
 
     def gap(self, tau: float) -> float:
-        dx, _ = self.osc.displacement_change(self.x0, self.v0, tau)
-        dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
+        _, dx, _, dz, _ = self._motion(tau)
         return self.gap0 + (dx - dz)
 
     def gap_and_rate(self, tau: float) -> tuple[float, float]:
         """Gap and its rate v - w."""
-        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
-        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        _, dx, v, dz, w = self._motion(tau)
         return self.gap0 + (dx - dz), v - w
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
-        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
-        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        _, dx, v, dz, w = self._motion(tau)
         a_x, j_x, s_x = self.osc.derivatives(self.x0 + dx, v)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
         return (self.gap0 + (dx - dz), v - w, a_x - a_z,

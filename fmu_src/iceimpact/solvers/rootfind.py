@@ -187,8 +187,8 @@ class RootSearch:
             nxt = t + step
             if nxt >= b:  # any root is close to b: the sign test there decides
                 break
-            if step <= self.xtol + ROOT_RTOL * abs(t):  # converged from above
-                self.root = nxt
+            if step <= self.xtol + ROOT_RTOL * abs(t):  # converged from above, to tolerance
+                self.root = t
                 return
             f_n, df_n = value_and_rate(nxt)
             if f_n < 0.0:  # the root is in (t, nxt)
@@ -221,7 +221,8 @@ class RootSearch:
                 nxt = lo + 0.5 * (hi - lo)  # bisection when Newton leaves or stalls
             step_before, step = step, abs(nxt - t)
             if step <= self.xtol + ROOT_RTOL * abs(nxt) or not lo < nxt < hi:
-                return nxt
+                # converged: the last point evaluated is within the tolerance of the root
+                return t if step <= self.xtol + ROOT_RTOL * abs(nxt) else nxt
             t = nxt
             f_t, df_t = self.value_and_rate(t)
             if f_t < 0.0:
