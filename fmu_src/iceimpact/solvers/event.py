@@ -422,6 +422,19 @@ def _floats(y) -> list[float]:
     return [float(c) for c in y]
 
 
+def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
+    """The first index j >= i with ``times[j] - t0 >= tau_event``: the first sample a march
+    reaches after the event (the test advance_to makes), by bisection on the absolute times
+    and a check of the exact test around it."""
+    n = len(times)
+    j = bisect_left(times, t0 + tau_event, i, n)
+    while j > i and times[j - 1] - t0 >= tau_event:
+        j -= 1
+    while j < n and times[j] - t0 < tau_event:
+        j += 1
+    return j
+
+
 class Samples:
     """States (m, m/s), contact impulses (N.s) and sticking flags at a run's sample times."""
 
@@ -636,8 +649,7 @@ class EventSolver(Solver):
                 continue
             t0 = seg.t0
             tau_event = seg.next_event(horizon - t0)
-            j = n if tau_event is None else bisect_left(t_list, tau_event, i, n,
-                                                        key=lambda t: t - t0)
+            j = n if tau_event is None else _first_sample_after(t_list, i, t0, tau_event)
             group = groups.get(type(seg))
             if group is None:
                 group = groups[type(seg)] = _SampleGroup(seg)
