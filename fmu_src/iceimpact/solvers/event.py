@@ -118,6 +118,9 @@ class Flight(_SearchedSegment):
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
+    def anchor(self) -> tuple[float, float, float, float]:
+        return self.x0, self.v0, self.z0, self.w0
+
     def _motion(self, tau: float) -> tuple[float, float, float, float, float]:
         """(tau, x - x0, v, z - z0, w) at tau; the last one is kept, since the root search asks
         again for the point it just tested (a probe after a sign test, the state at a root)."""

@@ -143,7 +143,7 @@ class RootSearch:
                 b = a + min(h_mono, 1e300)
                 if b > a:
                     if self.value_and_rate is not None:
-                        self._descend(a, f, df, b)
+                        self._descend(a, f, df, d2, b)
                         return
                     if self.value(b) < 0.0:  # exactly one crossing in (a, b)
                         self.root = self._bracketed_root(a, b)
@@ -172,18 +172,22 @@ class RootSearch:
             return
         self.a = b
 
-    def _descend(self, a: float, f: float, df: float, b: float) -> None:
-        """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0) on the monotone stretch [a, b]:
-        set the root if it is in [a, b], else move the frontier to b.
+    def _descend(self, a: float, f: float, df: float, d2: float, b: float) -> None:
+        """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0, f''(a) = d2) on the monotone
+        stretch [a, b]: set the root if it is in [a, b], else move the frontier to b.
 
-        f decreases on [a, b], so a Newton point t with f(t) >= 0 leaves [a, t] root-free (the
-        frontier moves on), and one with f(t) < 0 brackets the only root in (a, t)."""
+        f decreases on [a, b], so a point t with f(t) >= 0 leaves [a, t] root-free (the
+        frontier moves on), and one with f(t) < 0 brackets the only root in (a, t). The first
+        point is the root of the second-order Taylor polynomial at a (one Newton step fewer),
+        the next ones Newton points."""
         value_and_rate = self.value_and_rate
         t, f_t, df_t = a, f, df
+        disc = df * df - 2.0 * f * d2
+        # first step: root of f + df h + d2 h^2 / 2 (cancellation-free form), else Newton's
+        step = 2.0 * f / (math.sqrt(disc) - df) if disc >= 0.0 else f / -df
         for _ in range(DESCENT_STEPS):
             if not df_t < 0.0:  # f' vanishing to rounding inside the stretch
                 break
-            step = f_t / -df_t
             nxt = t + step
             if nxt >= b:  # any root is close to b: the sign test there decides
                 break
@@ -198,6 +202,7 @@ class RootSearch:
                 self.root = nxt
                 return
             t, f_t, df_t = nxt, f_n, df_n
+            step = f_t / -df_t if df_t < 0.0 else math.inf
         if self.value(b) < 0.0:  # exactly one crossing in (t, b)
             self.root = self._bracketed_root(t, b)
         else:
