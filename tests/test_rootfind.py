@@ -50,8 +50,23 @@ def _cosine(level):
     return (lambda t: math.cos(t) - level), probe, lambda t: (math.cos(t) - level, -math.sin(t))
 
 
+class _Search:
+    """A RootSearch with its signal: Newton's method if ``rate`` is given, else brentq."""
+
+    def __init__(self, probe, f, rate=None, start=0.0):
+        self.search = RootSearch(start, 1e-16)
+        self.signal = (probe, f, rate)
+
+    def next_root_before(self, horizon):
+        return self.search.next_root_before(horizon, *self.signal)
+
+    @property
+    def iterations(self):
+        return self.search.iterations
+
+
 def _searches(f, probe, rate, start=0.0):
-    return (RootSearch(probe, f, start, 1e-16, rate), RootSearch(probe, f, start, 1e-16))
+    return _Search(probe, f, rate, start), _Search(probe, f, None, start)
 
 
 @pytest.mark.parametrize("case,root", [
@@ -75,7 +90,7 @@ def test_the_first_of_two_close_roots_is_found():
     """f = (t - 1)(t - 1.001): below zero for 1 ms only, which a grid would step over."""
     r1, r2 = 1.0, 1.001
     f, probe, rate = _polynomial([r1 * r2, -(r1 + r2), 1.0])
-    search = RootSearch(probe, f, 0.0, 1e-16, rate)
+    search = _Search(probe, f, rate)
     # the coefficients' rounding (1e-16) moves the root by ~1e-16 / (r2 - r1)
     assert search.next_root_before(10.0) == pytest.approx(r1, abs=1e-12)
     assert search.iterations < 60
@@ -84,7 +99,7 @@ def test_the_first_of_two_close_roots_is_found():
 def test_a_touch_without_crossing_is_no_root():
     """f = (t - 1)^2 touches zero at t = 1 and rises again: no root, the frontier moves past."""
     f, probe, rate = _polynomial([1.0, -2.0, 1.0])
-    found = RootSearch(probe, f, 0.0, 1e-16, rate).next_root_before(3.0)
+    found = _Search(probe, f, rate).next_root_before(3.0)
     # a touch is reported only where f is zero to rounding (f'' h^2 / 2 at the ulp level)
     assert found is None or abs(found - 1.0) < 1e-7
 
@@ -99,7 +114,15 @@ def test_newton_takes_fewer_evaluations_than_brentq():
             return fn(t)
         return wrapper
 
-    RootSearch(probe, counted(f, "newton"), 0.0, 1e-16,
-               counted(rate, "newton")).next_root_before(10.0)
-    RootSearch(probe, counted(f, "brentq"), 0.0, 1e-16).next_root_before(10.0)
+    _Search(probe, counted(f, "newton"), counted(rate, "newton")).next_root_before(10.0)
+    _Search(probe, counted(f, "brentq")).next_root_before(10.0)
     assert calls["newton"] < calls["brentq"]
+
+
+def test_the_search_holds_its_signal_only_during_a_call():
+    """No reference from the search to its segment between calls: no cycle to collect."""
+    f, probe, rate = _exponential(0.5)
+    search = RootSearch(0.0, 1e-16)
+    assert search.next_root_before(0.1, probe, f, rate) is None
+    assert search.probe is search.value is search.value_and_rate is None
+    assert search.next_root_before(10.0, probe, f, rate) == pytest.approx(math.log(2.0))

@@ -59,7 +59,12 @@ def _time_eps(t: float) -> float:
 
 class _SearchedSegment:
     """Snapshot of a segment given in closed form from its anchor, with a root search: the
-    anchor values named by ``ANCHOR``, the search start and its frontier (Flight, LinearStick)."""
+    anchor values named by ``ANCHOR``, the search start and its frontier (Flight, LinearStick).
+
+    Its ``anchor``, ``state_array``, ``impulse_array`` and ``PUSHES`` let
+    :meth:`EventSolver.sample` evaluate all the samples in segments of one kind at once; any
+    segment kind that gives them joins that vectorised pass, the others are sampled step by
+    step."""
 
     ANCHOR: tuple[str, ...] = ()
     #: a contact force acts during the segment (its impulse is not zero)
@@ -114,7 +119,7 @@ class Flight(_SearchedSegment):
         self.start = start
         self.gap0 = x0 - z0
         self._last: tuple[float, float, float, float, float] = (math.nan,) * 5
-        self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0), self.gap_and_rate)
+        self.search = RootSearch(start, _time_eps(t0))
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
@@ -161,7 +166,7 @@ class Flight(_SearchedSegment):
                 self.osc.amplitude_bound(j_x, s_x) + j_z_max)
 
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end)
+        return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
@@ -183,8 +188,7 @@ class LinearStick(_SearchedSegment):
         self.start = start
         self.osc = Oscillator(solver.m + solver.M, solver.c + self.b, solver.k,
                               offset=self.b * u / solver.k)
-        self.search = RootSearch(self.probe, self.force, start, _time_eps(t0),
-                                 self.force_and_rate)
+        self.search = RootSearch(start, _time_eps(t0))
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         x, v = self.osc.response(self.x0, self.v0, tau)
@@ -221,7 +225,7 @@ class LinearStick(_SearchedSegment):
         return lam, rate, curvature, bound, jerk
 
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end)
+        return self.search.next_root_before(tau_end, self.probe, self.force, self.force_and_rate)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
@@ -644,7 +648,7 @@ class EventSolver(Solver):
         horizon = t_list[-1]
         while i < n:
             seg = self.seg
-            if not isinstance(seg, _SearchedSegment):  # no closed form: march to this sample
+            if not hasattr(seg, "state_array"):  # no closed form: march to this sample
                 targets.append(i)
                 values.append(self._march(t_list[i], u))
                 out.set(i, self.state, self.sticking)

@@ -60,20 +60,20 @@ class RootSearch:
     separation.
 
     ``probe(t) -> (f, f', f'', K, J)`` gives value, slope, curvature and the bounds K, J;
-    ``value(t) -> f`` is the cheap value alone. The search keeps its frontier (root-free up to
-    ``clear``) between calls, so a sequence of horizons visits the same points as one long call:
-    results do not depend on how the caller chops time.
+    ``value(t) -> f`` is the cheap value alone, ``value_and_rate(t) -> (f, f')`` (optional) the
+    value and slope for Newton's method. They are given with each call of
+    :meth:`next_root_before` and held only during it, so that a segment holding its search
+    makes no reference cycle (it is freed at once, without the cyclic garbage collector, which
+    took a fifth of an impact-heavy run). The search keeps its frontier (root-free up to ``a``)
+    between calls, so a sequence of horizons visits the same points as one long call: results
+    do not depend on how the caller chops time.
     """
 
     __slots__ = ("probe", "value", "value_and_rate", "a", "root", "time_eps", "iterations",
                  "xtol", "creep")
 
-    def __init__(self, probe: Callable[[float], tuple[float, float, float]],
-                 value: Callable[[float], float], start: float, time_eps: float,
-                 value_and_rate: Callable[[float], tuple[float, float]] | None = None):
-        self.probe = probe
-        self.value = value
-        self.value_and_rate = value_and_rate  # (f, f'): Newton's method on monotone stretches
+    def __init__(self, start: float, time_eps: float):
+        self.probe = self.value = self.value_and_rate = None  # the signal, during a call
         self.a = start          # f(a) >= 0 and [start, a) is root-free
         self.root: float | None = None
         self.time_eps = time_eps  # smallest meaningful time increment
@@ -99,15 +99,27 @@ class RootSearch:
     def set_frontier(self, values: tuple[float, float | None, int, int]) -> None:
         self.a, self.root, self.iterations, self.creep = values
 
-    def next_root_before(self, horizon: float) -> float | None:
-        """The first root if it is at or before ``horizon``, else None (frontier moved past)."""
-        if self.root is not None:
-            return self.root if self.root <= horizon else None
-        while self.a <= horizon:
-            self._step()
-            if self.root is not None:
-                return self.root if self.root <= horizon else None
-        return None
+    def next_root_before(self, horizon: float,
+                         probe: Callable[[float], tuple[float, float, float, float, float]],
+                         value: Callable[[float], float],
+                         value_and_rate: Callable[[float], tuple[float, float]] | None = None
+                         ) -> float | None:
+        """The first root of the signal (see the class) if it is at or before ``horizon``, else
+        None (frontier moved past)."""
+        root = self.root
+        if root is not None:
+            return root if root <= horizon else None
+        if self.a > horizon:
+            return None
+        self.probe, self.value, self.value_and_rate = probe, value, value_and_rate
+        try:
+            while self.a <= horizon:
+                self._step()
+                if self.root is not None:
+                    return self.root if self.root <= horizon else None
+            return None
+        finally:
+            self.probe = self.value = self.value_and_rate = None
 
     def _step(self) -> None:
         a = self.a
