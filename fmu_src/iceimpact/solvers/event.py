@@ -66,6 +66,7 @@ class _SearchedSegment:
     segment kind that gives them joins that vectorised pass, the others are sampled step by
     step."""
 
+    __slots__ = ()
     ANCHOR: tuple[str, ...] = ()
     #: a contact force acts during the segment (its impulse is not zero)
     PUSHES = False
@@ -108,6 +109,8 @@ class _SearchedSegment:
 class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
+    __slots__ = ("osc", "drag", "t0", "x0", "v0", "z0", "w0", "u", "start", "gap0", "_last",
+                 "search")
     phase = Phase.FLIGHT
     ANCHOR = ("x0", "v0", "z0", "w0")
 
@@ -175,6 +178,7 @@ class Flight(_SearchedSegment):
 class LinearStick(_SearchedSegment):
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k)."""
 
+    __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
     PUSHES = True
