@@ -559,21 +559,23 @@ class EventSolver(Solver):
                           lam: float) -> None:
         """Flight starting at zero gap with separating (or zero) relative velocity.
 
-        The search starts beyond the trivial root at 0, at the end of an interval proven root-free:
-        ``g >= s h - K h^2/2`` (opening speed s > 0), or ``g >= g2 h^2/2 - J h^3/6`` (s = 0, gap
-        curvature g2 = -lam / mu > 0, J a bound on |g'''|).
+        With an opening speed s > 0 the search starts at 0, where g = 0 and g' = s > 0 are no
+        root, and its first stretch proves ``g >= s h - K h^2/2 > 0`` beyond. With s = 0 it
+        starts beyond the trivial root at 0, at the end of an interval proven root-free,
+        ``g >= g2 h^2/2 - J h^3/6`` (gap curvature g2 = -lam / mu > 0, J a bound on |g'''|).
         """
         opening = v - w
+        if opening > 0.0:
+            # the search's first stretch from 0 proves the opening: g(0) = 0, g'(0) = s > 0
+            self._fly(t, x, v, x, w, u, 0.0)
+            return
         a_x, j_x, s_x = self.osc.derivatives(x, v)
-        a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, u)
+        a_z, _, j_z_max = self.drag.accel_bounds(w, u)
         curvature = a_x - a_z
-        acc_bound = self.osc.amplitude_bound(a_x, j_x) + a_z_max
         jerk_bound = self.osc.amplitude_bound(j_x, s_x) + j_z_max
         start = 0.0
-        if opening > 0.0 and acc_bound > 0.0:
-            start = opening / acc_bound
         if curvature > 0.0 and jerk_bound > 0.0:
-            start = max(start, 2.0 * curvature / jerk_bound)
+            start = 2.0 * curvature / jerk_bound
         self._fly(t, x, v, x, w, u, start)
 
     def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
