@@ -14,6 +14,12 @@ and ``core_speed.md``.
     python benchmarks/core_speed.py --quick         # 10 and 100 s, 1 round
     python benchmarks/core_speed.py --spread        # + the reference's own impact-count spread
     python benchmarks/core_speed.py --vs-ode        # + the exact solver vs solve_ivp with events
+    python benchmarks/core_speed.py --steps         # only the stepping costs (below), ~1 min
+
+``--steps`` times, before and after, what docs/accuracy.md quotes for method 1: one
+``Simulator.advance_to(10 s)`` for the Figure 2, 8, 13 and 18 scenes, and the cost of one
+``Simulator.advance`` step at h = 1e-4 and 1e-1 s over 10 s of Figure 2; it writes
+``core_speed_steps.json`` and ``.md``.
 
 ``--spread`` runs the reference again with the ice's start position moved by 1e-15 m to
 5e-15 m: the motion of these scenes is sensitive, and the spread of the impact counts it gives
@@ -63,6 +69,58 @@ print(json.dumps({"cpu_s": cpu, "wall_s": wall, "impacts": int(len(result.impact
                   "first10": result.impacts["t"][:10].tolist(),
                   "sticking_fraction": float(result.sticking.mean())}))
 """
+
+
+#: The work-precision study's scenes (benchmarks/work_precision.py), for --steps.
+STEP_SCENES: dict[str, dict] = {
+    "fig2": {}, "fig8": {"impact_e": 0.5}, "fig13": {"ice_A": 2.0, "drag_model": 2},
+    "fig18": {"impact_e": 0.5, "drag_model": 2},
+}
+
+#: --steps: the first 10 s in one advance_to, and Simulator.advance at two step sizes (CPU time,
+#: best of 5).
+_STEP_WORKER = """
+import json, sys, time
+from iceimpact import Scene, Simulator
+scenes, steps = json.loads(sys.argv[1]), json.loads(sys.argv[2])
+
+def best(fn, repeat=5):
+    out = float("inf")
+    for _ in range(repeat):
+        start = time.process_time()
+        fn()
+        out = min(out, time.process_time() - start)
+    return out
+
+result = {"first_10s_ms": {name: 1e3 * best(lambda: Simulator(Scene(**f)).advance_to(10.0))
+                           for name, f in scenes.items()}, "step_us": {}}
+for h in steps:
+    n = round(10.0 / h)
+
+    def stepped():
+        sim = Simulator(Scene())
+        for _ in range(n):
+            sim.advance(h)
+    result["step_us"][repr(h)] = 1e6 * best(stepped, 3) / n
+print(json.dumps(result))
+"""
+
+
+def step_costs(cores: dict[str, Path], rounds: int) -> dict:
+    """--steps: the stepping costs before and after, best of the interleaved rounds."""
+    runs: dict[str, list[dict]] = {name: [] for name in cores}
+    for _ in range(rounds):
+        for name, core in cores.items():
+            done = subprocess.run([sys.executable, "-c", _STEP_WORKER, json.dumps(STEP_SCENES),
+                                   json.dumps([1e-4, 1e-1])], capture_output=True, text=True,
+                                  env={"PYTHONPATH": str(core), "PATH": "/usr/bin:/bin"},
+                                  check=True)
+            runs[name].append(json.loads(done.stdout.strip().splitlines()[-1]))
+    out = {}
+    for name, rs in runs.items():
+        out[name] = {kind: {key: min(r[kind][key] for r in rs) for key in rs[0][kind]}
+                     for kind in ("first_10s_ms", "step_us")}
+    return out
 
 
 def extract(commit: str, dest: Path) -> Path:
@@ -155,8 +213,32 @@ def main(argv=None) -> int:
                         help="the reference's impact-count spread under 1e-15 m moves")
     parser.add_argument("--vs-ode", action="store_true",
                         help="also the exact solver against solve_ivp with events")
+    parser.add_argument("--steps", action="store_true",
+                        help="only the stepping costs docs/accuracy.md quotes")
     parser.add_argument("--out", type=Path, default=RESULTS / "core_speed.json")
     args = parser.parse_args(argv)
+    if args.steps:
+        with tempfile.TemporaryDirectory(prefix="core_speed_") as tmp:
+            cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
+            costs = step_costs(cores, args.rounds)
+        lines = [f"Before: commit {args.base}; after: this tree. CPU time, best of the rounds.",
+                 "", "| what | before | after | speed-up |", "|---|---:|---:|---:|"]
+        for kind, unit in (("first_10s_ms", "ms"), ("step_us", "us")):
+            for key, before in costs["before"][kind].items():
+                after = costs["after"][kind][key]
+                label = (f"advance_to(10 s), {key}" if kind == "first_10s_ms"
+                         else f"Simulator.advance, Figure 2, h = {key} s")
+                lines.append(f"| {label} | {before:.3g} {unit} | {after:.3g} {unit} | "
+                             f"{before / after:.1f}x |")
+        text = "\n".join(lines) + "\n"
+        print(text)
+        out = args.out.with_name("core_speed_steps.json")
+        out.write_text(json.dumps({"benchmark": "core_speed --steps", "base": args.base,
+                                   "date": datetime.now(UTC).isoformat(timespec="seconds"),
+                                   "machine": platform.platform(), **costs}, indent=2) + "\n")
+        out.with_suffix(".md").write_text(text)
+        print(f"wrote {out} and {out.with_suffix('.md')}")
+        return 0
     lengths = args.lengths or ([10.0, 100.0] if args.quick else [10.0, 100.0, 1000.0])
     rounds = 1 if args.quick else args.rounds
 
