@@ -219,7 +219,7 @@ class Simulator:
             report = self._report(impulse, h)
             # never let NaN or inf reach an output (the sum is finite when they all are, save
             # for an overflow of the sum itself, which the field-by-field test then clears)
-            if not math.isfinite(report.x + report.v + report.z + report.w + report.gap
+            if not math.isfinite(report.t + report.x + report.v + report.z + report.w + report.gap
                                  + report.penetration + report.impulse + report.force
                                  + report.t_last + report.spring_force):
                 bad = [name for name in _REAL_REPORT_FIELDS
