@@ -36,6 +36,21 @@ def _build_iceimpact(dest: Path) -> Path:
     return module.build(dest)
 
 
+def _check_trivial_interface() -> None:
+    """The trivial slave has IceImpact's inputs and outputs (names and types), so that both
+    FMUs are stepped and recorded alike."""
+    sys.path.insert(0, str(ROOT / "fmu_src"))
+    from iceimpact.contract import INPUTS, OUTPUTS
+
+    spec = importlib.util.spec_from_file_location("TrivialSlave",
+                                                  HERE / "trivial_fmu" / "TrivialSlave.py")
+    trivial = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(trivial)
+    kinds = {trivial.Real: float, trivial.Integer: int, trivial.Boolean: bool}
+    assert trivial.INPUTS == tuple(v.name for v in INPUTS), trivial.INPUTS
+    assert [(n, kinds[k]) for n, k in trivial.OUTPUTS] == [(o.name, o.kind) for o in OUTPUTS]
+
+
 def _build_trivial(dest: Path) -> Path:
     from pythonfmu import FmuBuilder
 
@@ -85,6 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     stop_time = args.stop_time or (40.0 if args.quick else 400.0)
 
+    _check_trivial_interface()
     cases = ("IceImpact.fmu", "TrivialSlave.fmu", "Simulator.advance (core, no FMI)")
     times: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
     with tempfile.TemporaryDirectory(prefix="fmu_overhead_") as tmp:

@@ -46,6 +46,26 @@ def test_oscillator_matches_ode(params):
         assert v == pytest.approx(ref[1, i], abs=1e-10 * scale * math.sqrt(osc.omega2) + 1e-14)
     xa, va = osc.response_array(x0, v0, np.array(TIMES))
     assert np.allclose(xa, ref[0], atol=1e-10 * scale, rtol=0)
+    # the increments from the anchor, per sample anchors (run()'s vectorised sampling)
+    anchors = np.full(len(TIMES), x0), np.full(len(TIMES), v0)
+    dx, vd = osc.displacement_change_array(*anchors, np.array(TIMES))
+    assert np.allclose(x0 + dx, ref[0], atol=1e-10 * scale, rtol=0)
+    assert np.allclose(vd, ref[1], atol=1e-10 * scale * math.sqrt(osc.omega2) + 1e-14, rtol=0)
+
+
+@pytest.mark.parametrize("params", OSCILLATORS)
+def test_vectorised_increments_equal_the_scalar_ones(params):
+    """displacement_change_array is displacement_change to rounding, across the over-damped
+    branch switch (wo t = 1) and at small t, where the increment is far below x0."""
+    osc = Oscillator(*params)
+    t = np.concatenate([np.geomspace(1e-9, 50.0, 60),
+                        [1.0 / osc.omega * (1 + d) for d in (-1e-9, 0.0, 1e-9) if osc.omega]])
+    x0, v0 = 0.3 + np.linspace(0, 1, len(t)), -0.02 + np.zeros(len(t))
+    dx, v = osc.displacement_change_array(x0, v0, t)
+    for i, ti in enumerate(t.tolist()):
+        dx_s, v_s = osc.displacement_change(float(x0[i]), float(v0[i]), ti)
+        assert dx[i] == pytest.approx(dx_s, rel=1e-13, abs=1e-16 * abs(x0[i]))
+        assert v[i] == pytest.approx(v_s, rel=1e-13, abs=1e-15)
 
 
 def test_oscillator_regimes_are_decided_exactly():
@@ -103,6 +123,9 @@ def test_ice_matches_ode(drag, w0, u):
     za, wa = drag.motion_array(z0, w0, u, np.array(TIMES))
     assert np.allclose(za, ref[0], atol=1e-11, rtol=0)
     assert np.allclose(wa, ref[1], atol=1e-12, rtol=0)
+    dz, wd = drag.displacement_change_array(np.full(len(TIMES), w0), u, np.array(TIMES))
+    assert np.allclose(z0 + dz, ref[0], atol=1e-11, rtol=0)
+    assert np.array_equal(wd, wa)
 
 
 @pytest.mark.parametrize("drag", [LinearDrag(10.0, 0.0), QuadraticDrag(10.0, 0.0)])

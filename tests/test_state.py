@@ -359,15 +359,40 @@ def test_step_failing_midway_changes_nothing(method, error):
     steps(sim, [(0.01, 0.1)] * 50)
     steps(clean, [(0.01, 0.1)] * 50)
     solver = sim.solver
+    before = sim.save()
     solver._record = _Fails(solver._record, 3, error)
     with pytest.raises(type(error)):
         sim.advance(12.0)
     assert solver._record.calls == 3  # two impacts were made before the failure
     del solver._record
+    assert {k: v for k, v in sim.save().items() if k != "failed"} == {
+        k: v for k, v in before.items() if k != "failed"}
     assert sim.advance(12.0) == clean.advance(12.0)
     assert sim.report.impacts >= 3
     assert steps(sim, SUFFIX) == steps(clean, SUFFIX)
     assert sim.impacts == clean.impacts
+
+
+def test_step_failing_midway_from_a_linear_sticking_phase_changes_nothing():
+    """The exact method's quick checkpoint of a linear sticking phase: a step that re-anchors
+    it on a flow reversal, marches to the separation and fails there changes nothing."""
+    scene = Scene(impact_e=0.0, flow_u=0.5)
+    sim, clean = Simulator(scene), Simulator(scene)
+    steps(sim, [(0.01, 0.5)] * 300)
+    steps(clean, [(0.01, 0.5)] * 300)
+    assert sim.sticking and type(sim.solver.seg).__name__ == "LinearStick"
+    before = sim.save()
+    solver = sim.solver
+    solver._fly_from_contact = _Fails(solver._fly_from_contact, 1, SolverError("at separation"))
+    with pytest.raises(SolverError):
+        sim.advance(12.0, -0.2)
+    assert solver._fly_from_contact.calls == 1
+    del solver._fly_from_contact
+    assert {k: v for k, v in sim.save().items() if k != "failed"} == {
+        k: v for k, v in before.items() if k != "failed"}
+    assert sim.advance(12.0, -0.2) == clean.advance(12.0, -0.2)
+    assert not sim.sticking
+    assert steps(sim, SUFFIX) == steps(clean, SUFFIX)
 
 
 @pytest.mark.parametrize("h", [0.0, -0.01, math.nan, math.inf, True, "0.01", None])
@@ -404,7 +429,7 @@ def test_step_too_small_to_advance_the_time_is_refused():
 
 # --- run() on the simulator ----------------------------------------------------------------------
 
-@pytest.mark.parametrize("method", list(METHODS))
+@pytest.mark.parametrize("method", ["fixed-step", "ode"])
 def test_run_reports_what_the_simulator_reports(method):
     scene = Scene(impact_e=0.5, drag_model=2, **METHODS[method])
     res = run(scene, 3.0, dt=0.05)
@@ -415,6 +440,46 @@ def test_run_reports_what_the_simulator_reports(method):
     assert np.array_equal(res.impulse, [r.impulse for r in reports])
     assert np.all(res.gap >= 0.0) and np.all(res.penetration >= 0.0)
     assert len(res.impacts) == sim.impact_count
+
+
+#: exact-method scenes for run()'s vectorised sampling, with their horizons (s): every kind of
+#: segment (flight, linear and quadratic sticking), under- and over-damped sticking
+SAMPLED_SCENES = {
+    "quadratic e=0.5": (dict(impact_e=0.5, drag_model=2), 10.0),
+    "linear e=0.5": (dict(impact_e=0.5, ice_M=400.0), 10.0),
+    "linear e=0": (dict(impact_e=0.0, flow_u=0.5), 3.0),
+    "overdamped sticking": (dict(impact_e=0.3, structure_c=2.0 * math.sqrt(1e6 * 3200.0),
+                                 flow_u=0.5), 3.0),
+    "overdamped": (dict(impact_e=0.0, structure_c=2e5, structure_k=1e5, flow_u=0.5), 3.0),
+}
+
+
+@pytest.mark.parametrize("name", list(SAMPLED_SCENES))
+def test_run_samples_what_the_simulator_reports_to_rounding(name):
+    """The exact method's run() marches the same events and evaluates the samples in
+    vectorised closed forms: the simulator's reports to rounding, the same impacts."""
+    values, t_end = SAMPLED_SCENES[name]
+    scene = Scene(**values)
+    res = run(scene, t_end, dt=0.02)
+    sim = Simulator(scene)
+    reports = [sim.report] + [sim.advance_to(float(t)) for t in res.t[1:]]
+    scale = np.max(np.abs(res.x)) + np.max(np.abs(res.z))
+    for name_ in ("x", "z", "gap"):
+        np.testing.assert_allclose(getattr(res, name_), [getattr(r, name_) for r in reports],
+                                   rtol=0, atol=1e-14 * scale, err_msg=name_)
+    for name_ in ("v", "w"):
+        want = np.array([getattr(r, name_) for r in reports])
+        np.testing.assert_allclose(getattr(res, name_), want, rtol=0,
+                                   atol=1e-13 * np.max(np.abs(want)), err_msg=name_)
+    want = np.array([r.impulse for r in reports])
+    np.testing.assert_allclose(res.impulse, want, rtol=1e-9, atol=1e-12 * np.max(np.abs(want)),
+                               err_msg="impulse")
+    assert np.array_equal(res.sticking, [r.sticking for r in reports])
+    assert np.array_equal(res.impacts["t"], [i.t for i in sim.impacts])
+    assert np.all(res.gap >= 0.0) and np.all(res.penetration == 0.0)
+    assert res.sticking_since == sim.sticking_since
+    # both kinds of segment are sampled
+    assert res.sticking.any() and not res.sticking.all()
 
 
 def test_run_gap_is_never_negative_where_the_ice_passes_through():
@@ -443,3 +508,20 @@ def test_sample_times_must_be_a_sequence_of_numbers():
         run(Scene(), 1.0, sample_times=[[0.1, 0.2]])
     with pytest.raises(ParameterError, match="sample_times"):
         run(Scene(), 1.0, sample_times=["soon"])
+
+
+def test_step_reports_are_ordinary_frozen_reports():
+    """The simulator builds its StepReport without the dataclass __init__: the same object."""
+    import dataclasses
+
+    from iceimpact.simulator import StepReport
+
+    sim = Simulator(Scene(impact_e=0.5))
+    for _ in range(3):
+        report = sim.advance(0.5)
+    values = {f.name: getattr(report, f.name) for f in dataclasses.fields(StepReport)}
+    assert values == report.__dict__
+    twin = StepReport(**values)
+    assert report == twin and hash(report) == hash(twin) and repr(report) == repr(twin)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        report.x = 0.0

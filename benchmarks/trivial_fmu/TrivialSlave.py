@@ -1,4 +1,4 @@
-"""TrivialSlave: a PythonFMU slave with IceImpact's input and outputs that does no work.
+"""TrivialSlave: a PythonFMU slave with IceImpact's inputs and outputs that does no work.
 
 The floor for any PythonFMU FMU: ``benchmarks/fmu_overhead.py`` steps and records it exactly like
 IceImpact.fmu, so the difference between the two is the cost of the model core.
@@ -10,29 +10,33 @@ from typing import Any
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real
 
-# IceImpact's outputs: name, type (registered the same way, read through getters).
+# IceImpact's inputs and outputs: name, type (registered the same way, read through getters);
+# benchmarks/fmu_overhead.py checks them against the contract.
+INPUTS = ("flow.u", "structure.x_in", "structure.v_in", "structure.a_in")
 OUTPUTS = (
     ("structure.x", Real), ("structure.v", Real), ("ice.z", Real), ("ice.v", Real),
     ("contact.gap", Real), ("contact.impulse", Real), ("contact.force", Real),
     ("contact.count", Integer), ("contact.active", Boolean), ("contact.t_last", Real),
+    ("contact.penetration", Real), ("structure.force", Real),
 )
 
 
 class TrivialSlave(Fmi2Slave):
-    """Same input and outputs as IceImpact; do_step returns at once."""
+    """Same inputs and outputs as IceImpact; do_step returns at once."""
 
     author = "IceImpact contributors"
     description = "Reference FMU for overhead measurements: IceImpact's interface, no model"
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self._flow_u = 0.1
+        self._inputs = {name: 0.1 if name == "flow.u" else 0.0 for name in INPUTS}
         self._values = {name: (False if kind is Boolean else 0 if kind is Integer else 0.0)
                         for name, kind in OUTPUTS}
-        self.register_variable(Real("flow.u", causality=Fmi2Causality.input,
-                                    variability=Fmi2Variability.continuous,
-                                    getter=lambda: self._flow_u, setter=self._set_flow),
-                               nested=False)
+        for name in INPUTS:
+            self.register_variable(Real(name, causality=Fmi2Causality.input,
+                                        variability=Fmi2Variability.continuous,
+                                        getter=self._input_getter(name),
+                                        setter=self._setter(name)), nested=False)
         for name, kind in OUTPUTS:
             variability = (Fmi2Variability.continuous if kind is Real
                            else Fmi2Variability.discrete)
@@ -43,8 +47,13 @@ class TrivialSlave(Fmi2Slave):
     def _getter(self, name: str):
         return lambda: self._values[name]
 
-    def _set_flow(self, value: float) -> None:
-        self._flow_u = value
+    def _input_getter(self, name: str):
+        return lambda: self._inputs[name]
+
+    def _setter(self, name: str):
+        def set_input(value: float) -> None:
+            self._inputs[name] = value
+        return set_input
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         return True

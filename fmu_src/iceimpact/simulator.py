@@ -47,6 +47,18 @@ def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
     return cls(scene, record_impacts)
 
 
+def reported_gap(gap):
+    """(gap, penetration) as reported from x - z (m, a float or an array): a negative x - z is
+    reported as a zero gap, and as a penetration beyond the rounding of contact
+    (``GAP_ROUNDING``)."""
+    if isinstance(gap, np.ndarray):
+        return (np.where(gap < 0.0, 0.0, gap),
+                np.where(gap <= -GAP_ROUNDING, -gap, 0.0))
+    if gap < 0.0:
+        return 0.0, (-gap if gap <= -GAP_ROUNDING else 0.0)
+    return gap, 0.0
+
+
 @dataclass(frozen=True)
 class StepReport:
     """Outputs at the end of one communication step (the FMU's outputs, SI units)."""
@@ -71,6 +83,17 @@ class StepReport:
 
 
 _REPORT_FIELDS = tuple(f.name for f in fields(StepReport))
+
+
+def _new_report(values: dict[str, Any]) -> StepReport:
+    """A StepReport from all its fields by name, without the frozen dataclass's per-field
+    ``object.__setattr__`` (a fifth of a step's cost in an FMU); tests check it equals
+    ``StepReport(**values)``."""
+    report = object.__new__(StepReport)
+    report.__dict__.update(values)
+    return report
+
+
 _REAL_REPORT_FIELDS = tuple(f.name for f in fields(StepReport) if f.type == "float")
 _REPORT_COUNTS = ("impacts", "impact_count")
 _SAVE_KEYS = ("version", "scene", "solver", "report", "reported_impacts", "failed")
@@ -99,10 +122,12 @@ class Simulator:
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         self.scene = scene
+        self.external = scene.external  # structure.model = 2: the structure is in another FMU
         self.record_impacts = record_impacts
         self.solver = make_solver(scene, record_impacts)
         self._n_reported = 0  # impacts already reported (an impact at t = 0 goes to step 1)
         self.failed: str | None = None  # why the latest step was refused by the method, if it was
+        self._flow_checked: tuple[float, Scene | None] = (math.nan, None)  # the last valid u
         self.report = self._report(0.0, 0.0)
 
     @property
@@ -147,8 +172,8 @@ class Simulator:
         reports the whole impulse of its interval. A step the method refused is refused again
         for the same input.
         """
-        if isinstance(h, bool) or not isinstance(h, int | float) or not (math.isfinite(h)
-                                                                          and h > 0.0):
+        if not (h.__class__ is float or (isinstance(h, int | float) and not isinstance(h, bool))
+                ) or not (math.isfinite(h) and h > 0.0):
             raise ParameterError("communication step", h, "a finite number > 0 (s)")
         t = self.solver.t
         t_end = t + h
@@ -180,53 +205,62 @@ class Simulator:
 
     def _step(self, t_end: float, h: float, u: float | None,
               structure: Any = None) -> StepReport:
-        u = self.scene.flow_u if u is None else validate_flow(u, self.scene)
-        inputs = self._structure_inputs(structure) if self.scene.external else None
-        checkpoint = self.solver.snapshot()
+        if u is None:
+            u = self.scene.flow_u
+        elif not (u.__class__ is float and u == self._flow_checked[0]
+                  and self._flow_checked[1] is self.scene):
+            u = validate_flow(u, self.scene)
+            self._flow_checked = (u, self.scene)  # the same speed is not checked again
+        inputs = self._structure_inputs(structure) if self.external else None
+        solver = self.solver
+        checkpoint = solver.checkpoint()
         try:
             if inputs is not None:
-                self.solver.inputs = inputs
-            impulse = self.solver.advance_to(t_end, u)
+                solver.inputs = inputs
+            impulse = solver.advance_to(t_end, u)
             report = self._report(impulse, h)
-            bad = [name for name in _REAL_REPORT_FIELDS
-                   if not math.isfinite(getattr(report, name))]
-            if bad:  # never let NaN or inf reach an output
-                raise SolverError(f"the method produced a non-finite {', '.join(bad)} at "
-                                  f"t = {t_end!r} s")
+            # never let NaN or inf reach an output (the sum is finite when they all are, save
+            # for an overflow of the sum itself, which the field-by-field test then clears)
+            if not math.isfinite(report.t + report.x + report.v + report.z + report.w + report.gap
+                                 + report.penetration + report.impulse + report.force
+                                 + report.t_last + report.spring_force):
+                bad = [name for name in _REAL_REPORT_FIELDS
+                       if not math.isfinite(getattr(report, name))]
+                if bad:
+                    raise SolverError(f"the method produced a non-finite {', '.join(bad)} at "
+                                      f"t = {t_end!r} s")
         except BaseException as exc:
-            self.solver.restore(checkpoint)  # a refused step changes nothing
+            solver.rollback(checkpoint)  # a refused step changes nothing
             if isinstance(exc, SolverError):
-                self.failed = (f"the run stopped at t = {checkpoint['t']!r} s (the step to "
+                self.failed = (f"the run stopped at t = {self.solver.t!r} s (the step to "
                                f"{t_end!r} s was refused; the state is as before it): {exc}")
                 raise SolverError(self.failed) from exc
             raise
         self.failed = None
         self.report = report
-        self._n_reported = self.solver.impact_count
-        return self.report
+        self._n_reported = solver.impact_count
+        return report
 
     def _report(self, impulse: float, h: float) -> StepReport:
-        s = self.solver.state
+        solver = self.solver
+        s = solver.state
         # Method 1 keeps x - z >= 0 up to rounding; method 3 up to its integration error (atol
         # = 1e-3 rtol m). The fixed-step scheme (method 2) tests impacts on grid points only,
         # so the ice can be up to one step's closing distance past the structure, or pass
         # through it when its eq. 26 window misses an impact. A negative x - z is reported as a
         # penetration, not as a negative gap.
-        gap = s.x - s.z
-        penetration = 0.0
-        if gap < 0.0:
-            penetration = -gap if gap <= -GAP_ROUNDING else 0.0
-            gap = 0.0
-        count = self.solver.impact_count
-        t_last = self.solver.t_last
+        gap, penetration = reported_gap(s.x - s.z)
+        count = solver.impact_count
+        t_last = solver.t_last
         force = impulse / h if h > 0.0 else 0.0
-        return StepReport(
-            t=s.t, x=s.x, v=s.v, z=s.z, w=s.w, gap=gap, penetration=penetration, impulse=impulse,
-            force=force, impacts=count - self._n_reported,
-            impact_count=count, t_last=-1.0 if t_last is None else t_last,
-            sticking=self.solver.sticking,
-            spring_force=0.0 if self.scene.external else self.scene.structure_k * s.x,
-            coupling_force=self.solver.coupling_force if self.scene.external else force)
+        return _new_report({
+            "t": s.t, "x": s.x, "v": s.v, "z": s.z, "w": s.w, "gap": gap,
+            "penetration": penetration, "impulse": impulse,
+            "force": force, "impacts": count - self._n_reported,
+            "impact_count": count, "t_last": -1.0 if t_last is None else t_last,
+            "sticking": solver.sticking,
+            "spring_force": 0.0 if self.external else self.scene.structure_k * s.x,
+            "coupling_force": solver.coupling_force if self.external else force})
 
     def set_restitution(self, e: float) -> None:
         """Change ``impact.e`` (tunable) for impacts from now on; 0 <= e <= 1."""
@@ -280,7 +314,7 @@ class Simulator:
         if report.t != solver_state["t"]:
             raise StateError("report.t", report.t, f"the solver's time, {solver_state['t']!r} s")
         apply()
-        self.scene, self.solver = scene, solver
+        self.scene, self.solver, self.external = scene, solver, scene.external
         self.report, self._n_reported, self.failed = report, reported, failed
 
     @classmethod
@@ -379,6 +413,8 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
     times = _sample_times(t_end, dt, sample_times)
     sim = Simulator(scene)
     u = scene.flow_u
+    if isinstance(sim.solver, EventSolver) and not scene.external:
+        return _run_sampled(sim, times, u)
     reports = [sim.report]
     for t in times.tolist():
         reports.append(sim.advance_to(t, u))
@@ -390,3 +426,26 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
                   w=column("w"), impulse=column("impulse"), sticking=column("sticking", bool),
                   impacts=impacts_array(sim.impacts), sticking_since=sim.sticking_since,
                   gap=column("gap"), penetration=column("penetration"))
+
+
+def _run_sampled(sim: Simulator, times: np.ndarray, u: float) -> Result:
+    """:func:`run` with the exact method: one march through every sample time, the states and
+    impulses evaluated in vectorised closed forms (:meth:`EventSolver.sample`); the same values
+    as stepping the simulator, to rounding."""
+    first = sim.report
+    samples = sim.solver.sample(times, u)
+
+    def column(name: str, dtype: type = float) -> np.ndarray:
+        return np.concatenate(([getattr(first, name)], getattr(samples, name))).astype(dtype)
+
+    x, z = column("x"), column("z")
+    gap, penetration = reported_gap(x - z)
+    for name in ("x", "v", "z", "w", "impulse"):
+        bad = ~np.isfinite(getattr(samples, name))
+        if bad.any():  # as Simulator.advance: no NaN or inf reaches an output
+            raise SolverError(f"the method produced a non-finite {name} at "
+                              f"t = {times[np.argmax(bad)]!r} s")
+    return Result(scene=sim.scene, t=np.concatenate(([first.t], times)), x=x, v=column("v"),
+                  z=z, w=column("w"), impulse=column("impulse"),
+                  sticking=column("sticking", bool), impacts=impacts_array(sim.impacts),
+                  sticking_since=sim.sticking_since, gap=gap, penetration=penetration)

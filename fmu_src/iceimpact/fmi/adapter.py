@@ -22,6 +22,8 @@ the FMI library.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
+from operator import getitem
 from typing import Any
 
 from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES, STRUCTURE_INPUTS
@@ -57,7 +59,10 @@ class FmuModel(FmuLifecycle):
         #: the external structure's inputs (structure.model = 2), by name
         self.structure_in: dict[str, Any] = {v.name: v.start for v in STRUCTURE_INPUTS}
         self.sim: Simulator | None = None
-        self.report: StepReport = Simulator(Scene()).report
+        #: the outputs' values by StepReport field (and "t_last_master"), refreshed by
+        #: :meth:`publish` whenever the report changes: the FMI getters read it directly
+        self.outputs: dict[str, Any] = {}
+        self.publish(Simulator(Scene()).report)
         self.penetration_logged = False
 
     # variables -----------------------------------------------------------------------------------
@@ -70,10 +75,28 @@ class FmuModel(FmuLifecycle):
             return self.flow_u
         if name in self.structure_in:
             return self.structure_in[name]
-        if name == "contact.t_last":  # in the master's time frame
-            t = self.report.t_last
-            return t + self.start_time if t >= 0.0 else -1.0
+        if name == "contact.t_last":
+            return self.t_last()
         return getattr(self.report, _OUTPUT_FIELDS[name])
+
+    def t_last(self) -> float:
+        """contact.t_last in the master's time frame, s (-1 before the first impact)."""
+        t = self.report.t_last
+        return t + self.start_time if t >= 0.0 else -1.0
+
+    def publish(self, report: StepReport) -> None:
+        """Make ``report`` the outputs' values."""
+        self.report = report
+        self.outputs.update(report.__dict__)
+        self.outputs["t_last_master"] = self.t_last()
+
+    def getter(self, name: str) -> Callable[[], Any]:
+        if name == "contact.t_last":
+            return partial(getitem, self.outputs, "t_last_master")
+        field = _OUTPUT_FIELDS.get(name)
+        if field is None:
+            return super().getter(name)
+        return partial(getitem, self.outputs, field)  # what read() gives, with no Python call
 
     def write_input(self, name: str, value: Any) -> bool:
         if name == FLOW_INPUT.name:
@@ -88,7 +111,8 @@ class FmuModel(FmuLifecycle):
     def build(self) -> None:
         scene = Scene.from_fmi({**self.values, FLOW_INPUT.name: self.flow_u})
         sim = Simulator(scene, record_impacts=False)
-        self.sim, self.report = sim, sim.report
+        self.sim = sim
+        self.publish(sim.report)
         self.penetration_logged = False
         if scene.external:
             ignored = [f"{name} = {self.values[name]!r}" for name in IGNORED_WITH_EXTERNAL
@@ -104,8 +128,9 @@ class FmuModel(FmuLifecycle):
         try:
             for name, value in self.pending.items():
                 TUNERS[name](sim, value)
-            report = sim.advance(step_size, self.flow_u,
-                                 tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS))
+            structure = (tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS)
+                         if sim.external else None)
+            report = sim.advance(step_size, self.flow_u, structure)
         except (ParameterError, SolverError) as exc:
             if before is not None:
                 sim.restore(before)  # the tunables applied before the refusal are undone
@@ -113,7 +138,7 @@ class FmuModel(FmuLifecycle):
             return False
         self.values.update(self.pending)
         self.pending.clear()
-        self.report = report
+        self.publish(report)
         if report.penetration > 0.0 and not self.penetration_logged:
             self.penetration_logged = True
             self._log(WARNING, f"doStep at t = {current_time!r} s: the ice is "
@@ -151,4 +176,4 @@ class FmuModel(FmuLifecycle):
         self.error = record["error"]
         self.penetration_logged = record["penetration_logged"]
         self.sim = sim
-        self.report = sim.report if sim is not None else Simulator(Scene()).report
+        self.publish(sim.report if sim is not None else Simulator(Scene()).report)

@@ -93,6 +93,11 @@ class FmuLifecycle:
             return self.pending.get(name, self.values[name])
         return self.read(name)
 
+    def getter(self, name: str) -> Callable[[], Any]:
+        """The function an FMI library calls for fmi2Get of ``name``: :meth:`get`, unless a
+        model gives a quicker one for its outputs (read after every step)."""
+        return lambda: self.get(name)
+
     def set(self, name: str, value: Any) -> None:
         """fmi2Set of a parameter or the input; validated when it takes effect."""
         if self.write_input(name, value):

@@ -74,11 +74,9 @@ class FmuSlave(Fmi2Slave):
                 var.name, causality=_CAUSALITY[var.causality],
                 variability=_VARIABILITY[var.variability], description=var.description,
                 initial=Fmi2Initial.calculated if output else None,
-                getter=self._getter(var.name), setter=None if output else self._setter(var.name)),
+                getter=self._model.getter(var.name),
+                setter=None if output else self._setter(var.name)),
                 nested=False)
-
-    def _getter(self, name: str):
-        return lambda: self._model.get(name)
 
     def _setter(self, name: str):
         return lambda value: self._model.set(name, value)

@@ -49,7 +49,18 @@ def _log_lag_array(y: np.ndarray) -> np.ndarray:
     return np.where(small, series, np.log1p(safe) / safe - 1.0)
 
 
-class LinearDrag:
+class _DragLaw:
+    """What both drag laws derive from their closed forms."""
+
+    __slots__ = ()
+
+    def displacement_change_array(self, w0, u: float, t: np.ndarray):
+        """Vectorised ``displacement_change``: z(t) - z0 and w(t) of free flights (w0 a float or
+        an array like t)."""
+        return self.motion_array(0.0, w0, u, t)
+
+
+class LinearDrag(_DragLaw):
     """Linearised Morison drag ``M w' = -b (w - u)`` (eq. 4-5)."""
 
     __slots__ = ("mass", "b", "kappa")
@@ -96,7 +107,7 @@ class LinearDrag:
         return a, abs(a), self.kappa * abs(a)
 
 
-class QuadraticDrag:
+class QuadraticDrag(_DragLaw):
     """Quadratic Morison drag ``M w' = -B |w - u| (w - u)`` (eq. 3, 31-33)."""
 
     __slots__ = ("mass", "B", "beta")
@@ -131,7 +142,7 @@ class QuadraticDrag:
         """Vectorised :meth:`motion`."""
         t = np.asarray(t, dtype=float)
         r0 = w0 - u
-        y = self.beta * abs(r0) * t
+        y = self.beta * np.abs(r0) * t
         return z0 + w0 * t + r0 * t * _log_lag_array(y), u + r0 / (1.0 + y)
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:

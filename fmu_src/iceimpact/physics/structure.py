@@ -88,6 +88,25 @@ class Oscillator:
         c, s = self.basis(t)
         return c - 1.0, s
 
+    def basis_minus_one_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorised :meth:`basis_minus_one`."""
+        t = np.asarray(t, dtype=float)
+        decay_m1 = np.expm1(-self.sigma * t)
+        if self.regime == UNDER:
+            wt = self.omega * t
+            half = np.sin(0.5 * wt)
+            return (decay_m1 * np.cos(wt) - 2.0 * half * half,
+                    (1.0 + decay_m1) * np.sin(wt) / self.omega)
+        if self.regime == CRITICAL:
+            return decay_m1, t * (1.0 + decay_m1)
+        wt = self.omega * t
+        small = wt < 1.0
+        ws = np.where(small, wt, 0.0)
+        half = np.sinh(0.5 * ws)
+        c, s = self.basis_array(t)
+        return (np.where(small, decay_m1 * np.cosh(ws) + 2.0 * half * half, c - 1.0),
+                np.where(small, (1.0 + decay_m1) * np.sinh(ws) / self.omega, s))
+
     def basis_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(C(t), S(t)) for an array of t >= 0."""
         t = np.asarray(t, dtype=float)
@@ -123,8 +142,16 @@ class Oscillator:
         return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
+    def displacement_change_array(self, x0, v0, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorised :meth:`displacement_change` (x0, v0 floats or arrays like t)."""
+        y0 = x0 - self.offset
+        cm1, s = self.basis_minus_one_array(t)
+        c = cm1 + 1.0
+        return (y0 * cm1 + (v0 + self.sigma * y0) * s,
+                v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
+
     def response_array(self, x0: float, v0: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Vectorised :meth:`response`."""
+        """Vectorised :meth:`response` (x0, v0 floats or arrays like t)."""
         y0 = x0 - self.offset
         c, s = self.basis_array(t)
         return (self.offset + y0 * c + (v0 + self.sigma * y0) * s,

@@ -122,6 +122,16 @@ class Solver:
         data.update(self._snapshot())
         return data
 
+    def checkpoint(self) -> Any:
+        """What :meth:`rollback` needs to undo the next :meth:`advance_to` of this same solver
+        (a method may give something cheaper than a :meth:`snapshot`; the simulator takes one
+        before every step)."""
+        return self.snapshot()
+
+    def rollback(self, checkpoint: Any) -> None:
+        """Return to the state of :meth:`checkpoint`: exactly, as :meth:`restore` would."""
+        self.restore(checkpoint)
+
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Return to a state from :meth:`snapshot`. Every field is checked first: a malformed
         snapshot raises :class:`StateError` naming the field, and the solver is unchanged.

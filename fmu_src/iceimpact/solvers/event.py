@@ -20,6 +20,7 @@ contact force would turn tensile.
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from collections.abc import Callable
 from typing import Any
 
@@ -58,13 +59,35 @@ def _time_eps(t: float) -> float:
 
 class _SearchedSegment:
     """Snapshot of a segment given in closed form from its anchor, with a root search: the
-    anchor values named by ``ANCHOR``, the search start and its frontier (Flight, LinearStick)."""
+    anchor values named by ``ANCHOR``, the search start and its frontier (Flight, LinearStick).
 
+    Its ``anchor``, ``state_array``, ``impulse_array`` and ``PUSHES`` let
+    :meth:`EventSolver.sample` evaluate all the samples in segments of one kind at once; any
+    segment kind that gives them joins that vectorised pass, the others are sampled step by
+    step."""
+
+    __slots__ = ()
     ANCHOR: tuple[str, ...] = ()
+    #: a contact force acts during the segment (its impulse is not zero)
+    PUSHES = False
+
+    def anchor(self) -> tuple[float, ...]:
+        return tuple(getattr(self, name) for name in self.ANCHOR)
+
+    def state_array(self, anchor: tuple[np.ndarray, ...],
+                    tau: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Vectorised :meth:`state` for segments of this kind with the same parameters and flow
+        speed as this one: one anchor (arrays, ``ANCHOR`` order) and tau per sample."""
+        raise NotImplementedError
+
+    def impulse_array(self, anchor: tuple[np.ndarray, ...], tau_a: np.ndarray,
+                      tau_b: np.ndarray) -> np.ndarray:
+        """Vectorised :meth:`impulse`, as :meth:`state_array`."""
+        return np.zeros(np.shape(tau_a))
 
     def snapshot(self, tau: float) -> dict[str, Any]:
         return {"phase": self.phase.value, "t0": self.t0,
-                "anchor": [getattr(self, name) for name in self.ANCHOR], "start": self.start,
+                "anchor": list(self.anchor()), "start": self.start,
                 "search": self.search.frontier()}
 
     @classmethod
@@ -86,6 +109,8 @@ class _SearchedSegment:
 class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
+    __slots__ = ("osc", "drag", "t0", "x0", "v0", "z0", "w0", "u", "start", "gap0", "_last",
+                 "search")
     phase = Phase.FLIGHT
     ANCHOR = ("x0", "v0", "z0", "w0")
 
@@ -96,24 +121,47 @@ class Flight(_SearchedSegment):
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
         self.gap0 = x0 - z0
-        self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0))
+        self._last: tuple[float, float, float, float, float] = (math.nan,) * 5
+        self.search = RootSearch(start, _time_eps(t0))
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
-    def state(self, tau: float) -> tuple[float, float, float, float]:
+    def anchor(self) -> tuple[float, float, float, float]:
+        return self.x0, self.v0, self.z0, self.w0
+
+    def _motion(self, tau: float) -> tuple[float, float, float, float, float]:
+        """(tau, x - x0, v, z - z0, w) at tau; the last one is kept, since the root search asks
+        again for the point it just tested (a probe after a sign test, the state at a root)."""
+        last = self._last
+        if last[0] == tau:
+            return last
         dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
         dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        self._last = last = (tau, dx, v, dz, w)
+        return last
+
+    def state(self, tau: float) -> tuple[float, float, float, float]:
+        _, dx, v, dz, w = self._motion(tau)
         return self.x0 + dx, v, self.z0 + dz, w
 
+    def state_array(self, anchor, tau):
+        x0, v0, z0, w0 = anchor
+        dx, v = self.osc.displacement_change_array(x0, v0, tau)
+        dz, w = self.drag.displacement_change_array(w0, self.u, tau)
+        return x0 + dx, v, z0 + dz, w
+
     def gap(self, tau: float) -> float:
-        dx, _ = self.osc.displacement_change(self.x0, self.v0, tau)
-        dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
+        _, dx, _, dz, _ = self._motion(tau)
         return self.gap0 + (dx - dz)
+
+    def gap_and_rate(self, tau: float) -> tuple[float, float]:
+        """Gap and its rate v - w."""
+        _, dx, v, dz, w = self._motion(tau)
+        return self.gap0 + (dx - dz), v - w
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
-        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
-        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        _, dx, v, dz, w = self._motion(tau)
         a_x, j_x, s_x = self.osc.derivatives(self.x0 + dx, v)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
         return (self.gap0 + (dx - dz), v - w, a_x - a_z,
@@ -121,7 +169,7 @@ class Flight(_SearchedSegment):
                 self.osc.amplitude_bound(j_x, s_x) + j_z_max)
 
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end)
+        return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
@@ -130,8 +178,10 @@ class Flight(_SearchedSegment):
 class LinearStick(_SearchedSegment):
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k)."""
 
+    __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
+    PUSHES = True
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
@@ -142,10 +192,14 @@ class LinearStick(_SearchedSegment):
         self.start = start
         self.osc = Oscillator(solver.m + solver.M, solver.c + self.b, solver.k,
                               offset=self.b * u / solver.k)
-        self.search = RootSearch(self.probe, self.force, start, _time_eps(t0))
+        self.search = RootSearch(start, _time_eps(t0))
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         x, v = self.osc.response(self.x0, self.v0, tau)
+        return x, v, x, v
+
+    def state_array(self, anchor, tau):
+        x, v = self.osc.response_array(*anchor, tau)
         return x, v, x, v
 
     def force(self, tau: float) -> float:
@@ -153,6 +207,13 @@ class LinearStick(_SearchedSegment):
         x, v = self.osc.response(self.x0, self.v0, tau)
         return sticking_contact_force(self.drag.force(v, self.u),
                                       self.M * self.osc.acceleration(x, v))
+
+    def force_and_rate(self, tau: float) -> tuple[float, float]:
+        """Contact force (N) and its rate (N/s): -b a - M j, a and j the acceleration and jerk."""
+        x, v = self.osc.response(self.x0, self.v0, tau)
+        a, j, _ = self.osc.derivatives(x, v)
+        return (sticking_contact_force(self.drag.force(v, self.u), self.M * a),
+                -self.b * a - self.M * j)
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Contact force, its two derivatives, bounds on |lam''| and |lam'''| from here on."""
@@ -168,7 +229,7 @@ class LinearStick(_SearchedSegment):
         return lam, rate, curvature, bound, jerk
 
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end)
+        return self.search.next_root_before(tau_end, self.probe, self.force, self.force_and_rate)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
@@ -176,7 +237,16 @@ class LinearStick(_SearchedSegment):
             return 0.0
         xa, va = self.osc.response(self.x0, self.v0, tau_a)
         xb, vb = self.osc.response(self.x0, self.v0, tau_b)
-        return -self.b * ((xb - xa) - self.u * (tau_b - tau_a)) - self.M * (vb - va)
+        return self._impulse(xa, va, xb, vb, tau_b - tau_a)
+
+    def impulse_array(self, anchor, tau_a, tau_b):
+        xa, va = self.osc.response_array(*anchor, tau_a)
+        xb, vb = self.osc.response_array(*anchor, tau_b)
+        return np.where(tau_b > tau_a, self._impulse(xa, va, xb, vb, tau_b - tau_a), 0.0)
+
+    def _impulse(self, xa, va, xb, vb, duration):
+        """Drag impulse on the ice, -b (dx - u dt), minus its momentum change M dv."""
+        return -self.b * ((xb - xa) - self.u * duration) - self.M * (vb - va)
 
 
 class _Separation:
@@ -363,6 +433,86 @@ def _floats(y) -> list[float]:
     return [float(c) for c in y]
 
 
+def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
+    """The first index j >= i with ``times[j] - t0 >= tau_event``: the first sample a march
+    reaches after the event (the test advance_to makes), by bisection on the absolute times
+    and a check of the exact test around it."""
+    n = len(times)
+    j = bisect_left(times, t0 + tau_event, i, n)
+    while j > i and times[j - 1] - t0 >= tau_event:
+        j -= 1
+    while j < n and times[j] - t0 < tau_event:
+        j += 1
+    return j
+
+
+class Samples:
+    """States (m, m/s), contact impulses (N.s) and sticking flags at a run's sample times."""
+
+    __slots__ = ("x", "v", "z", "w", "impulse", "sticking")
+
+    def __init__(self, n: int):
+        self.x, self.v, self.z, self.w = (np.empty(n) for _ in range(4))
+        self.impulse = np.zeros(n)
+        self.sticking = np.zeros(n, dtype=bool)
+
+    def set(self, i: int, state: State, sticking: bool) -> None:
+        self.x[i], self.v[i], self.z[i], self.w[i] = state.x, state.v, state.z, state.w
+        self.sticking[i] = sticking
+
+
+class _SampleGroup:
+    """The samples falling in segments of one kind (Flight or LinearStick), gathered during a
+    sampled march and evaluated at once by the representative segment's array closed forms."""
+
+    def __init__(self, representative: _SearchedSegment):
+        self.rep = representative
+        self.anchors: list[tuple[float, ...]] = []  # per segment
+        self.t0: list[float] = []
+        self.first: list[int] = []                  # its samples: first..stop-1
+        self.stop: list[int] = []
+        # force-carrying pieces: anchor index, tau_a, tau_b, position in the impulse values
+        self.pieces: list[tuple[int, float, float, int]] = []
+
+    def add(self, seg: _SearchedSegment, tau_from: float, times: list[float], i: int, j: int,
+            tau_event: float | None, targets: list[int], values: list[float]) -> None:
+        """Samples i..j-1 in ``seg`` (from ``tau_from``); its event, if any, before sample j."""
+        k = len(self.anchors)
+        self.anchors.append(seg.anchor())
+        self.t0.append(seg.t0)
+        self.first.append(i)
+        self.stop.append(j)
+        if not seg.PUSHES:
+            return
+        t0 = seg.t0
+        tau_a = tau_from
+        for m in range(i, j):
+            tau_b = times[m] - t0
+            self.pieces.append((k, tau_a, tau_b, len(values)))
+            targets.append(m)
+            values.append(0.0)
+            tau_a = tau_b
+        if tau_event is not None:
+            self.pieces.append((k, tau_a, tau_event, len(values)))
+            targets.append(j)
+            values.append(0.0)
+
+    def evaluate(self, times: np.ndarray, out: Samples, values: np.ndarray) -> None:
+        first = np.array(self.first, dtype=int)
+        counts = np.array(self.stop, dtype=int) - first
+        rows = np.repeat(np.arange(len(counts)), counts)
+        # sample indices: each segment's run first..stop-1, concatenated
+        index = np.arange(len(rows)) + np.repeat(first - (np.cumsum(counts) - counts), counts)
+        anchors = np.array(self.anchors, dtype=float).reshape(len(self.anchors), -1)
+        tau = times[index] - np.array(self.t0)[rows]
+        x, v, z, w = self.rep.state_array(tuple(anchors[rows].T), tau)
+        out.x[index], out.v[index], out.z[index], out.w[index] = x, v, z, w
+        out.sticking[index] = self.rep.phase is Phase.STICK
+        if self.pieces:
+            k, tau_a, tau_b, position = (np.array(c) for c in zip(*self.pieces, strict=True))
+            values[position] = self.rep.impulse_array(tuple(anchors[k].T), tau_a, tau_b)
+
+
 class EventSolver(Solver):
     """Exact event-driven solver (method 1)."""
 
@@ -409,21 +559,23 @@ class EventSolver(Solver):
                           lam: float) -> None:
         """Flight starting at zero gap with separating (or zero) relative velocity.
 
-        The search starts beyond the trivial root at 0, at the end of an interval proven root-free:
-        ``g >= s h - K h^2/2`` (opening speed s > 0), or ``g >= g2 h^2/2 - J h^3/6`` (s = 0, gap
-        curvature g2 = -lam / mu > 0, J a bound on |g'''|).
+        With an opening speed s > 0 the search starts at 0, where g = 0 and g' = s > 0 are no
+        root, and its first stretch proves ``g >= s h - K h^2/2 > 0`` beyond. With s = 0 it
+        starts beyond the trivial root at 0, at the end of an interval proven root-free,
+        ``g >= g2 h^2/2 - J h^3/6`` (gap curvature g2 = -lam / mu > 0, J a bound on |g'''|).
         """
         opening = v - w
+        if opening > 0.0:
+            # the search's first stretch from 0 proves the opening: g(0) = 0, g'(0) = s > 0
+            self._fly(t, x, v, x, w, u, 0.0)
+            return
         a_x, j_x, s_x = self.osc.derivatives(x, v)
-        a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, u)
+        a_z, _, j_z_max = self.drag.accel_bounds(w, u)
         curvature = a_x - a_z
-        acc_bound = self.osc.amplitude_bound(a_x, j_x) + a_z_max
         jerk_bound = self.osc.amplitude_bound(j_x, s_x) + j_z_max
         start = 0.0
-        if opening > 0.0 and acc_bound > 0.0:
-            start = opening / acc_bound
         if curvature > 0.0 and jerk_bound > 0.0:
-            start = max(start, 2.0 * curvature / jerk_bound)
+            start = 2.0 * curvature / jerk_bound
         self._fly(t, x, v, x, w, u, start)
 
     def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
@@ -460,20 +612,104 @@ class EventSolver(Solver):
                 self.tau = tau_end
                 break
             impulse += seg.impulse(self.tau, tau_event)
-            x, v, z, w = seg.state(tau_event)
-            t_event = seg.t0 + tau_event
-            if seg.phase is Phase.FLIGHT:
-                self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
-            else:  # contact force turns tensile: separate with equal velocities
-                self._fly_from_contact(t_event, x, v, v, u,
-                                       self.rules.free_contact_force(x, v, v, u))
-            impulse += self.pending_impulse
-            self.pending_impulse = 0.0
+            impulse += self._event(seg, tau_event, u)
         x, v, z, w = self.seg.state(self.tau)
         self.state = State(t_end, x, v, z, w)
         return impulse
 
+    def _event(self, seg, tau_event: float, u: float) -> float:
+        """The event ending ``seg`` at ``tau_event``: the segments that follow; the impulse of
+        its impacts."""
+        x, v, z, w = seg.state(tau_event)
+        t_event = seg.t0 + tau_event
+        if seg.phase is Phase.FLIGHT:
+            self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
+        else:  # contact force turns tensile: separate with equal velocities
+            self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
+        impulse, self.pending_impulse = self.pending_impulse, 0.0
+        return impulse
+
+    def sample(self, times: np.ndarray, u: float) -> Samples:
+        """Advance to each of ``times`` (increasing, after the current time) in turn with flow
+        speed u, as ``advance_to(t, u)`` at each would, and return what each step reports.
+
+        The march visits the same segments and events; the states at the sample times and the
+        contact impulses are then evaluated per kind of segment in one vectorised pass of the
+        closed forms (equal to the scalar ones to rounding). A quadratic-drag sticking phase,
+        which has no closed form, is sampled as it is marched."""
+        if u != self.u:
+            x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
+                                                 self.seg.phase is Phase.STICK)
+            self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+        t_list = times.tolist()
+        n = len(t_list)
+        out = Samples(n)
+        # impulse contributions in the order the scalar march adds them: (sample, value); the
+        # values of force-carrying pieces are filled in by the vectorised pass
+        targets: list[int] = [0]
+        values: list[float] = [self.pending_impulse]
+        self.pending_impulse = 0.0
+        groups: dict[type, _SampleGroup] = {}
+        i = 0
+        horizon = t_list[-1]
+        while i < n:
+            seg = self.seg
+            if not hasattr(seg, "state_array"):  # no closed form: march to this sample
+                targets.append(i)
+                values.append(self._march(t_list[i], u))
+                out.set(i, self.state, self.sticking)
+                i += 1
+                continue
+            t0 = seg.t0
+            tau_event = seg.next_event(horizon - t0)
+            j = n if tau_event is None else _first_sample_after(t_list, i, t0, tau_event)
+            group = groups.get(type(seg))
+            if group is None:
+                group = groups[type(seg)] = _SampleGroup(seg)
+            group.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
+            if tau_event is None:
+                self.tau = horizon - t0
+                x, v, z, w = seg.state(self.tau)
+                self.state = State(horizon, x, v, z, w)
+                break
+            targets.append(j)
+            values.append(self._event(seg, tau_event, u))
+            i = j
+        impulse = np.zeros(n)
+        values_array = np.array(values)
+        for group in groups.values():
+            group.evaluate(times, out, values_array)
+        np.add.at(impulse, targets, values_array)
+        out.impulse = impulse
+        return out
+
     # snapshots ----------------------------------------------------------------------------------
+    def checkpoint(self) -> Any:
+        """The solver's fields and the segment object with its search frontier: a flight or a
+        linear sticking phase changes nothing else while marching (a quadratic one, with its
+        integration chunks, takes a full snapshot)."""
+        seg = self.seg
+        if not isinstance(seg, _SearchedSegment):
+            return super().checkpoint()
+        search = seg.search
+        degenerate = self.rules.degenerate
+        return (self.state, self.e, self.impact_count, self.t_last, len(self.impacts),
+                self.sticking, self.sticking_since, self.u, self.tau, self.pending_impulse,
+                degenerate.run, degenerate.last, seg, search.a, search.root, search.iterations,
+                search.creep)
+
+    def rollback(self, checkpoint: Any) -> None:
+        if isinstance(checkpoint, dict):
+            super().rollback(checkpoint)
+            return
+        (self.state, self.e, self.impact_count, self.t_last, n_impacts, self.sticking,
+         self.sticking_since, self.u, self.tau, self.pending_impulse, run, last, seg,
+         *frontier) = checkpoint
+        del self.impacts[n_impacts:]
+        self.rules.degenerate.set((run, last))
+        seg.search.set_frontier(tuple(frontier))
+        self.seg = seg
+
     _KEYS = ("u", "tau", "pending_impulse", "degenerate", "segment")
 
     def _snapshot(self) -> dict[str, Any]:

@@ -173,6 +173,10 @@ class ExternalSolver(EventSolver):
         self.previous: tuple[float, float, float, float, float | None, float] | None = None
         self.seg = None
 
+    # the structure's inputs and force are state too: a full snapshot undoes a step
+    checkpoint = Solver.checkpoint
+    rollback = Solver.rollback
+
     # the structure's own force ------------------------------------------------------------------
     def unfelt_impulse(self, h: float) -> float:
         """Impulse IceImpact delivered that the structure given at this step start has not felt
