@@ -1,0 +1,255 @@
+"""High-order Taylor steps of the sticking phase under quadratic drag (method 1).
+
+While the bodies stick they obey the sticking equation (model.md, sticking contact; the drag of
+eq. 2-3 on the ice moving with the structure)::
+
+    (m + M) x'' + c x' + k x = B |u - x'| (u - x')
+
+While the sign s of the relative flow r = u - x' holds, the drag is ``s B r^2``, a polynomial in
+the state, so the Taylor coefficients of x, v = x' and the drag impulse P (P' = drag) follow
+exactly by recurrence, (r^2)_n being the Cauchy product of r with itself::
+
+    x_{n+1} = v_n / (n + 1)
+    v_{n+1} = (s B (r^2)_n - c v_n - k x_n) / ((m + M) (n + 1)),    r_0 = u - v_0, r_n = -v_n
+    P_{n+1} = s B (r^2)_n / (n + 1)
+
+and the contact force on the structure, ``lam = drag - M x''`` (the drag on the ice minus its
+inertia), is the polynomial ``lam_n = s B (r^2)_n - M (n + 1) v_{n+1}``.
+
+A step of order ``ORDER`` is as long as its last two terms stay below ``TOLERANCE`` of the
+motion's scale (the step-size rule of Jorba and Zou, 2005), at most ``max_step``. Within the step
+the polynomials are the dense output. A step ends early
+
+- where r changes sign (the drag's polynomial changes): the next step starts with v = u exactly
+  and takes the sign r moves to;
+- where the contact force turns tensile (separation), when separation is looked for.
+
+Both are first roots of a polynomial on the step, searched without a miss: on an interval of the
+normalised step time [0, 1] where the polynomial is >= 0 at both ends, a bound K on its curvature
+proves it positive throughout when ``min(ends) > K (b - a)^2 / 8``; otherwise the interval is
+halved. A zero the polynomial only touches is no root (as in :mod:`.rootfind`).
+
+Each step depends only on its start time and state, so steps do not depend on the communication
+step, and a step rebuilt from its start (a restored state) has the same coefficients to the bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+#: Order of the Taylor steps (degree of the position polynomial).
+ORDER = 30
+#: The last two terms of a step stay below this fraction of the motion's scale.
+TOLERANCE = 1e-16
+#: Safety factor on the step length (Jorba and Zou: exp(-0.7 / (ORDER - 1))).
+SAFETY = math.exp(-0.7 / (ORDER - 1))
+#: Samples of the normalised step time at which the first root search starts.
+SAMPLES = 8
+#: Halvings of a sample interval before a zero the polynomial approaches is taken as a touch.
+MAX_HALVINGS = 40
+
+_POWERS = np.arange(ORDER + 1)
+_GRID = np.linspace(0.0, 1.0, SAMPLES + 1)
+_VANDERMONDE = _GRID[:, None] ** _POWERS[None, :]      # values at the sample points
+_CURVATURE_WEIGHTS = (_POWERS * (_POWERS - 1)).astype(float)  # |p''| <= sum n(n-1)|c_n| on [0,1]
+_RECIPROCALS = 1.0 / np.arange(1, ORDER + 1)
+_RECIPROCAL_LIST = _RECIPROCALS.tolist()
+
+
+_power = np.power
+_NO_TABLE = np.zeros((ORDER + 1, 3))
+
+
+class StepEnd:
+    """How a Taylor step ends."""
+
+    LENGTH = "length"          # its full length (or the end of a hold)
+    FLIP = "flip"              # the relative flow u - v changes sign
+    SEPARATION = "separation"  # the contact force turns tensile
+
+
+def horner(coeffs: list[float], theta: float) -> float:
+    """Value at theta of the polynomial sum coeffs[n] theta^n."""
+    acc = 0.0
+    for c in reversed(coeffs):
+        acc = acc * theta + c
+    return acc
+
+
+def evaluate(rows: tuple[tuple[float, float, float], ...],
+             theta: float) -> tuple[float, float, float]:
+    """(x, v, P) at theta from the rows (x_n, v_n, P_n) of scaled coefficients, highest first."""
+    x = v = p = 0.0
+    for cx, cv, cp in rows:
+        x = x * theta + cx
+        v = v * theta + cv
+        p = p * theta + cp
+    return x, v, p
+
+
+def _first_root(coeffs: list[float], values: np.ndarray, curvature: float,
+                theta_end: float) -> float | None:
+    """First theta in (0, theta_end] where the polynomial (>= 0 at 0) goes below zero, or None.
+
+    ``values`` are its values on the sample grid; ``curvature`` bounds |p''| on [0, 1]."""
+    if values[0] < 0.0:
+        return 0.0
+    stack: list[tuple[float, float, float, float, int]] = []
+    for i in range(SAMPLES, 0, -1):
+        stack.append((_GRID[i - 1], float(values[i - 1]), _GRID[i], float(values[i]), 0))
+    while stack:
+        a, pa, b, pb, depth = stack.pop()
+        if a >= theta_end:
+            return None
+        if b > theta_end:
+            b = theta_end
+            pb = horner(coeffs, b)
+        if pb < 0.0:
+            return brentq(lambda theta: horner(coeffs, theta), a, b, xtol=1e-300,
+                          rtol=4.0 * 2.0 ** -52)
+        if min(pa, pb) > curvature * (b - a) ** 2 / 8.0 or depth >= MAX_HALVINGS:
+            continue  # proven positive on [a, b] (or a touch)
+        mid = 0.5 * (a + b)
+        pm = horner(coeffs, mid)
+        stack.append((mid, pm, b, pb, depth + 1))
+        stack.append((a, pa, mid, pm, depth + 1))
+    return None
+
+
+class TaylorStep:
+    """One Taylor step from ``lo`` (s, from the segment's anchor) of normalised length ``h``:
+    its polynomials in theta = (tau - lo) / h, its end ``hi`` and the state there."""
+
+    __slots__ = ("lo", "hi", "h", "y_lo", "rows", "table", "end", "theta_end", "y_hi")
+
+    def __init__(self, lo: float, y_lo: tuple[float, float, float]):
+        self.lo = lo
+        self.y_lo = y_lo
+        self.h = 0.0
+        self.rows: tuple[tuple[float, float, float], ...] = ()
+        self.table = _NO_TABLE
+        self.end = StepEnd.SEPARATION
+        self.theta_end = 0.0
+        self.hi = lo
+        self.y_hi = y_lo
+
+    def state(self, tau: float) -> tuple[float, float, float]:
+        """(x, v, P) at tau (s from the anchor), lo <= tau <= hi."""
+        if tau >= self.hi:
+            return self.y_hi
+        return (_power((tau - self.lo) / self.h, _POWERS) @ self.table).tolist()
+
+
+class StickingTaylor:
+    """Taylor steps of the sticking equation for given coefficients: the bodies' total mass
+    (kg), the structural damping c (N.s/m) and stiffness k (N/m), the quadratic drag constant B
+    (kg/m, eq. 33) and flow speed u (m/s), and the ice mass M (kg) whose inertia the contact force
+    subtracts from the drag."""
+
+    def __init__(self, total_mass: float, damping: float, stiffness: float, drag_B: float,
+                 flow_u: float, ice_mass: float, max_step: float):
+        self.total, self.c, self.k = total_mass, damping, stiffness
+        self.B, self.u, self.M = drag_B, flow_u, ice_mass
+        self.omega = math.sqrt(stiffness / total_mass)  # rad/s, natural frequency together
+        self.max_step = max_step
+        self._order_over = [1.0 / (total_mass * (n + 1)) for n in range(ORDER)]
+
+    def series(self, y: tuple[float, float, float], sign: float) -> np.ndarray:
+        """Taylor coefficients at state y = (x, v, P) with drag sign s: rows x, v, P, s r and
+        lam, orders 0..ORDER (lam to ORDER - 1, then 0)."""
+        c, k = self.c, self.k
+        sB = sign * self.B
+        x, v, p0 = y
+        rs = [self.u - v]
+        fs = []
+        order_over = self._order_over
+        reciprocals = _RECIPROCAL_LIST
+        for n in range(ORDER):
+            # (r^2)_n by the symmetry of the Cauchy product
+            half = (n + 1) >> 1
+            q = 2.0 * sum(map(float.__mul__, rs[:half], rs[n:n - half:-1])) if half else 0.0
+            if not n & 1:
+                q += rs[n >> 1] * rs[n >> 1]
+            f = sB * q
+            fs.append(f)
+            v_next = (f - c * v - k * x) * order_over[n]
+            x = v * reciprocals[n]
+            v = v_next
+            rs.append(-v_next)
+        table = np.empty((5, ORDER + 1))
+        r = np.array(rs)
+        table[1, 0] = y[1]
+        table[1, 1:] = -r[1:]
+        table[0, 0] = y[0]
+        table[0, 1:] = table[1, :-1] * _RECIPROCALS
+        f = np.array(fs)
+        table[2, 0] = p0
+        table[2, 1:] = f * _RECIPROCALS
+        table[3] = sign * r
+        table[4, :-1] = f - self.M * _POWERS[1:] * table[1, 1:]
+        table[4, -1] = 0.0
+        return table
+
+    def drag_sign(self, y: tuple[float, float, float]) -> float:
+        """Sign of u - v from here on: its own, or at u - v = 0 that of its first non-zero
+        Taylor coefficient (which does not depend on the drag's sign up to there)."""
+        r0 = self.u - y[1]
+        if r0 != 0.0:
+            return 1.0 if r0 > 0.0 else -1.0
+        for r in self.series(y, 1.0)[3, 1:].tolist():
+            if r != 0.0:
+                return 1.0 if r > 0.0 else -1.0
+        return 1.0
+
+    def _length(self, table: np.ndarray) -> float:
+        """Step length: the last two terms of x, v and P below TOLERANCE of their scales."""
+        omega = self.omega
+        (x0, v0, p0), (v1, p1) = table[:3, 0].tolist(), table[1:3, 1].tolist()
+        scale_x = abs(x0) + abs(v0) / omega + abs(v1) / (omega * omega)
+        scales = (scale_x, omega * scale_x, abs(p0) + abs(p1) / omega)
+        h = self.max_step
+        for j in (ORDER - 1, ORDER):
+            for a, scale in zip(np.abs(table[:3, j]).tolist(), scales, strict=True):
+                if a > 0.0:
+                    h = min(h, SAFETY * (TOLERANCE * scale / a) ** (1.0 / j))
+        return h
+
+    def step(self, lo: float, y: tuple[float, float, float], until: float,
+             look_for_separation: bool) -> TaylorStep:
+        """The step from lo (s) at state y = (x, v, P), ending at ``until`` at the latest."""
+        step = TaylorStep(lo, y)
+        sign = self.drag_sign(y)
+        table = self.series(y, sign)
+        h = self._length(table)
+        if not h > 0.0:
+            raise ArithmeticError(f"no Taylor step from t = {lo!r} s at state {y!r}")
+        theta_end = 1.0
+        if lo + h > until:
+            theta_end = (until - lo) / h
+        table *= h ** _POWERS  # coefficients of theta = (tau - lo) / h
+        values = _VANDERMONDE @ table[3:].T
+        flip = _first_root(table[3].tolist(), values[:, 0],
+                           float(np.abs(table[3]) @ _CURVATURE_WEIGHTS), theta_end)
+        end = StepEnd.LENGTH
+        if flip is not None:
+            theta_end, end = flip, StepEnd.FLIP
+        if look_for_separation:
+            sep = _first_root(table[4].tolist(), values[:, 1],
+                              float(np.abs(table[4]) @ _CURVATURE_WEIGHTS), theta_end)
+            if sep is not None:
+                theta_end, end = sep, StepEnd.SEPARATION
+        rows = tuple(map(tuple, table[:3, ::-1].T.tolist()))
+        step.h, step.rows, step.end, step.theta_end = h, rows, end, theta_end
+        step.table = np.ascontiguousarray(table[:3].T)
+        if end is StepEnd.LENGTH:
+            step.hi = until if theta_end < 1.0 else lo + h
+        else:
+            step.hi = lo + theta_end * h
+        x_hi, v_hi, p_hi = evaluate(rows, theta_end)
+        if end is StepEnd.FLIP:
+            v_hi = self.u  # exactly: the next step starts from r = 0
+        step.y_hi = (x_hi, v_hi, p_hi)
+        return step
