@@ -250,7 +250,7 @@ def test_taylor_coefficients_of_a_known_solution():
         assert step.state(tau)[0] == pytest.approx(exact, rel=1e-14, abs=1e-17)
     # the step is long: the series is accurate over a large part of a period
     assert step.hi > 0.2 * 2.0 * math.pi / w
-    assert len(step.rows) == ORDER + 1
+    assert step.table.shape == (ORDER + 1, 3)
 
 
 def test_pure_drag_decay_has_the_closed_form():

@@ -41,6 +41,8 @@ from .rootfind import RootSearch
 from .state import Record, StateError
 from .taylor import StepEnd, StickingTaylor, TaylorStep
 
+_NO_STATE = (math.nan, math.nan, math.nan)
+
 #: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
 #: (those the future can ask for: one, or two at a step boundary).
 _MAX_STEPS = 8
@@ -190,7 +192,10 @@ class QuadraticStick:
         self.taylor = _sticking_taylor(self.together)
         self.steps: list[TaylorStep] = []  # from the one holding the current time on
         self.separation: float | None = None
-        self._recent: dict[float, tuple[float, float, float]] = {}  # the last two states asked
+        self.frontier = -math.inf  # the steps reach this far (all times after a separation)
+        # A communication step asks for the state at its end twice (state, impulse) and at its
+        # start once more (impulse): the last two evaluations are kept.
+        self._recent = ((math.nan, _NO_STATE), (math.nan, _NO_STATE))
 
     def _step_from(self, lo: float, y: tuple[float, float, float]) -> TaylorStep:
         """The Taylor step from lo at state y = (x, v, drag impulse); no separation is looked
@@ -214,31 +219,29 @@ class QuadraticStick:
             step = self._step_from(last.hi, last.y_hi)
         else:
             step = self._step_from(0.0, (self.x0, self.v0, 0.0))
-        self.steps.append(step)
-        if step.end is StepEnd.SEPARATION:
-            self.separation = step.hi
+        self._append(step)
 
-    def _covers(self, tau: float) -> bool:
-        return self.separation is not None or (bool(self.steps) and self.steps[-1].hi >= tau)
+    def _append(self, step: TaylorStep) -> None:
+        self.steps.append(step)
+        self.frontier = step.hi
+        if step.end is StepEnd.SEPARATION:
+            self.separation, self.frontier = step.hi, math.inf
 
     def _y(self, tau: float) -> tuple[float, float, float]:
-        # A communication step asks for the state at its end twice (state, impulse) and at its
-        # start once more (impulse): the last two evaluations are kept.
-        cached = self._recent.get(tau)
-        if cached is not None:
-            return cached
-        while not self._covers(tau):
+        (tau_a, y_a), (tau_b, y_b) = self._recent
+        if tau == tau_b:
+            return y_b
+        if tau == tau_a:
+            return y_a
+        while tau > self.frontier:
             self._extend()
-        steps = self.steps
-        for step in reversed(steps):
-            if step.lo <= tau:
-                y = step.state(tau)
-                break
-        else:
-            y = steps[0].state(tau)
-        if len(self._recent) >= 2:
-            del self._recent[next(iter(self._recent))]
-        self._recent[tau] = y
+        step = self.steps[-1]
+        if step.lo > tau:
+            for step in reversed(self.steps):  # noqa: B007 (the step holding tau)
+                if step.lo <= tau:
+                    break
+        y = step.state(tau)
+        self._recent = ((tau_b, y_b), (tau, y))
         return y
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
@@ -250,7 +253,7 @@ class QuadraticStick:
         return x, v, x, v
 
     def next_event(self, tau_end: float) -> float | None:
-        while not self._covers(tau_end):
+        while tau_end > self.frontier:
             self._extend()
         if self.separation is not None and self.separation <= tau_end:
             return self.separation
@@ -282,9 +285,8 @@ class QuadraticStick:
 
         def make() -> QuadraticStick:
             seg = cls(solver, t0, *anchor, u, start)
-            seg.steps = [seg._step_from(lo, y) for lo, y in steps]
-            if seg.steps and seg.steps[-1].end is StepEnd.SEPARATION:
-                seg.separation = seg.steps[-1].hi
+            for lo, y in steps:
+                seg._append(seg._step_from(lo, y))
             return seg
         return make
 

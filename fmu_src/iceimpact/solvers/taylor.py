@@ -36,12 +36,13 @@ step, and a step rebuilt from its start (a restored state) has the same coeffici
 from __future__ import annotations
 
 import math
+from operator import mul as _mul
 
 import numpy as np
 from scipy.optimize import brentq
 
 #: Order of the Taylor steps (degree of the position polynomial).
-ORDER = 30
+ORDER = 36
 #: The last two terms of a step stay below this fraction of the motion's scale.
 TOLERANCE = 1e-16
 #: Safety factor on the step length (Jorba and Zou: exp(-0.7 / (ORDER - 1))).
@@ -55,6 +56,7 @@ _POWERS = np.arange(ORDER + 1)
 _GRID = np.linspace(0.0, 1.0, SAMPLES + 1)
 _VANDERMONDE = _GRID[:, None] ** _POWERS[None, :]      # values at the sample points
 _CURVATURE_WEIGHTS = (_POWERS * (_POWERS - 1)).astype(float)  # |p''| <= sum n(n-1)|c_n| on [0,1]
+_PROOF_MARGIN = 1.0 / (8.0 * SAMPLES * SAMPLES)  # (b - a)^2 / 8 for a sample interval
 _RECIPROCALS = 1.0 / np.arange(1, ORDER + 1)
 _RECIPROCAL_LIST = _RECIPROCALS.tolist()
 
@@ -79,43 +81,40 @@ def horner(coeffs: list[float], theta: float) -> float:
     return acc
 
 
-def evaluate(rows: tuple[tuple[float, float, float], ...],
-             theta: float) -> tuple[float, float, float]:
-    """(x, v, P) at theta from the rows (x_n, v_n, P_n) of scaled coefficients, highest first."""
-    x = v = p = 0.0
-    for cx, cv, cp in rows:
-        x = x * theta + cx
-        v = v * theta + cv
-        p = p * theta + cp
-    return x, v, p
-
-
-def _first_root(coeffs: list[float], values: np.ndarray, curvature: float,
+def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float,
                 theta_end: float) -> float | None:
-    """First theta in (0, theta_end] where the polynomial (>= 0 at 0) goes below zero, or None.
+    """First theta in (0, theta_end] where the polynomial sum coeffs[n] theta^n (>= 0 at 0) goes
+    below zero, or None. ``values`` are its values on the sample grid, ``curvature`` a bound K on
+    |p''| on [0, 1].
 
-    ``values`` are its values on the sample grid; ``curvature`` bounds |p''| on [0, 1]."""
+    A sample interval [a, b] with p(a), p(b) >= 0 holds no root if min(p(a), p(b)) > K (b - a)^2
+    / 8 (at an interior minimum p' = 0, so p(a) and p(b) exceed it by at most K (b - a)^2 / 8);
+    the others are halved until proven or a sign change is found."""
     if values[0] < 0.0:
         return 0.0
-    stack: list[tuple[float, float, float, float, int]] = []
-    for i in range(SAMPLES, 0, -1):
-        stack.append((_GRID[i - 1], float(values[i - 1]), _GRID[i], float(values[i]), 0))
-    while stack:
-        a, pa, b, pb, depth = stack.pop()
-        if a >= theta_end:
-            return None
-        if b > theta_end:
-            b = theta_end
-            pb = horner(coeffs, b)
-        if pb < 0.0:
-            return brentq(lambda theta: horner(coeffs, theta), a, b, xtol=1e-300,
-                          rtol=4.0 * 2.0 ** -52)
-        if min(pa, pb) > curvature * (b - a) ** 2 / 8.0 or depth >= MAX_HALVINGS:
-            continue  # proven positive on [a, b] (or a touch)
-        mid = 0.5 * (a + b)
-        pm = horner(coeffs, mid)
-        stack.append((mid, pm, b, pb, depth + 1))
-        stack.append((a, pa, mid, pm, depth + 1))
+    low = np.minimum(values[:-1], values[1:])
+    doubtful = np.flatnonzero((low <= curvature * _PROOF_MARGIN) & (_GRID[:-1] < theta_end))
+    if not doubtful.size:
+        return None
+    poly = coeffs.tolist()
+    for i in doubtful.tolist():
+        stack = [(_GRID[i], float(values[i]), _GRID[i + 1], float(values[i + 1]), 0)]
+        while stack:
+            a, pa, b, pb, depth = stack.pop()
+            if a >= theta_end:
+                return None
+            if b > theta_end:
+                b = theta_end
+                pb = horner(poly, b)
+            if pb < 0.0:
+                return brentq(lambda theta: horner(poly, theta), a, b, xtol=1e-300,
+                              rtol=4.0 * 2.0 ** -52)
+            if min(pa, pb) > curvature * (b - a) ** 2 / 8.0 or depth >= MAX_HALVINGS:
+                continue  # proven positive on [a, b] (or a touch)
+            mid = 0.5 * (a + b)
+            pm = horner(poly, mid)
+            stack.append((mid, pm, b, pb, depth + 1))
+            stack.append((a, pa, mid, pm, depth + 1))
     return None
 
 
@@ -123,13 +122,12 @@ class TaylorStep:
     """One Taylor step from ``lo`` (s, from the segment's anchor) of normalised length ``h``:
     its polynomials in theta = (tau - lo) / h, its end ``hi`` and the state there."""
 
-    __slots__ = ("lo", "hi", "h", "y_lo", "rows", "table", "end", "theta_end", "y_hi")
+    __slots__ = ("lo", "hi", "h", "y_lo", "table", "end", "theta_end", "y_hi")
 
     def __init__(self, lo: float, y_lo: tuple[float, float, float]):
         self.lo = lo
         self.y_lo = y_lo
         self.h = 0.0
-        self.rows: tuple[tuple[float, float, float], ...] = ()
         self.table = _NO_TABLE
         self.end = StepEnd.SEPARATION
         self.theta_end = 0.0
@@ -137,10 +135,14 @@ class TaylorStep:
         self.y_hi = y_lo
 
     def state(self, tau: float) -> tuple[float, float, float]:
-        """(x, v, P) at tau (s from the anchor), lo <= tau <= hi."""
+        """(x, v, P) at tau (s from the segment's anchor), lo <= tau; the end state from hi on."""
         if tau >= self.hi:
             return self.y_hi
-        return (_power((tau - self.lo) / self.h, _POWERS) @ self.table).tolist()
+        return self.evaluate((tau - self.lo) / self.h)
+
+    def evaluate(self, theta: float) -> list[float]:
+        """[x, v, P] at the normalised time theta of the step."""
+        return (_power(theta, _POWERS) @ self.table).tolist()
 
 
 class StickingTaylor:
@@ -163,21 +165,18 @@ class StickingTaylor:
         sB = sign * self.B
         x, v, p0 = y
         rs = [self.u - v]
+        backwards = rs[:]  # r_n, ..., r_0
         fs = []
         order_over = self._order_over
         reciprocals = _RECIPROCAL_LIST
         for n in range(ORDER):
-            # (r^2)_n by the symmetry of the Cauchy product
-            half = (n + 1) >> 1
-            q = 2.0 * sum(map(float.__mul__, rs[:half], rs[n:n - half:-1])) if half else 0.0
-            if not n & 1:
-                q += rs[n >> 1] * rs[n >> 1]
-            f = sB * q
+            f = sB * sum(map(_mul, rs, backwards))  # s B (r^2)_n, the Cauchy product
             fs.append(f)
             v_next = (f - c * v - k * x) * order_over[n]
             x = v * reciprocals[n]
             v = v_next
             rs.append(-v_next)
+            backwards.insert(0, -v_next)
         table = np.empty((5, ORDER + 1))
         r = np.array(rs)
         table[1, 0] = y[1]
@@ -206,19 +205,20 @@ class StickingTaylor:
     def _length(self, table: np.ndarray) -> float:
         """Step length h: for x, v and P, each of the last two terms |c_j| h^j at most TOLERANCE
         of the size of the motion over the step, |c_0| + |c_1| h + |c_2| h^2 (solved for h by
-        fixed-point iteration, which contracts by ~2/j)."""
+        fixed-point iteration from the longest step, contracting by ~2/j)."""
         first = np.abs(table[:3, :3]).tolist()
         last = np.abs(table[:3, ORDER - 1:]).tolist()
         h = self.max_step if math.isfinite(self.max_step) else 1.0
+        low, high = 1.0 / (ORDER - 1), 1.0 / ORDER
         for _ in range(3):
             bound = self.max_step
             for (c0, c1, c2), (a_low, a_high) in zip(first, last, strict=True):
                 size = TOLERANCE * (c0 + h * (c1 + h * c2)) + 1e-300
                 if a_low > 0.0:
-                    bound = min(bound, SAFETY * (size / a_low) ** (1.0 / (ORDER - 1)))
+                    bound = min(bound, (size / a_low) ** low)
                 if a_high > 0.0:
-                    bound = min(bound, SAFETY * (size / a_high) ** (1.0 / ORDER))
-            h = bound
+                    bound = min(bound, (size / a_high) ** high)
+            h = SAFETY * bound
         return h
 
     def step(self, lo: float, y: tuple[float, float, float], until: float,
@@ -234,25 +234,24 @@ class StickingTaylor:
         if lo + h > until:
             theta_end = (until - lo) / h
         table *= h ** _POWERS  # coefficients of theta = (tau - lo) / h
-        values = _VANDERMONDE @ table[3:].T
-        flip = _first_root(table[3].tolist(), values[:, 0],
-                           float(np.abs(table[3]) @ _CURVATURE_WEIGHTS), theta_end)
+        signals = table[3:] if look_for_separation else table[3:4]  # s r, then lam
+        values = _VANDERMONDE @ signals.T
+        curvatures = np.abs(signals) @ _CURVATURE_WEIGHTS
+        proven = np.minimum(values[:-1], values[1:]) > curvatures * _PROOF_MARGIN
         end = StepEnd.LENGTH
-        if flip is not None:
-            theta_end, end = flip, StepEnd.FLIP
-        if look_for_separation:
-            sep = _first_root(table[4].tolist(), values[:, 1],
-                              float(np.abs(table[4]) @ _CURVATURE_WEIGHTS), theta_end)
-            if sep is not None:
-                theta_end, end = sep, StepEnd.SEPARATION
-        rows = tuple(map(tuple, table[:3, ::-1].T.tolist()))
-        step.h, step.rows, step.end, step.theta_end = h, rows, end, theta_end
+        if not (proven.all() and (values[0] >= 0.0).all()):  # else no root on the step
+            for row, kind in enumerate((StepEnd.FLIP, StepEnd.SEPARATION)[:len(signals)]):
+                root = _first_root(signals[row], values[:, row], float(curvatures[row]),
+                                   theta_end)
+                if root is not None:
+                    theta_end, end = root, kind
+        step.h, step.end, step.theta_end = h, end, theta_end
         step.table = np.ascontiguousarray(table[:3].T)
         if end is StepEnd.LENGTH:
             step.hi = until if theta_end < 1.0 else lo + h
         else:
             step.hi = lo + theta_end * h
-        x_hi, v_hi, p_hi = evaluate(rows, theta_end)
+        x_hi, v_hi, p_hi = step.evaluate(theta_end)
         if end is StepEnd.FLIP:
             v_hi = self.u  # exactly: the next step starts from r = 0
         step.y_hi = (x_hi, v_hi, p_hi)
