@@ -11,6 +11,8 @@ either tree, alternating base and current, best of ``--repeat``. Measured:
 - ``fig18 sticking, integration``: the same phase in one ``advance_to(200 s)`` call: the
   integration of the sticking phase alone;
 - ``fig18 run``: ``run(scene, 200, dt=1e-2)``, the whole run;
+- ``flow change every 1 ms step``: 300 steps of a slow, heavy scene sticking throughout, the flow
+  changing at every step (each change re-anchors the sticking phase), through the Simulator;
 - ``regime cell ...``: runs of ``examples/regime_map.py``'s grid (60 s at the sweep's ``dt``),
   its costliest cells at the base commit, all sticking most of the time.
 
@@ -44,6 +46,7 @@ T_STICK, T_END, DT = 10.0, 200.0, 1e-2
 #: regime-map cells (ice.M index, flow.u index) on its default grid: the costliest at 060a0a0
 CELLS = [(4, 19), (5, 18), (5, 17), (1, 19), (5, 16), (2, 12)]
 REGIME_T_END = 60.0
+FLOW_STEPS = 300
 
 
 def _worker() -> dict:
@@ -86,6 +89,19 @@ def _worker() -> dict:
     res = run(fig18, T_END, dt=DT)
     out["fig18 run"] = {"wall_s": time.perf_counter() - t0, "impacts": len(res.impacts),
                         "final_x": float(res.x[-1])}
+
+    # a new flow at every 1 ms step re-anchors the sticking phase: a slow, heavy scene
+    # (m = M = 4.4e4 kg, omega_n = 1 rad/s) starting in contact, sticking throughout
+    heavy = Scene(drag_model=2, structure_m=4.4e4, structure_k=4.4e4, ice_M=4.4e4,
+                  impact_e=0.0, ice_z0=0.0, ice_v0=0.0)
+    sim = Simulator(heavy)
+    sim.advance(1e-3)
+    t0 = time.perf_counter()
+    for i in range(FLOW_STEPS):
+        rep = sim.advance(1e-3, heavy.flow_u * (1.0 + 0.01 * (-1) ** i))
+    assert rep.sticking
+    out["flow change every 1 ms step"] = {"wall_s": time.perf_counter() - t0,
+                                          "samples": FLOW_STEPS, "final_x": rep.x}
 
     masses, flows = np.geomspace(200.0, 6400.0, 10), np.geomspace(0.01, 2.0, 20)
     for i, j in CELLS:

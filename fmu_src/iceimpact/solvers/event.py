@@ -13,8 +13,10 @@ contact force, separation, re-anchoring on a flow change) are those of
 bodies pressed together) is closed by one plastic impact once the rest of the sequence would take
 less than ``ZENO_TIME``; the bodies then stick: linear drag in closed
 form (a damped oscillator of mass m + M, damping c + b, equilibrium b u / k, cf. eq. 27-29),
-quadratic drag with ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-12). They separate when the
-contact force would turn tensile.
+quadratic drag by high-order Taylor steps (:mod:`iceimpact.solvers.taylor`: while the sign of
+u - x' holds the right-hand side is a polynomial, so the series follow by recurrence; each step
+from the state the previous one ended in, none ahead of the time asked for). They separate when
+the contact force would turn tensile.
 """
 
 from __future__ import annotations
