@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from iceimpact import Scene, Simulator
+from iceimpact import Scene, Simulator, SolverError
 from iceimpact.solvers.event import EventSolver, QuadraticStick
-from iceimpact.solvers.taylor import ORDER, StepEnd, StickingTaylor, horner
+from iceimpact.solvers.taylor import ORDER, StepEnd, StickingTaylor, TaylorStep, horner
 
 RTOL = 1e-12
 
@@ -270,3 +270,21 @@ def test_pure_drag_decay_has_the_closed_form():
 
 def test_horner():
     assert horner([1.0, -2.0, 3.0], 0.5) == 1.0 - 1.0 + 0.75
+
+
+def test_steps_that_do_not_advance_the_time_are_refused(monkeypatch):
+    """A sticking phase whose Taylor steps stop advancing the time ends in a SolverError (the
+    step is refused and changes nothing), not in an endless loop."""
+    sim = Simulator(Scene(drag_model=2, ice_z0=0.0, ice_v0=0.0))  # in contact at rest: sticks
+    sim.advance(0.01)
+    assert sim.sticking
+    saved = sim.save()
+
+    def stalled(self, lo, y, until, look_for_separation):
+        step = TaylorStep(lo, y)
+        step.end = StepEnd.FLIP
+        return step
+    monkeypatch.setattr(StickingTaylor, "step", stalled)
+    with pytest.raises(SolverError, match="stalled"):
+        sim.advance(0.01, 0.2)  # a new flow: a new sticking segment, whose steps stall
+    assert sim.save()["solver"] == saved["solver"]

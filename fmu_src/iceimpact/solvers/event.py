@@ -44,6 +44,8 @@ from .state import Record, StateError
 from .taylor import StepEnd, StickingTaylor, TaylorStep
 
 _NO_STATE = (math.nan, math.nan, math.nan)
+#: Taylor steps in a row that do not advance the time before a sticking phase is given up.
+_MAX_STALLED_STEPS = 4
 
 #: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
 #: (those the future can ask for: one, or two at a step boundary).
@@ -195,6 +197,7 @@ class QuadraticStick:
         self.steps: list[TaylorStep] = []  # from the one holding the current time on
         self.separation: float | None = None
         self.frontier = -math.inf  # the steps reach this far (all times after a separation)
+        self._stalled = 0  # steps in a row too short to advance the time
         # A communication step asks for the state at its end twice (state, impulse) and at its
         # start once more (impulse): the last two evaluations are kept.
         self._recent = ((math.nan, _NO_STATE), (math.nan, _NO_STATE))
@@ -213,6 +216,15 @@ class QuadraticStick:
         if not (all(map(math.isfinite, step.y_hi)) and step.hi >= lo):
             raise SolverError(f"sticking-phase integration failed at t = {self.t0 + lo}: "
                               f"state {step.y_hi!r} at t = {self.t0 + step.hi}")
+        if step.hi == lo and step.end is not StepEnd.SEPARATION:
+            # a step too short to advance the time: one at a sign change of u - v is normal
+            # (the next one starts from u - v = 0), more in a row would never end
+            self._stalled += 1
+            if self._stalled > _MAX_STALLED_STEPS:
+                raise SolverError(f"sticking-phase integration stalled at t = {self.t0 + lo}: "
+                                  f"{self._stalled} Taylor steps too short to advance the time")
+        else:
+            self._stalled = 0
         return step
 
     def _extend(self) -> None:

@@ -26,7 +26,7 @@ the polynomials are the dense output. A step ends early
 
 Both are first roots of a polynomial on the step, searched without a miss: on an interval of the
 normalised step time [0, 1] where the polynomial is >= 0 at both ends, a bound K on its curvature
-proves it positive throughout when ``min(ends) > K (b - a)^2 / 8``; otherwise the interval is
+proves it nonnegative throughout when ``min(ends) >= K (b - a)^2 / 8``; otherwise the interval is
 halved. A zero the polynomial only touches is no root (as in :mod:`.rootfind`).
 
 Each step depends only on its start time and state, so steps do not depend on the communication
@@ -49,8 +49,8 @@ TOLERANCE = 1e-16
 SAFETY = math.exp(-0.7 / (ORDER - 1))
 #: Samples of the normalised step time at which the first root search starts.
 SAMPLES = 8
-#: Halvings of a sample interval before a zero the polynomial approaches is taken as a touch.
-MAX_HALVINGS = 40
+#: Halvings on a step before a zero the polynomial approaches is taken for a touch.
+MAX_EVALUATIONS = 200
 
 _POWERS = np.arange(ORDER + 1.0)  # float exponents: numpy power is faster with them
 _GRID = np.linspace(0.0, 1.0, SAMPLES + 1)
@@ -81,26 +81,28 @@ def horner(coeffs: list[float], theta: float) -> float:
     return acc
 
 
-def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float,
+def _proven(values: np.ndarray, curvatures: np.ndarray) -> np.ndarray:
+    """Which sample intervals [a, b] are proven to keep each polynomial >= 0 (a column each):
+    min(p(a), p(b)) >= K (b - a)^2 / 8, K >= |p''| on [0, 1] (at an interior minimum p' = 0, so
+    p(a) and p(b) exceed it by at most K (b - a)^2 / 8)."""
+    return np.minimum(values[:-1], values[1:]) >= curvatures * _PROOF_MARGIN
+
+
+def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtful: np.ndarray,
                 theta_end: float) -> float | None:
     """First theta in (0, theta_end] where the polynomial sum coeffs[n] theta^n (>= 0 at 0) goes
     below zero, or None. ``values`` are its values on the sample grid, ``curvature`` a bound K on
-    |p''| on [0, 1].
-
-    A sample interval [a, b] with p(a), p(b) >= 0 holds no root if min(p(a), p(b)) > K (b - a)^2
-    / 8 (at an interior minimum p' = 0, so p(a) and p(b) exceed it by at most K (b - a)^2 / 8);
-    the others are halved until proven or a sign change is found."""
+    |p''| on [0, 1], ``doubtful`` the sample intervals not proven root-free (:func:`_proven`),
+    which are halved until proven or a sign change is found. A zero the polynomial approaches
+    closer than the halvings resolve is taken for a touch (no root)."""
     if values[0] < 0.0:
         return 0.0
-    low = np.minimum(values[:-1], values[1:])
-    doubtful = np.flatnonzero((low <= curvature * _PROOF_MARGIN) & (_GRID[:-1] < theta_end))
-    if not doubtful.size:
-        return None
     poly = coeffs.tolist()
+    budget = MAX_EVALUATIONS
     for i in doubtful.tolist():
-        stack = [(_GRID[i], float(values[i]), _GRID[i + 1], float(values[i + 1]), 0)]
+        stack = [(_GRID[i], float(values[i]), _GRID[i + 1], float(values[i + 1]))]
         while stack:
-            a, pa, b, pb, depth = stack.pop()
+            a, pa, b, pb = stack.pop()
             if a >= theta_end:
                 return None
             if b > theta_end:
@@ -109,12 +111,13 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float,
             if pb < 0.0:
                 return brentq(lambda theta: horner(poly, theta), a, b, xtol=1e-300,
                               rtol=4.0 * 2.0 ** -52)
-            if min(pa, pb) > curvature * (b - a) ** 2 / 8.0 or depth >= MAX_HALVINGS:
-                continue  # proven positive on [a, b] (or a touch)
+            if min(pa, pb) >= curvature * (b - a) ** 2 / 8.0 or budget <= 0:
+                continue  # proven >= 0 on [a, b] (or a touch)
+            budget -= 1
             mid = 0.5 * (a + b)
             pm = horner(poly, mid)
-            stack.append((mid, pm, b, pb, depth + 1))
-            stack.append((a, pa, mid, pm, depth + 1))
+            stack.append((mid, pm, b, pb))
+            stack.append((a, pa, mid, pm))
     return None
 
 
@@ -237,12 +240,12 @@ class StickingTaylor:
         signals = table[3:] if look_for_separation else table[3:4]  # s r, then lam
         values = _VANDERMONDE @ signals.T
         curvatures = np.abs(signals) @ _CURVATURE_WEIGHTS
-        proven = np.minimum(values[:-1], values[1:]) > curvatures * _PROOF_MARGIN
+        proven = _proven(values, curvatures)
         end = StepEnd.LENGTH
         if not (proven.all() and (values[0] >= 0.0).all()):  # else no root on the step
             for row, kind in enumerate((StepEnd.FLIP, StepEnd.SEPARATION)[:len(signals)]):
                 root = _first_root(signals[row], values[:, row], float(curvatures[row]),
-                                   theta_end)
+                                   np.flatnonzero(~proven[:, row]), theta_end)
                 if root is not None:
                     theta_end, end = root, kind
         step.h, step.end, step.theta_end = h, end, theta_end
