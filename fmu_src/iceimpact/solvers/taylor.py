@@ -35,6 +35,7 @@ step, and a step rebuilt from its start (a restored state) has the same coeffici
 
 from __future__ import annotations
 
+import enum
 import math
 from operator import mul as _mul
 
@@ -43,13 +44,13 @@ from scipy.optimize import brentq
 
 #: Order of the Taylor steps (degree of the position polynomial).
 ORDER = 36
-#: The last two terms of a step stay below this fraction of the motion's scale.
+#: The last two terms of a step stay below this fraction of the motion over the step.
 TOLERANCE = 1e-16
 #: Safety factor on the step length (Jorba and Zou: exp(-0.7 / (ORDER - 1))).
 SAFETY = math.exp(-0.7 / (ORDER - 1))
 #: Samples of the normalised step time at which the first root search starts.
 SAMPLES = 8
-#: Halvings on a step before a zero the polynomial approaches is taken for a touch.
+#: Halvings in one root search before a zero the polynomial approaches is taken for a touch.
 MAX_EVALUATIONS = 200
 
 _POWERS = np.arange(ORDER + 1.0)  # float exponents: numpy power is faster with them
@@ -59,13 +60,11 @@ _CURVATURE_WEIGHTS = (_POWERS * (_POWERS - 1)).astype(float)  # |p''| <= sum n(n
 _PROOF_MARGIN = 1.0 / (8.0 * SAMPLES * SAMPLES)  # (b - a)^2 / 8 for a sample interval
 _RECIPROCALS = 1.0 / np.arange(1, ORDER + 1)
 _RECIPROCAL_LIST = _RECIPROCALS.tolist()
-
-
 _power = np.power
 _NO_TABLE = np.zeros((ORDER + 1, 3))
 
 
-class StepEnd:
+class StepEnd(enum.Enum):
     """How a Taylor step ends."""
 
     LENGTH = "length"          # its full length (or the end of a hold)
