@@ -121,10 +121,12 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
 
 
 class TaylorStep:
-    """One Taylor step from ``lo`` (s, from the segment's anchor) of normalised length ``h``:
-    its polynomials in theta = (tau - lo) / h, its end ``hi`` and the state there."""
+    """One Taylor step from ``lo`` (s, from the segment's anchor) at state ``y_lo`` = (x, v, P):
+    its polynomials in theta = (tau - lo) / h (``table``, a column each), its end ``hi`` <= lo + h,
+    how it ends and the state there. As constructed, a step that ends where it starts: a
+    separation at once."""
 
-    __slots__ = ("lo", "hi", "h", "y_lo", "table", "end", "theta_end", "y_hi")
+    __slots__ = ("lo", "hi", "h", "y_lo", "table", "end", "y_hi")
 
     def __init__(self, lo: float, y_lo: tuple[float, float, float]):
         self.lo = lo
@@ -132,7 +134,6 @@ class TaylorStep:
         self.h = 0.0
         self.table = _NO_TABLE
         self.end = StepEnd.SEPARATION
-        self.theta_end = 0.0
         self.hi = lo
         self.y_hi = y_lo
 
@@ -247,7 +248,7 @@ class StickingTaylor:
                                    np.flatnonzero(~proven[:, row]), theta_end)
                 if root is not None:
                     theta_end, end = root, kind
-        step.h, step.end, step.theta_end = h, end, theta_end
+        step.h, step.end = h, end
         step.table = np.ascontiguousarray(table[:3].T)
         if end is StepEnd.LENGTH:
             step.hi = until if theta_end < 1.0 else lo + h
