@@ -72,14 +72,14 @@ def test_round_trip_in_elastic_bouncing(method, drag_model):
     assert_continues_identically(sim)
 
 
-def test_round_trip_inside_a_quadratic_sticking_chunk():
+def test_round_trip_inside_a_quadratic_sticking_step():
     """Exact method, quadratic drag, sticking: the saved state holds the start of the current
-    integration chunk, which a restored solver integrates again to the same dense output."""
+    Taylor step, which a restored solver takes again to the same polynomials."""
     sim = stepped(Scene(impact_e=0.0, drag_model=2), 30.0)
     segment = sim.save()["solver"]["segment"]
-    assert segment["phase"] == "stick" and segment["chunks"]
-    lo, hi, _ = segment["chunks"][-1]
-    assert lo < sim.t - segment["t0"] < hi
+    assert segment["phase"] == "stick" and len(segment["steps"]) == 1
+    lo, _ = segment["steps"][-1]
+    assert lo < sim.t - segment["t0"]
     assert_continues_identically(sim, [(0.01, 0.1)] * 300 + [(0.01, -0.2)] * 100)
 
 
@@ -286,10 +286,12 @@ BAD_OTHERS = {
     ("ode", "event time"): (lambda state: state["solver"].update(event=[-1.0, [0.0] * 4]),
                             "solver.event.t"),
     ("ode", "nfev"): (_set(("solver", "nfev"), None), "solver.nfev"),
-    ("exact", "chunks"): (_set(("solver", "segment", "chunks"), [[0.0, 1e9, [0.0] * 3]]),
-                          "solver.segment.chunks[0].hi"),
-    ("exact", "recent"): (_set(("solver", "segment", "recent"), [[0.0]]),
-                          "solver.segment.recent[0]"),
+    ("exact", "steps"): (_set(("solver", "segment", "steps"), [[1.0, [0.0] * 3], [0.5, [0.0] * 3]]),
+                         "solver.segment.steps[1].lo"),
+    ("exact", "step"): (_set(("solver", "segment", "steps"), [[0.0]]),
+                        "solver.segment.steps[0]"),
+    ("exact", "step state"): (_set(("solver", "segment", "steps"), [[0.0, [0.0, math.nan, 0.0]]]),
+                              "solver.segment.steps[0].y_lo[1]"),
 }
 
 

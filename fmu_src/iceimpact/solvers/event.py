@@ -13,8 +13,10 @@ contact force, separation, re-anchoring on a flow change) are those of
 bodies pressed together) is closed by one plastic impact once the rest of the sequence would take
 less than ``ZENO_TIME``; the bodies then stick: linear drag in closed
 form (a damped oscillator of mass m + M, damping c + b, equilibrium b u / k, cf. eq. 27-29),
-quadratic drag with ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-12). They separate when the
-contact force would turn tensile.
+quadratic drag by high-order Taylor steps (:mod:`iceimpact.solvers.taylor`: while the sign of
+u - x' holds the right-hand side is a polynomial, so the series follow by recurrence; each step
+from the state the previous one ended in, none ahead of the time asked for). They separate when
+the contact force would turn tensile.
 """
 
 from __future__ import annotations
@@ -25,7 +27,6 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
@@ -43,14 +44,15 @@ from .contact_rules import (
 )
 from .rootfind import RootSearch
 from .state import Record, StateError
+from .taylor import StepEnd, StickingTaylor, TaylorStep
 
-#: Tolerances of the ODE integration of the quadratic-drag sticking phase.
-STICK_RTOL = 1e-12
-STICK_ATOL = (1e-15, 1e-15, 1e-12)  # x (m), v (m/s), drag impulse (N.s)
+_NO_STATE = (math.nan, math.nan, math.nan)
+#: Taylor steps in a row that do not advance the time before a sticking phase is given up.
+_MAX_STALLED_STEPS = 4
 
-#: At most this many integration chunks of a quadratic-drag sticking phase are saved in a
-#: snapshot (those the future can ask for: one, or two at a chunk boundary).
-_MAX_CHUNKS = 8
+#: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
+#: (those the future can ask for: one, or two at a step boundary).
+_MAX_STEPS = 8
 
 
 def _time_eps(t: float) -> float:
@@ -249,122 +251,95 @@ class LinearStick(_SearchedSegment):
         return -self.b * ((xb - xa) - self.u * duration) - self.M * (vb - va)
 
 
-class _Separation:
-    """Terminal event of the sticking integration: the contact force turns tensile."""
-
-    terminal = True
-    direction = -1
-
-    def __init__(self, together: Together):
-        self.together = together
-
-    def __call__(self, tau: float, y: np.ndarray) -> float:
-        return self.together.contact_force(y)
-
-
-class _Chunk:
-    """One solve_ivp call of a sticking phase: from ``lo`` (state ``y_lo``) to ``hi``. Its dense
-    output ``sol`` is integrated again from (lo, y_lo) when a restored state needs it: the same
-    call gives the same output, to the last bit."""
-
-    __slots__ = ("lo", "hi", "y_lo", "sol")
-
-    def __init__(self, lo: float, hi: float, y_lo: np.ndarray, sol: object | None):
-        self.lo, self.hi, self.y_lo, self.sol = lo, hi, y_lo, sol
-
-
 class QuadraticStick:
-    """Bodies together under quadratic drag: DOP853 in fixed chunks from the anchor, separation as
-    a terminal event. Chunk limits depend only on the anchor, so results do not depend on the
-    communication step."""
+    """Bodies together under quadratic drag: Taylor steps (:mod:`.taylor`) from the anchor, each
+    from the state the previous one ended in, until the contact force turns tensile. The steps
+    depend only on the anchor, so results do not depend on the communication step; a saved state
+    keeps the start of the steps still needed, which a restored segment takes again to the bit."""
 
     phase = Phase.STICK
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
-        self.m, self.c, self.k, self.M = solver.m, solver.c, solver.k, solver.M
-        self.drag = solver.drag
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
-        self.together = Together(self.m, self.c, self.k, self.M, self.drag, u,
-                                 inertia_from_net=False)
-        self._separation_event = _Separation(self.together)
-        period = 2.0 * math.pi / math.sqrt(self.k / (self.m + self.M))
-        self.chunk = min(max(0.05, 2.0 * period), 5.0)  # s, fixed from the anchor
         self.start = start
-        self.hi = 0.0                   # integrated up to here
-        self.y_hi = np.array([x0, v0, 0.0])
-        self.chunks: list[_Chunk] = []
+        self.together = Together(solver.m, solver.c, solver.k, solver.M, solver.drag, u,
+                                 inertia_from_net=False)
+        self.taylor = _sticking_taylor(self.together)
+        self.steps: list[TaylorStep] = []  # from the one holding the current time on
         self.separation: float | None = None
-        self.y_sep: np.ndarray | None = None
-        self._recent: dict[float, np.ndarray] = {}  # the last two states asked for, by tau
+        self.frontier = -math.inf  # the steps reach this far (all times after a separation)
+        self._stalled = 0  # steps in a row too short to advance the time
+        # A communication step asks for the state at its end twice (state, impulse) and at its
+        # start once more (impulse): the last two evaluations are kept.
+        self._recent = ((math.nan, _NO_STATE), (math.nan, _NO_STATE))
 
-    def _integrate(self, lo: float, y_lo: np.ndarray):
-        """One chunk from lo: up to the end of a hold (no separation looked for), else a chunk
-        length on, stopping where the contact force turns tensile."""
-        if lo < self.start:  # held together: no separation looked for before `start`
-            hi, events = self.start, None
-        else:
-            hi, events = lo + self.chunk, self._separation_event
-        res = solve_ivp(self.together, (lo, hi), y_lo, method="DOP853", rtol=STICK_RTOL,
-                        atol=STICK_ATOL, dense_output=True, events=events)
-        if not res.success:
+    def _step_from(self, lo: float, y: tuple[float, float, float]) -> TaylorStep:
+        """The Taylor step from lo at state y = (x, v, drag impulse); no separation is looked
+        for before ``start`` (a hold), and a contact force already tensile separates at once."""
+        hold = lo < self.start
+        if not hold and separates(self.together.contact_force(y)):
+            return TaylorStep(lo, y)
+        try:
+            step = self.taylor.step(lo, y, self.start if hold else math.inf, not hold)
+        except (ArithmeticError, ValueError) as exc:
             raise SolverError(f"sticking-phase integration failed at t = {self.t0 + lo}: "
-                              f"{res.message}")
-        return res, hi
+                              f"{exc}") from exc
+        if not (all(map(math.isfinite, step.y_hi)) and step.hi >= lo):
+            raise SolverError(f"sticking-phase integration failed at t = {self.t0 + lo}: "
+                              f"state {step.y_hi!r} at t = {self.t0 + step.hi}")
+        if step.hi == lo and step.end is not StepEnd.SEPARATION:
+            # a step too short to advance the time: one at a sign change of u - v is normal
+            # (the next one starts from u - v = 0), more in a row would never end
+            self._stalled += 1
+            if self._stalled > _MAX_STALLED_STEPS:
+                raise SolverError(f"sticking-phase integration stalled at t = {self.t0 + lo}: "
+                                  f"{self._stalled} Taylor steps too short to advance the time")
+        else:
+            self._stalled = 0
+        return step
 
     def _extend(self) -> None:
-        lo = self.hi
-        if lo >= self.start and separates(self.together.contact_force(self.y_hi)):
-            # already tensile (after a hold)
-            self.separation, self.y_sep, self.hi = lo, self.y_hi, lo
-            return
-        res, hi = self._integrate(lo, self.y_hi)
-        if res.status == 1:  # terminal event: the contact force turns tensile
-            self.separation, self.y_sep = float(res.t_events[0][0]), res.y_events[0][0]
-            hi = self.separation
-        self.chunks.append(_Chunk(lo, hi, self.y_hi, res.sol))
-        self.hi = hi
-        self.y_hi = self.y_sep if self.separation is not None else res.y[:, -1]
-
-    def _sol(self, chunk: _Chunk):
-        if chunk.sol is None:
-            chunk.sol = self._integrate(chunk.lo, chunk.y_lo)[0].sol
-        return chunk.sol
-
-    def _y(self, tau: float) -> np.ndarray:
-        # A communication step asks for the state at its end twice (state, impulse) and at its
-        # start once more (impulse): the last two evaluations are kept, since the dense output
-        # costs ~20 us per call.
-        cached = self._recent.get(tau)
-        if cached is not None:
-            return cached
-        while tau > self.hi and self.separation is None:
-            self._extend()
-        if tau >= self.hi:
-            y = self.y_hi
+        if self.steps:
+            last = self.steps[-1]
+            step = self._step_from(last.hi, last.y_hi)
         else:
-            y = None
-            for chunk in reversed(self.chunks):
-                if chunk.lo <= tau <= chunk.hi:
-                    y = self._sol(chunk)(tau)
+            step = self._step_from(0.0, (self.x0, self.v0, 0.0))
+        self._append(step)
+
+    def _append(self, step: TaylorStep) -> None:
+        self.steps.append(step)
+        self.frontier = step.hi
+        if step.end is StepEnd.SEPARATION:
+            self.separation, self.frontier = step.hi, math.inf
+
+    def _y(self, tau: float) -> tuple[float, float, float]:
+        (tau_a, y_a), (tau_b, y_b) = self._recent
+        if tau == tau_b:
+            return y_b
+        if tau == tau_a:
+            return y_a
+        while tau > self.frontier:
+            self._extend()
+        step = self.steps[-1]
+        if step.lo > tau:
+            for step in reversed(self.steps):  # noqa: B007 (the step holding tau)
+                if step.lo <= tau:
                     break
-            if y is None:
-                y = self.y_hi if not self.chunks else self._sol(self.chunks[0])(tau)
-        if len(self._recent) >= 2:
-            del self._recent[next(iter(self._recent))]
-        self._recent[tau] = y
+        y = step.state(tau)
+        self._recent = ((tau_b, y_b), (tau, y))
         return y
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
-        y = self._y(tau)
-        # the solver never looks back before its current time: drop chunks that end before it
-        while len(self.chunks) > 1 and self.chunks[0].hi < tau:
-            self.chunks.pop(0)
-        x, v = float(y[0]), float(y[1])
+        x, v, _ = self._y(tau)
+        # the solver never looks back before its current time: drop steps that end before it
+        steps = self.steps
+        while len(steps) > 1 and steps[0].hi < tau:
+            steps.pop(0)
         return x, v, x, v
 
     def next_event(self, tau_end: float) -> float | None:
-        while self.separation is None and self.hi < tau_end:
+        while tau_end > self.frontier:
             self._extend()
         if self.separation is not None and self.separation <= tau_end:
             return self.separation
@@ -376,50 +351,38 @@ class QuadraticStick:
         return self.together.impulse(self._y(tau_a), self._y(tau_b))
 
     def snapshot(self, tau: float) -> dict[str, Any]:
-        # chunks ending before tau are never asked for again
-        chunks = [c for c in self.chunks if c.hi >= tau] or self.chunks[-1:]
+        # steps ending before tau are never asked for again
+        steps = [s for s in self.steps if s.hi >= tau] or self.steps[-1:]
         return {"phase": self.phase.value, "t0": self.t0, "anchor": [self.x0, self.v0],
-                "start": self.start, "hi": self.hi, "y_hi": _floats(self.y_hi),
-                "chunks": [[c.lo, c.hi, _floats(c.y_lo)] for c in chunks],
-                "separation": self.separation,
-                "y_sep": None if self.y_sep is None else _floats(self.y_sep),
-                "recent": [[key, _floats(y)] for key, y in self._recent.items()]}
+                "start": self.start, "steps": [[s.lo, list(s.y_lo)] for s in steps]}
 
     @classmethod
     def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], QuadraticStick]:
         """Validate a :meth:`snapshot` record; return the function that builds the segment."""
-        rec.expect_keys(("phase", "t0", "anchor", "start", "hi", "y_hi", "chunks", "separation",
-                         "y_sep", "recent"))
+        rec.expect_keys(("phase", "t0", "anchor", "start", "steps"))
         t0 = rec.real("t0", low=0.0)
         anchor = rec.reals("anchor", 2)
         start = rec.real("start", low=0.0)
-        hi = rec.real("hi", low=0.0)
-        y_hi = rec.reals("y_hi", 3)
-        chunks = []
-        for i, item in enumerate(rec.items("chunks", _MAX_CHUNKS)):
-            entry = _entry(item, f"{rec.field('chunks')}[{i}]", ("lo", "hi", "y_lo"))
-            lo, chunk_hi = entry.real("lo", low=0.0), entry.real("hi", low=0.0, high=hi)
-            if chunk_hi < lo:
-                raise StateError(entry.field("hi"), chunk_hi, f">= lo = {lo!r}")
-            chunks.append((lo, chunk_hi, entry.reals("y_lo", 3)))
-        separation = rec.real("separation", low=0.0, high=hi, allow_none=True)
-        y_sep = rec.reals("y_sep", 3, allow_none=True)
-        if (y_sep is None) != (separation is None):
-            raise StateError(rec.field("y_sep"), y_sep, "null exactly when separation is null")
-        recent = []
-        for i, item in enumerate(rec.items("recent", 2)):
-            entry = _entry(item, f"{rec.field('recent')}[{i}]", ("tau", "y"))
-            recent.append((entry.real("tau", low=0.0), entry.reals("y", 3)))
+        steps: list[tuple[float, tuple[float, ...]]] = []
+        for i, item in enumerate(rec.items("steps", _MAX_STEPS)):
+            entry = _entry(item, f"{rec.field('steps')}[{i}]", ("lo", "y_lo"))
+            lo = entry.real("lo", low=steps[-1][0] if steps else 0.0)
+            steps.append((lo, tuple(entry.reals("y_lo", 3))))
 
         def make() -> QuadraticStick:
             seg = cls(solver, t0, *anchor, u, start)
-            seg.hi, seg.y_hi = hi, np.array(y_hi)
-            seg.chunks = [_Chunk(lo, c_hi, np.array(y_lo), None) for lo, c_hi, y_lo in chunks]
-            seg.separation = separation
-            seg.y_sep = None if y_sep is None else np.array(y_sep)
-            seg._recent = {key: np.array(y) for key, y in recent}
+            for lo, y in steps:
+                seg._append(seg._step_from(lo, y))
             return seg
         return make
+
+
+def _sticking_taylor(together: Together) -> StickingTaylor:
+    """The Taylor stepper for the sticking equation of ``together`` (its masses, damping,
+    stiffness, drag constant and flow speed); steps at most one period of the bodies together."""
+    period = 2.0 * math.pi / math.sqrt(together.k / together.total)
+    return StickingTaylor(together.total, together.c, together.k, together.drag.B, together.u,
+                          together.M, max_step=period)
 
 
 def _entry(item: Any, field: str, names: tuple[str, ...]) -> Record:
@@ -427,10 +390,6 @@ def _entry(item: Any, field: str, names: tuple[str, ...]) -> Record:
     if not isinstance(item, list | tuple) or len(item) != len(names):
         raise StateError(field, item, "[" + ", ".join(names) + "]")
     return Record(dict(zip(names, item, strict=True)), field)
-
-
-def _floats(y) -> list[float]:
-    return [float(c) for c in y]
 
 
 def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
@@ -687,7 +646,7 @@ class EventSolver(Solver):
     def checkpoint(self) -> Any:
         """The solver's fields and the segment object with its search frontier: a flight or a
         linear sticking phase changes nothing else while marching (a quadratic one, with its
-        integration chunks, takes a full snapshot)."""
+        Taylor steps, takes a full snapshot)."""
         seg = self.seg
         if not isinstance(seg, _SearchedSegment):
             return super().checkpoint()

@@ -1,0 +1,261 @@
+"""High-order Taylor steps of the sticking phase under quadratic drag (method 1).
+
+While the bodies stick they obey the sticking equation (model.md, sticking contact; the drag of
+eq. 2-3 on the ice moving with the structure)::
+
+    (m + M) x'' + c x' + k x = B |u - x'| (u - x')
+
+While the sign s of the relative flow r = u - x' holds, the drag is ``s B r^2``, a polynomial in
+the state, so the Taylor coefficients of x, v = x' and the drag impulse P (P' = drag) follow
+exactly by recurrence, (r^2)_n being the Cauchy product of r with itself::
+
+    x_{n+1} = v_n / (n + 1)
+    v_{n+1} = (s B (r^2)_n - c v_n - k x_n) / ((m + M) (n + 1)),    r_0 = u - v_0, r_n = -v_n
+    P_{n+1} = s B (r^2)_n / (n + 1)
+
+and the contact force on the structure, ``lam = drag - M x''`` (the drag on the ice minus its
+inertia), is the polynomial ``lam_n = s B (r^2)_n - M (n + 1) v_{n+1}``.
+
+A step of order ``ORDER`` is as long as its last two terms stay below ``TOLERANCE`` of the
+motion's scale (the step-size rule of Jorba and Zou, 2005), at most ``max_step``. Within the step
+the polynomials are the dense output. A step ends early
+
+- where r changes sign (the drag's polynomial changes): the next step starts with v = u exactly
+  and takes the sign r moves to;
+- where the contact force turns tensile (separation), when separation is looked for.
+
+Both are first roots of a polynomial on the step, searched without a miss: on an interval of the
+normalised step time [0, 1] where the polynomial is >= 0 at both ends, a bound K on its curvature
+proves it nonnegative throughout when ``min(ends) >= K (b - a)^2 / 8``; otherwise the interval is
+halved. A zero the polynomial only touches is no root (as in :mod:`.rootfind`).
+
+Each step depends only on its start time and state, so steps do not depend on the communication
+step, and a step rebuilt from its start (a restored state) has the same coefficients to the bit.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from operator import mul as _mul
+
+import numpy as np
+from scipy.optimize import brentq
+
+#: Order of the Taylor steps (degree of the position polynomial).
+ORDER = 36
+#: The last two terms of a step stay below this fraction of the motion over the step.
+TOLERANCE = 1e-16
+#: Safety factor on the step length (Jorba and Zou: exp(-0.7 / (ORDER - 1))).
+SAFETY = math.exp(-0.7 / (ORDER - 1))
+#: Samples of the normalised step time at which the first root search starts.
+SAMPLES = 8
+#: Halvings in one root search before a zero the polynomial approaches is taken for a touch.
+MAX_EVALUATIONS = 200
+
+_POWERS = np.arange(ORDER + 1.0)  # float exponents: numpy power is faster with them
+_GRID = np.linspace(0.0, 1.0, SAMPLES + 1)
+_VANDERMONDE = _GRID[:, None] ** _POWERS[None, :]      # values at the sample points
+_CURVATURE_WEIGHTS = (_POWERS * (_POWERS - 1)).astype(float)  # |p''| <= sum n(n-1)|c_n| on [0,1]
+_PROOF_MARGIN = 1.0 / (8.0 * SAMPLES * SAMPLES)  # (b - a)^2 / 8 for a sample interval
+_RECIPROCALS = 1.0 / np.arange(1, ORDER + 1)
+_RECIPROCAL_LIST = _RECIPROCALS.tolist()
+_power = np.power
+_NO_TABLE = np.zeros((ORDER + 1, 3))
+
+
+class StepEnd(enum.Enum):
+    """How a Taylor step ends."""
+
+    LENGTH = "length"          # its full length (or the end of a hold)
+    FLIP = "flip"              # the relative flow u - v changes sign
+    SEPARATION = "separation"  # the contact force turns tensile
+
+
+def horner(coeffs: list[float], theta: float) -> float:
+    """Value at theta of the polynomial sum coeffs[n] theta^n."""
+    acc = 0.0
+    for c in reversed(coeffs):
+        acc = acc * theta + c
+    return acc
+
+
+def _proven(values: np.ndarray, curvatures: np.ndarray) -> np.ndarray:
+    """Which sample intervals [a, b] are proven to keep each polynomial >= 0 (a column each):
+    min(p(a), p(b)) >= K (b - a)^2 / 8, K >= |p''| on [0, 1] (at an interior minimum p' = 0, so
+    p(a) and p(b) exceed it by at most K (b - a)^2 / 8)."""
+    return np.minimum(values[:-1], values[1:]) >= curvatures * _PROOF_MARGIN
+
+
+def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtful: np.ndarray,
+                theta_end: float) -> float | None:
+    """First theta in (0, theta_end] where the polynomial sum coeffs[n] theta^n (>= 0 at 0) goes
+    below zero, or None. ``values`` are its values on the sample grid, ``curvature`` a bound K on
+    |p''| on [0, 1], ``doubtful`` the sample intervals not proven root-free (:func:`_proven`),
+    which are halved until proven or a sign change is found. A zero the polynomial approaches
+    closer than the halvings resolve is taken for a touch (no root)."""
+    if values[0] < 0.0:
+        return 0.0
+    poly = coeffs.tolist()
+    budget = MAX_EVALUATIONS
+    for i in doubtful.tolist():
+        stack = [(_GRID[i], float(values[i]), _GRID[i + 1], float(values[i + 1]))]
+        while stack:
+            a, pa, b, pb = stack.pop()
+            if a >= theta_end:
+                return None
+            if b > theta_end:
+                b = theta_end
+                pb = horner(poly, b)
+            if pb < 0.0:
+                return brentq(lambda theta: horner(poly, theta), a, b, xtol=1e-300,
+                              rtol=4.0 * 2.0 ** -52)
+            if min(pa, pb) >= curvature * (b - a) ** 2 / 8.0 or budget <= 0:
+                continue  # proven >= 0 on [a, b] (or a touch)
+            budget -= 1
+            mid = 0.5 * (a + b)
+            pm = horner(poly, mid)
+            stack.append((mid, pm, b, pb))
+            stack.append((a, pa, mid, pm))
+    return None
+
+
+class TaylorStep:
+    """One Taylor step from ``lo`` (s, from the segment's anchor) at state ``y_lo`` = (x, v, P):
+    its polynomials in theta = (tau - lo) / h (``table``, a column each), its end ``hi`` <= lo + h,
+    how it ends and the state there. As constructed, a step that ends where it starts: a
+    separation at once."""
+
+    __slots__ = ("lo", "hi", "h", "y_lo", "table", "end", "y_hi")
+
+    def __init__(self, lo: float, y_lo: tuple[float, float, float]):
+        self.lo = lo
+        self.y_lo = y_lo
+        self.h = 0.0
+        self.table = _NO_TABLE
+        self.end = StepEnd.SEPARATION
+        self.hi = lo
+        self.y_hi = y_lo
+
+    def state(self, tau: float) -> tuple[float, float, float]:
+        """(x, v, P) at tau (s from the segment's anchor), lo <= tau; the end state from hi on."""
+        if tau >= self.hi:
+            return self.y_hi
+        return self.evaluate((tau - self.lo) / self.h)
+
+    def evaluate(self, theta: float) -> list[float]:
+        """[x, v, P] at the normalised time theta of the step."""
+        return (_power(theta, _POWERS) @ self.table).tolist()
+
+
+class StickingTaylor:
+    """Taylor steps of the sticking equation for given coefficients: the bodies' total mass
+    (kg), the structural damping c (N.s/m) and stiffness k (N/m), the quadratic drag constant B
+    (kg/m, eq. 33) and flow speed u (m/s), and the ice mass M (kg) whose inertia the contact force
+    subtracts from the drag."""
+
+    def __init__(self, total_mass: float, damping: float, stiffness: float, drag_B: float,
+                 flow_u: float, ice_mass: float, max_step: float):
+        self.total, self.c, self.k = total_mass, damping, stiffness
+        self.B, self.u, self.M = drag_B, flow_u, ice_mass
+        self.max_step = max_step
+        self._order_over = [1.0 / (total_mass * (n + 1)) for n in range(ORDER)]
+
+    def series(self, y: tuple[float, float, float], sign: float) -> np.ndarray:
+        """Taylor coefficients at state y = (x, v, P) with drag sign s: rows x, v, P, s r and
+        lam, orders 0..ORDER (lam to ORDER - 1, then 0)."""
+        c, k = self.c, self.k
+        sB = sign * self.B
+        x, v, p0 = y
+        rs = [self.u - v]
+        backwards = rs[:]  # r_n, ..., r_0
+        fs = []
+        order_over = self._order_over
+        reciprocals = _RECIPROCAL_LIST
+        for n in range(ORDER):
+            f = sB * sum(map(_mul, rs, backwards))  # s B (r^2)_n, the Cauchy product
+            fs.append(f)
+            v_next = (f - c * v - k * x) * order_over[n]
+            x = v * reciprocals[n]
+            v = v_next
+            rs.append(-v_next)
+            backwards.insert(0, -v_next)
+        table = np.empty((5, ORDER + 1))
+        r = np.array(rs)
+        table[1, 0] = y[1]
+        table[1, 1:] = -r[1:]
+        table[0, 0] = y[0]
+        table[0, 1:] = table[1, :-1] * _RECIPROCALS
+        f = np.array(fs)
+        table[2, 0] = p0
+        table[2, 1:] = f * _RECIPROCALS
+        table[3] = sign * r
+        table[4, :-1] = f - self.M * _POWERS[1:] * table[1, 1:]
+        table[4, -1] = 0.0
+        return table
+
+    def drag_sign(self, y: tuple[float, float, float]) -> float:
+        """Sign of u - v from here on: its own, or at u - v = 0 that of its first non-zero
+        Taylor coefficient (which does not depend on the drag's sign up to there)."""
+        r0 = self.u - y[1]
+        if r0 != 0.0:
+            return 1.0 if r0 > 0.0 else -1.0
+        for r in self.series(y, 1.0)[3, 1:].tolist():
+            if r != 0.0:
+                return 1.0 if r > 0.0 else -1.0
+        return 1.0
+
+    def _length(self, table: np.ndarray) -> float:
+        """Step length h: for x, v and P, each of the last two terms |c_j| h^j at most TOLERANCE
+        of the size of the motion over the step, |c_0| + |c_1| h + |c_2| h^2 (solved for h by
+        fixed-point iteration from the longest step, contracting by ~2/j)."""
+        first = np.abs(table[:3, :3]).tolist()
+        last = np.abs(table[:3, ORDER - 1:]).tolist()
+        h = self.max_step if math.isfinite(self.max_step) else 1.0
+        low, high = 1.0 / (ORDER - 1), 1.0 / ORDER
+        for _ in range(3):
+            bound = self.max_step
+            for (c0, c1, c2), (a_low, a_high) in zip(first, last, strict=True):
+                size = TOLERANCE * (c0 + h * (c1 + h * c2)) + 1e-300
+                if a_low > 0.0:
+                    bound = min(bound, (size / a_low) ** low)
+                if a_high > 0.0:
+                    bound = min(bound, (size / a_high) ** high)
+            h = SAFETY * bound
+        return h
+
+    def step(self, lo: float, y: tuple[float, float, float], until: float,
+             look_for_separation: bool) -> TaylorStep:
+        """The step from lo (s) at state y = (x, v, P), ending at ``until`` at the latest."""
+        step = TaylorStep(lo, y)
+        sign = self.drag_sign(y)
+        table = self.series(y, sign)
+        h = self._length(table)
+        if not h > 0.0:
+            raise ArithmeticError(f"no Taylor step from t = {lo!r} s at state {y!r}")
+        theta_end = 1.0
+        if lo + h > until:
+            theta_end = (until - lo) / h
+        table *= h ** _POWERS  # coefficients of theta = (tau - lo) / h
+        signals = table[3:] if look_for_separation else table[3:4]  # s r, then lam
+        values = _VANDERMONDE @ signals.T
+        curvatures = np.abs(signals) @ _CURVATURE_WEIGHTS
+        proven = _proven(values, curvatures)
+        end = StepEnd.LENGTH
+        if not (proven.all() and (values[0] >= 0.0).all()):  # else no root on the step
+            for row, kind in enumerate((StepEnd.FLIP, StepEnd.SEPARATION)[:len(signals)]):
+                root = _first_root(signals[row], values[:, row], float(curvatures[row]),
+                                   np.flatnonzero(~proven[:, row]), theta_end)
+                if root is not None:
+                    theta_end, end = root, kind
+        step.h, step.end = h, end
+        step.table = np.ascontiguousarray(table[:3].T)
+        if end is StepEnd.LENGTH:
+            step.hi = until if theta_end < 1.0 else lo + h
+        else:
+            step.hi = lo + theta_end * h
+        x_hi, v_hi, p_hi = step.evaluate(theta_end)
+        if end is StepEnd.FLIP:
+            v_hi = self.u  # exactly: the next step starts from r = 0
+        step.y_hi = (x_hi, v_hi, p_hi)
+        return step

@@ -1,0 +1,290 @@
+"""The exact method's quadratic-drag sticking phase (Taylor steps, solvers/taylor.py) against an
+independent integration: scipy's DOP853 at rtol 1e-12 on the sticking equation written out here,
+
+    (m + M) x'' + c x' + k x = B |u - x'| (u - x'),   contact force lam = drag - M x'',
+
+restarted where u - x' changes sign (the right-hand side is not smooth there), separation where
+lam turns tensile. Positions agree within 1e-9 of their scale, separation times within 1e-9 s.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from iceimpact import Scene, Simulator, SolverError
+from iceimpact.solvers.event import EventSolver, QuadraticStick
+from iceimpact.solvers.taylor import ORDER, StepEnd, StickingTaylor, TaylorStep, horner
+
+RTOL = 1e-12
+
+
+def coefficients(scene: Scene, u: float) -> tuple[float, ...]:
+    return (scene.structure_m, scene.structure_c, scene.structure_k, scene.ice_M,
+            0.5 * scene.fluid_rho * scene.ice_Cd * scene.ice_A, u)
+
+
+def reference(coeffs, x0: float, v0: float, t_end: float, t0: float = 0.0):
+    """Sticking from (x0, v0) at t0 to t_end or separation: (dense pieces, separation or None,
+    the state [x, v, drag impulse] at the end)."""
+    m, c, k, M, B, u = coeffs
+    total = m + M
+    pieces, t, y = [], t0, [x0, v0, 0.0]
+    while True:
+        r0 = u - y[1]
+        if r0 != 0.0:
+            sign = math.copysign(1.0, r0)
+        else:  # at u = v (no drag): the sign u - v takes, that of -x'', or of the third
+            # derivative's opposite where x'' = 0 to rounding
+            accel = (-c * y[1] - k * y[0]) / total
+            jerk = (-c * accel - k * y[1]) / total
+            small = abs(accel) <= 1e-12 * (c * abs(y[1]) + k * abs(y[0])) / total
+            sign = -math.copysign(1.0, jerk if small else accel)
+
+        def rhs(t, y, sign=sign):
+            f = sign * B * (u - y[1]) ** 2
+            return [y[1], (f - c * y[1] - k * y[0]) / total, f]
+
+        def contact(t, y, sign=sign):
+            f = sign * B * (u - y[1]) ** 2
+            return f - M * (f - c * y[1] - k * y[0]) / total
+        contact.terminal, contact.direction = True, -1.0
+
+        def flip(t, y):
+            return u - y[1]
+        flip.terminal, flip.direction = True, -sign
+
+        if contact(t, y) < 0.0:  # tensile already: they part at once
+            return pieces, t, np.array(y)
+        sol = solve_ivp(rhs, (t, t_end), y, method="DOP853", rtol=RTOL,
+                        atol=[1e-18, 1e-16, 1e-13], dense_output=True, events=[contact, flip])
+        assert sol.success
+        pieces.append((t, sol.t[-1], sol.sol))
+        if sol.t_events[0].size:
+            return pieces, float(sol.t_events[0][0]), sol.y_events[0][0]
+        if not sol.t_events[1].size:
+            return pieces, None, sol.y[:, -1]
+        t, y = float(sol.t_events[1][0]), [sol.y_events[1][0][0], u, sol.y_events[1][0][2]]
+
+
+def evaluate(pieces, times):
+    out = []
+    for t in times:
+        for lo, hi, sol in pieces:
+            if lo <= t <= hi:
+                out.append(sol(t))
+                break
+        else:
+            raise AssertionError(f"t = {t} outside the reference")
+    return np.array(out)
+
+
+def segment(scene: Scene, x0: float, v0: float, u: float | None = None) -> QuadraticStick:
+    return QuadraticStick(EventSolver(scene), 0.0, x0, v0, scene.flow_u if u is None else u)
+
+
+def compare(scene: Scene, x0: float, v0: float, t_end: float, dt: float = 1e-2):
+    """Sample the segment every dt to t_end (or its separation); the worst position and velocity
+    errors relative to their scales, the impulse error, the separation times."""
+    coeffs = coefficients(scene, scene.flow_u)
+    pieces, t_sep_ref, _ = reference(coeffs, x0, v0, t_end)
+    seg = segment(scene, x0, v0)
+    t_sep = seg.next_event(t_end)
+    stop = t_end if t_sep is None else t_sep
+    times = np.append(np.arange(dt, stop, dt), stop)
+    if t_sep_ref is not None:
+        times = times[times <= min(stop, t_sep_ref)]
+    got, impulse, before = [], 0.0, 0.0
+    for t in times.tolist():  # as the solver asks: the impulse over a step, the state at its end
+        impulse += seg.impulse(before, t)
+        got.append(seg.state(t)[:2])
+        before = t
+    got = np.array(got)
+    ref = evaluate(pieces, times)
+    impulse_ref = (ref[-1, 2] - scene.ice_M * (ref[-1, 1] - v0))
+    x_err = np.max(np.abs(got[:, 0] - ref[:, 0])) / np.max(np.abs(ref[:, 0]))
+    v_err = np.max(np.abs(got[:, 1] - ref[:, 1])) / np.max(np.abs(ref[:, 1]))
+    i_err = abs(impulse - impulse_ref) / max(abs(impulse_ref), 1e-300)
+    return x_err, v_err, i_err, t_sep, t_sep_ref, seg
+
+
+def figure18_anchor():
+    """The Figure 18 scene (quadratic drag, e = 0.5) and the anchor of its last sticking phase
+    (from 9.77 s on: the bodies stay together)."""
+    scene = Scene(drag_model=2, impact_e=0.5)
+    sim = Simulator(scene)
+    while sim.t < 10.0:
+        sim.advance(0.01)
+    assert sim.sticking_since == pytest.approx(9.768, abs=1e-3)
+    seg = sim.solver.seg
+    assert isinstance(seg, QuadraticStick)
+    return scene, seg.x0, seg.v0
+
+
+def heavy_floe():
+    """A heavy floe (M = 4 m) at u = 2 m/s, started at its equilibrium with a kick: a large
+    swing whose upstream half pulls the structure off the ice."""
+    scene = Scene(drag_model=2, ice_M=6400.0, flow_u=2.0)
+    return scene, scene.drag_B * 4.0 / scene.structure_k, 0.3
+
+
+def lockin_area():
+    """The lock-in scene (A = 2 m^2) released from rest at x = 0: pushed onto its equilibrium."""
+    return Scene(drag_model=2, ice_A=2.0), 0.0, 0.0
+
+
+def faster_than_flow():
+    """Ice faster than a slow flow (v > u: the drag pulls back) on a deflected structure that
+    keeps the contact: u - v changes sign while the bodies stick, then they part."""
+    return Scene(drag_model=2, flow_u=0.01), 1e-3, 0.05
+
+
+def parting_below_the_flow_speed():
+    """Just slower than the flow (u - v = 1 cm/s) and speeding up (x'' > 0) with the drag only
+    just pressing the ice on (B r^2 > M x''): the contact force turns tensile before u - v
+    reaches 0, where it would be -M x'' < 0 (so u - v never turns negative while sticking)."""
+    scene = Scene(drag_model=2)
+    delta = 0.01
+    total = scene.structure_m + scene.ice_M
+    accel = 1e-4 * scene.drag_B * delta ** 2 / scene.ice_M
+    v0 = scene.flow_u - delta
+    x0 = (scene.drag_B * delta ** 2 - scene.structure_c * v0 - total * accel) / scene.structure_k
+    return scene, x0, v0
+
+
+def at_the_flow_speed():
+    """Starting at v = u (no drag) with no acceleration (k x = -c u): the sign u - v takes comes
+    from the third derivative."""
+    scene = Scene(drag_model=2)
+    return scene, -scene.structure_c * scene.flow_u / scene.structure_k, scene.flow_u
+
+
+CASES = {"figure18": (figure18_anchor, 30.0), "heavy_floe": (heavy_floe, 5.0),
+         "lockin_A2": (lockin_area, 20.0), "faster_than_flow": (faster_than_flow, 5.0),
+         "parting_below_flow_speed": (parting_below_the_flow_speed, 5.0),
+         "at_flow_speed": (at_the_flow_speed, 5.0)}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_sticking_agrees_with_an_independent_integration(name):
+    make, t_end = CASES[name]
+    scene, x0, v0 = make()
+    x_err, v_err, i_err, t_sep, t_sep_ref, _ = compare(scene, x0, v0, t_end)
+    assert x_err < 1e-9 and v_err < 1e-9
+    assert i_err < 1e-9
+    assert (t_sep is None) == (t_sep_ref is None)
+    if t_sep is not None:
+        assert abs(t_sep - t_sep_ref) < 1e-9
+
+
+def test_the_cases_cover_separations_and_sign_changes():
+    """What the cases above exercise: separations, and u - v changing sign while sticking."""
+    flips = {}
+    for name, (make, t_end) in CASES.items():
+        scene, x0, v0 = make()
+        seg = segment(scene, x0, v0)
+        separation = seg.next_event(t_end)
+        flips[name] = (sum(s.end is StepEnd.FLIP for s in seg.steps), separation is not None)
+    assert flips["figure18"] == (0, False) and flips["lockin_A2"] == (0, False)
+    assert flips["heavy_floe"][1]
+    assert flips["faster_than_flow"][0] >= 1 and flips["faster_than_flow"][1]
+    assert flips["parting_below_flow_speed"] == (0, True)
+    assert flips["at_flow_speed"][0] == 0
+
+
+def test_a_flow_changing_every_step_against_the_reference():
+    """The Simulator re-anchors the sticking phase at every flow change (zero-order hold):
+    100 steps of 10 ms with a new flow each, then a reversed flow that pulls the ice off."""
+    scene = Scene(drag_model=2, impact_e=0.0)
+    sim = Simulator(scene)
+    while not (sim.sticking and sim.t > 20.0):
+        sim.advance(0.01)
+    x, v = sim.report.x, sim.report.v
+    flows = np.append(0.1 + 0.01 * np.sin(np.arange(100)), -0.2)
+    for i, u in enumerate(flows):
+        t = sim.t
+        rep = sim.advance(0.01, float(u))
+        pieces, t_sep, y = reference(coefficients(scene, float(u)), x, v, t + 0.01, t0=t)
+        if t_sep is not None:
+            assert i == len(flows) - 1 and not rep.sticking
+            # the ice is pulled upstream: they part at once
+            assert t_sep == t and rep.gap > 0.0
+            break
+        assert rep.sticking
+        assert abs(rep.x - y[0]) < 1e-9 * abs(y[0])
+        assert abs(rep.v - y[1]) < 1e-9 * max(abs(y[1]), 1e-3)
+        x, v = rep.x, rep.v
+    else:
+        raise AssertionError("the reversed flow did not separate the bodies")
+
+
+def test_results_do_not_depend_on_the_communication_step():
+    """Steps are taken from the anchor: any sampling gives the same state, to the bit."""
+    scene, x0, v0 = heavy_floe()
+    ends = []
+    for dt in (None, 1e-2, 3.7e-3):
+        seg = segment(scene, x0, v0)
+        t_sep = seg.next_event(5.0)
+        times = [t_sep] if dt is None else list(np.arange(dt, t_sep, dt)) + [t_sep]
+        for t in times:
+            seg.next_event(t)
+            state = seg.state(t)
+        ends.append((t_sep, state))
+    assert ends[0] == ends[1] == ends[2]
+
+
+def test_taylor_coefficients_of_a_known_solution():
+    """Without drag (B = 0) the bodies together are a damped oscillator: the series is that of
+    the closed form, x(t) = e^{-zeta w t} (x0 cos(wd t) + (v0 + zeta w x0) / wd sin(wd t))."""
+    total, c, k = 3200.0, 400.0, 1e6
+    stepper = StickingTaylor(total, c, k, 0.0, 0.1, 1600.0, max_step=1.0)
+    x0, v0 = 1e-3, -0.02
+    step = stepper.step(0.0, (x0, v0, 0.0), math.inf, False)
+    w = math.sqrt(k / total)
+    zeta = c / (2.0 * math.sqrt(k * total))
+    wd = w * math.sqrt(1.0 - zeta ** 2)
+    for tau in np.linspace(0.0, step.hi, 7):
+        exact = math.exp(-zeta * w * tau) * (x0 * math.cos(wd * tau)
+                                             + (v0 + zeta * w * x0) / wd * math.sin(wd * tau))
+        assert step.state(tau)[0] == pytest.approx(exact, rel=1e-14, abs=1e-17)
+    # the step is long: the series is accurate over a large part of a period
+    assert step.hi > 0.2 * 2.0 * math.pi / w
+    assert step.table.shape == (ORDER + 1, 3)
+
+
+def test_pure_drag_decay_has_the_closed_form():
+    """With k = 0 and c = 0 the pair is a free mass under drag: u - v = r0 / (1 + beta r0 t),
+    beta = B / (m + M) (eq. 31-33 with the mass of both bodies)."""
+    total, B, u = 3200.0, 500.0, 0.3
+    stepper = StickingTaylor(total, 0.0, 0.0, B, u, 1600.0, max_step=math.inf)
+    r0 = 0.25
+    tau, y = 0.0, (0.0, u - r0, 0.0)
+    for _ in range(20):
+        step = stepper.step(tau, y, math.inf, False)
+        tau, y = step.hi, step.y_hi
+    beta = B / total
+    assert u - y[1] == pytest.approx(r0 / (1.0 + beta * r0 * tau), rel=1e-13)
+    assert y[0] == pytest.approx(u * tau - math.log1p(beta * r0 * tau) / beta, rel=1e-13)
+
+
+def test_horner():
+    assert horner([1.0, -2.0, 3.0], 0.5) == 1.0 - 1.0 + 0.75
+
+
+def test_steps_that_do_not_advance_the_time_are_refused(monkeypatch):
+    """A sticking phase whose Taylor steps stop advancing the time ends in a SolverError (the
+    step is refused and changes nothing), not in an endless loop."""
+    sim = Simulator(Scene(drag_model=2, ice_z0=0.0, ice_v0=0.0))  # in contact at rest: sticks
+    sim.advance(0.01)
+    assert sim.sticking
+    saved = sim.save()
+
+    def stalled(self, lo, y, until, look_for_separation):
+        step = TaylorStep(lo, y)
+        step.end = StepEnd.FLIP
+        return step
+    monkeypatch.setattr(StickingTaylor, "step", stalled)
+    with pytest.raises(SolverError, match="stalled"):
+        sim.advance(0.01, 0.2)  # a new flow: a new sticking segment, whose steps stall
+    assert sim.save()["solver"] == saved["solver"]
