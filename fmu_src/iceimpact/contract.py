@@ -151,6 +151,15 @@ PARAMETERS: tuple[Variable, ...] = (
           "2 = external, in another FMU (inputs structure.x_in, v_in, a_in; structure.m is its "
           "effective mass at the contact point; c, x0, v0 are ignored)", STRUCTURE_BUILTIN,
           {STRUCTURE_BUILTIN: "built-in SDOF", STRUCTURE_EXTERNAL: "external"}),
+    # Morison loads on the structure (docs/morison.md): each term is off while its product is 0
+    _real("structure.Ca", "1", "Morison added-mass coefficient of the structure: added mass "
+          "fluid.rho Ca V moves with it (0 = off)", 0.0, **_NON_NEGATIVE),
+    _real("structure.V", "m3", "displaced volume of the structure (added mass fluid.rho Ca V)",
+          0.0, **_NON_NEGATIVE),
+    _real("structure.Cd", "1", "Morison drag coefficient of the structure: drag "
+          "fluid.rho Cd A |u - v| (u - v) / 2 under drag.model (0 = off)", 0.0, **_NON_NEGATIVE),
+    _real("structure.A", "m2", "projected area of the structure facing the flow (drag)", 0.0,
+          **_NON_NEGATIVE),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..physics.ice import make_drag
-from ..physics.structure import Oscillator
+from ..physics.structure import DraggedStructure, Oscillator, morison_oscillator
 from ..scene import Scene
 from .base import Solver, SolverError, State
 from .contact_rules import (
@@ -36,6 +36,7 @@ from .contact_rules import (
     Outcome,
     Phase,
     Together,
+    make_together,
     reanchor_on_flow_change,
     separates,
     sticking_contact_force,
@@ -61,6 +62,7 @@ class _SearchedSegment:
     anchor values named by ``ANCHOR``, the search start and its frontier (Flight, LinearStick)."""
 
     ANCHOR: tuple[str, ...] = ()
+    _SEARCHED_KEYS = ("phase", "t0", "anchor", "start", "search")
 
     def snapshot(self, tau: float) -> dict[str, Any]:
         return {"phase": self.phase.value, "t0": self.t0,
@@ -70,7 +72,7 @@ class _SearchedSegment:
     @classmethod
     def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
         """Validate a :meth:`snapshot` record; return the function that builds the segment."""
-        rec.expect_keys(("phase", "t0", "anchor", "start", "search"))
+        rec.expect_keys(cls._SEARCHED_KEYS)
         t0 = rec.real("t0", low=0.0)
         anchor = rec.reals("anchor", len(cls.ANCHOR))
         start = rec.real("start", low=0.0)
@@ -91,7 +93,7 @@ class Flight(_SearchedSegment):
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
-        self.osc = solver.osc
+        self.osc = solver.structure_osc(u)
         self.drag = solver.drag
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
@@ -127,8 +129,116 @@ class Flight(_SearchedSegment):
         return 0.0  # no contact force in flight
 
 
+#: Tolerances of the integration of the structure's flight under the quadratic Morison drag.
+DRAGGED_RTOL = 1e-12
+DRAGGED_ATOL = (1e-15, 1e-15)  # x - x0 (m), v (m/s)
+#: At most this many integration chunks of such a flight are saved in a snapshot.
+_MAX_FLIGHT_CHUNKS = 8
+
+
+class DraggedFlight(Flight):
+    """Flight with the quadratic Morison drag on the structure (docs/morison.md), which has no
+    closed form: the structure's increment ``[x - x0, v]`` is integrated with DOP853 (rtol 1e-12)
+    in chunks of fixed length from the anchor (so results do not depend on the communication
+    step), the ice keeps its closed form. The root search is the same as :class:`Flight`'s: its
+    bounds on the gap's second and third derivatives for all later times come from the
+    structure's equation of motion (:meth:`DraggedStructure.bounds`, a non-growing energy of
+    (v, x'')) and the ice's ``accel_bounds``; the values are the dense output's, so no root is
+    skipped beyond the integration's accuracy."""
+
+    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
+                 w0: float, u: float, start: float = 0.0):
+        self.structure = solver.dragged_structure
+        period = 2.0 * math.pi / math.sqrt(solver.k / solver.m)
+        self.chunk = min(max(0.05, 2.0 * period), 5.0)  # s, fixed from the anchor
+        self.hi = 0.0
+        self.y_hi = np.array([0.0, v0])
+        self.chunks: list[_Chunk] = []
+        super().__init__(solver, t0, x0, v0, z0, w0, u, start)
+
+    def _rhs(self, tau: float, y: np.ndarray) -> list[float]:
+        return [y[1], self.structure.acceleration(self.x0 + y[0], y[1], self.u)]
+
+    def _integrate(self, lo: float, y_lo: np.ndarray):
+        res = solve_ivp(self._rhs, (lo, lo + self.chunk), y_lo, method="DOP853",
+                        rtol=DRAGGED_RTOL, atol=DRAGGED_ATOL, dense_output=True)
+        if not res.success:
+            raise SolverError(f"integration of the structure's flight failed at t = "
+                              f"{self.t0 + lo}: {res.message}")
+        return res
+
+    def _structure(self, tau: float) -> tuple[float, float]:
+        """x - x0 (m) and v (m/s) at tau (s from the anchor)."""
+        while tau > self.hi:
+            res = self._integrate(self.hi, self.y_hi)
+            self.chunks.append(_Chunk(self.hi, self.hi + self.chunk, self.y_hi, res.sol))
+            self.hi, self.y_hi = self.hi + self.chunk, res.y[:, -1]
+        if tau <= 0.0:
+            return 0.0, self.v0
+        for chunk in reversed(self.chunks):
+            if chunk.lo <= tau <= chunk.hi:
+                if chunk.sol is None:  # restored from a snapshot: the same call, the same output
+                    chunk.sol = self._integrate(chunk.lo, chunk.y_lo).sol
+                y = chunk.sol(tau)
+                return float(y[0]), float(y[1])
+        raise SolverError(f"the structure's flight is not integrated at t = {self.t0 + tau}")
+
+    def state(self, tau: float) -> tuple[float, float, float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        # the solver never looks back before its current time: drop chunks that end before it
+        while len(self.chunks) > 1 and self.chunks[0].hi < tau:
+            self.chunks.pop(0)
+        return self.x0 + dx, v, self.z0 + dz, w
+
+    def gap(self, tau: float) -> float:
+        dx, _ = self._structure(tau)
+        dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
+        return self.gap0 + (dx - dz)
+
+    def probe(self, tau: float) -> tuple[float, float, float, float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        a_x, a_x_max, j_x_max = self.structure.bounds(self.x0 + dx, v, self.u)
+        a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
+        return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
+
+    def snapshot(self, tau: float) -> dict[str, Any]:
+        data = super().snapshot(tau)
+        chunks = [c for c in self.chunks if c.hi >= tau] or self.chunks[-1:]
+        data.update({"hi": self.hi, "y_hi": _floats(self.y_hi),
+                     "chunks": [[c.lo, c.hi, _floats(c.y_lo)] for c in chunks]})
+        return data
+
+    _EXTRA = ("hi", "y_hi", "chunks")
+
+    @classmethod
+    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
+        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
+        rec.expect_keys(cls._SEARCHED_KEYS + cls._EXTRA)
+        flight = Record({k: v for k, v in rec.data.items() if k not in cls._EXTRA}, rec.path)
+        make_flight = super().read(solver, flight, u)
+        hi = rec.real("hi", low=0.0)
+        y_hi = rec.reals("y_hi", 2)
+        chunks = []
+        for i, item in enumerate(rec.items("chunks", _MAX_FLIGHT_CHUNKS)):
+            entry = _entry(item, f"{rec.field('chunks')}[{i}]", ("lo", "hi", "y_lo"))
+            lo, chunk_hi = entry.real("lo", low=0.0), entry.real("hi", low=0.0, high=hi)
+            if chunk_hi < lo:
+                raise StateError(entry.field("hi"), chunk_hi, f">= lo = {lo!r}")
+            chunks.append((lo, chunk_hi, entry.reals("y_lo", 2)))
+
+        def make() -> DraggedFlight:
+            seg = make_flight()
+            seg.hi, seg.y_hi = hi, np.array(y_hi)
+            seg.chunks = [_Chunk(lo, c_hi, np.array(y_lo), None) for lo, c_hi, y_lo in chunks]
+            return seg
+        return make
+
+
 class LinearStick(_SearchedSegment):
-    """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k)."""
+    """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k;
+    with the Morison terms on the structure, m is m + m_a and b_s adds to b: docs/morison.md)."""
 
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
@@ -140,8 +250,9 @@ class LinearStick(_SearchedSegment):
         self.b = solver.drag.b
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
         self.start = start
-        self.osc = Oscillator(solver.m + solver.M, solver.c + self.b, solver.k,
-                              offset=self.b * u / solver.k)
+        b_s = solver.structure_b  # linearised drag on the structure (0 when off)
+        self.osc = Oscillator(solver.m + solver.M, solver.c + self.b + b_s, solver.k,
+                              offset=(self.b + b_s) * u / solver.k)
         self.search = RootSearch(self.probe, self.force, start, _time_eps(t0))
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
@@ -215,8 +326,9 @@ class QuadraticStick:
         self.m, self.c, self.k, self.M = solver.m, solver.c, solver.k, solver.M
         self.drag = solver.drag
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
-        self.together = Together(self.m, self.c, self.k, self.M, self.drag, u,
-                                 inertia_from_net=False)
+        self.together = make_together(self.m, self.c, self.k, self.M, self.drag, u,
+                                      inertia_from_net=False,
+                                      structure_drag=solver.structure_drag)
         self._separation_event = _Separation(self.together)
         period = 2.0 * math.pi / math.sqrt(self.k / (self.m + self.M))
         self.chunk = min(max(0.05, 2.0 * period), 5.0)  # s, fixed from the anchor
@@ -372,6 +484,15 @@ class EventSolver(Solver):
         super().__init__(scene, record_impacts)
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
+        # Morison drag on the structure (docs/morison.md): linearised, a damping b_s and an offset
+        # b_s u / k of the closed form (structure_osc); quadratic, an integrated flight
+        # (DraggedFlight). Off: b_s = 0 and the flight is today's closed form.
+        drag_s = self.structure_drag
+        self.structure_b = drag_s.b if drag_s is not None and not drag_s.quadratic else 0.0
+        self.dragged_structure = (DraggedStructure(self.m, self.c, self.k, drag_s)
+                                  if drag_s is not None and drag_s.quadratic else None)
+        self._flight_cls = Flight if self.dragged_structure is None else DraggedFlight
+        self._osc_by_flow: tuple[float, Oscillator] | None = None
         self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels, EXACT_POLICY)
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
@@ -381,8 +502,30 @@ class EventSolver(Solver):
         self._begin(0.0, s.x, s.v, s.z, s.w, self.u)  # an impact at t = 0 goes to the 1st step
 
     # segment construction -----------------------------------------------------------------------
+    def structure_osc(self, u: float) -> Oscillator:
+        """The structure's closed form in a flow of speed u: the oscillator of m, c, k, with the
+        linearised Morison drag's damping and offset when it is on (the last one is kept)."""
+        if not self.structure_b:
+            return self.osc
+        if self._osc_by_flow is None or self._osc_by_flow[0] != u:
+            self._osc_by_flow = (u, morison_oscillator(self.m, self.c, self.k,
+                                                       self.structure_b, u))
+        return self._osc_by_flow[1]
+
+    def _structure_bounds(self, x: float, v: float, u: float) -> tuple[float, float, float]:
+        """The structure's acceleration and bounds on |x''| and |x'''| for all later times."""
+        if self.dragged_structure is not None:
+            return self.dragged_structure.bounds(x, v, u)
+        osc = self.structure_osc(u)
+        a_x, j_x, s_x = osc.derivatives(x, v)
+        return a_x, osc.amplitude_bound(a_x, j_x), osc.amplitude_bound(j_x, s_x)
+
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
-        return self.osc.acceleration(x, v), self.drag.accel_bounds(w, u)[0]
+        if self.dragged_structure is not None:
+            a_x = self.dragged_structure.acceleration(x, v, u)
+        else:
+            a_x = self.structure_osc(u).acceleration(x, v)
+        return a_x, self.drag.accel_bounds(w, u)[0]
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
                reanchor: bool = False) -> None:
@@ -402,7 +545,7 @@ class EventSolver(Solver):
             self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
 
     def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
-        self.seg = Flight(self, t, x, v, z, w, u, start)
+        self.seg = self._flight_cls(self, t, x, v, z, w, u, start)
         self._set_sticking(False, t)
 
     def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
@@ -414,11 +557,11 @@ class EventSolver(Solver):
         curvature g2 = -lam / mu > 0, J a bound on |g'''|).
         """
         opening = v - w
-        a_x, j_x, s_x = self.osc.derivatives(x, v)
+        a_x, a_x_max, j_x_max = self._structure_bounds(x, v, u)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, u)
         curvature = a_x - a_z
-        acc_bound = self.osc.amplitude_bound(a_x, j_x) + a_z_max
-        jerk_bound = self.osc.amplitude_bound(j_x, s_x) + j_z_max
+        acc_bound = a_x_max + a_z_max
+        jerk_bound = j_x_max + j_z_max
         start = 0.0
         if opening > 0.0 and acc_bound > 0.0:
             start = opening / acc_bound
@@ -491,7 +634,7 @@ class EventSolver(Solver):
         if (phase == Phase.STICK.value) != rec.data["sticking"]:
             raise StateError(seg_rec.field("phase"), phase, "stick exactly when sticking is true")
         if phase == Phase.FLIGHT.value:
-            cls = Flight
+            cls = self._flight_cls
         else:
             cls = QuadraticStick if self.drag.quadratic else LinearStick
         make_segment = cls.read(self, seg_rec, u)
