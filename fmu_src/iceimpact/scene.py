@@ -278,10 +278,13 @@ def _structure_drag_rate(scene: Scene, speed: float) -> float | None:
 
 def _check_structure_drag_rate(scene: Scene, speed: float, name: str) -> None:
     """Refuse a Morison drag on the structure too stiff for the explicit integrators (the same
-    DRAG_RATE_MAX as the ice's drag); ``speed`` is the relative speed it acts at (m/s)."""
+    DRAG_RATE_MAX as the ice's drag); ``speed`` is the relative speed it acts at (m/s), named
+    ``name`` (the quadratic law's rate grows with it; the linearised one's is a constant)."""
     rate = _structure_drag_rate(scene, speed)
     if rate is not None and rate > DRAG_RATE_MAX:
-        raise ParameterError(name, speed if scene.drag_model == QUADRATIC_DRAG else rate,
+        quadratic = scene.drag_model == QUADRATIC_DRAG
+        raise ParameterError(name if quadratic else "B_s * drag.v_lin / (structure.m + m_a)",
+                             speed if quadratic else rate,
                              f"a Morison drag rate on the structure <= {DRAG_RATE_MAX:g} 1/s "
                              f"with drag.model = {scene.drag_model} and solver.method = "
                              f"{scene.solver_method} (rate {rate:.3g} 1/s: 2 B_s |speed| / "
