@@ -132,8 +132,6 @@ class Flight(_SearchedSegment):
 #: Tolerances of the integration of the structure's flight under the quadratic Morison drag.
 DRAGGED_RTOL = 1e-12
 DRAGGED_ATOL = (1e-15, 1e-15)  # x - x0 (m), v (m/s)
-#: At most this many integration chunks of such a flight are saved in a snapshot.
-_MAX_FLIGHT_CHUNKS = 8
 
 
 class DraggedFlight(Flight):
@@ -155,6 +153,8 @@ class DraggedFlight(Flight):
         self.y_hi = np.array([0.0, v0])
         self.chunks: list[_Chunk] = []
         super().__init__(solver, t0, x0, v0, z0, w0, u, start)
+        # a search step never asks for the flight more than a chunk past its frontier
+        self.search.max_step = self.chunk
 
     def _rhs(self, tau: float, y: np.ndarray) -> list[float]:
         return [y[1], self.structure.acceleration(self.x0 + y[0], y[1], self.u)]
@@ -204,34 +204,28 @@ class DraggedFlight(Flight):
         return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
 
     def snapshot(self, tau: float) -> dict[str, Any]:
+        # The chunk holding tau is enough: integrated again from its start, it and the chunks
+        # after it come out the same, to the last bit (the solver never looks back before tau).
+        chunk = next((c for c in self.chunks if c.hi >= tau), None)
+        lo, y_lo = (chunk.lo, chunk.y_lo) if chunk is not None else (self.hi, self.y_hi)
         data = super().snapshot(tau)
-        chunks = [c for c in self.chunks if c.hi >= tau] or self.chunks[-1:]
-        data.update({"hi": self.hi, "y_hi": _floats(self.y_hi),
-                     "chunks": [[c.lo, c.hi, _floats(c.y_lo)] for c in chunks]})
+        data["integrated"] = {"lo": lo, "y_lo": _floats(y_lo)}
         return data
-
-    _EXTRA = ("hi", "y_hi", "chunks")
 
     @classmethod
     def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
         """Validate a :meth:`snapshot` record; return the function that builds the segment."""
-        rec.expect_keys(cls._SEARCHED_KEYS + cls._EXTRA)
-        flight = Record({k: v for k, v in rec.data.items() if k not in cls._EXTRA}, rec.path)
+        rec.expect_keys(cls._SEARCHED_KEYS + ("integrated",))
+        flight = Record({k: v for k, v in rec.data.items() if k != "integrated"}, rec.path)
         make_flight = super().read(solver, flight, u)
-        hi = rec.real("hi", low=0.0)
-        y_hi = rec.reals("y_hi", 2)
-        chunks = []
-        for i, item in enumerate(rec.items("chunks", _MAX_FLIGHT_CHUNKS)):
-            entry = _entry(item, f"{rec.field('chunks')}[{i}]", ("lo", "hi", "y_lo"))
-            lo, chunk_hi = entry.real("lo", low=0.0), entry.real("hi", low=0.0, high=hi)
-            if chunk_hi < lo:
-                raise StateError(entry.field("hi"), chunk_hi, f">= lo = {lo!r}")
-            chunks.append((lo, chunk_hi, entry.reals("y_lo", 2)))
+        integrated = rec.record("integrated")
+        integrated.expect_keys(("lo", "y_lo"))
+        lo = integrated.real("lo", low=0.0)
+        y_lo = integrated.reals("y_lo", 2)
 
         def make() -> DraggedFlight:
             seg = make_flight()
-            seg.hi, seg.y_hi = hi, np.array(y_hi)
-            seg.chunks = [_Chunk(lo, c_hi, np.array(y_lo), None) for lo, c_hi, y_lo in chunks]
+            seg.hi, seg.y_hi, seg.chunks = lo, np.array(y_lo), []
             return seg
         return make
 
