@@ -123,7 +123,7 @@ CELLS: tuple[Cell, ...] = (
     # Morison loads on the structure (docs/morison.md); method 2 has no closed form for the
     # quadratic drag on the structure and refuses it
     Cell("Morison: 1 m leg (Ca, V, Cd, A)", PILE, refused=((2, 2),)),
-    Cell("Morison: m_a = 10 m, e = 0.5 (sticks)",
+    Cell("Morison: m_a = 10 m, e = 0.5",
          {**PILE, "structure_V": 16000.0 / 999.0, "impact_e": 0.5}, refused=((2, 2),)),
     Cell("Morison: u = 0, structure drag over-damps", {"flow_u": 0.0, "structure_Cd": 1.0,
                                                        "structure_A": 1.0e4},
@@ -336,7 +336,10 @@ def _summary(r: CellResult) -> str:
     if not r.finished and r.notes and r.notes[0].startswith("refused"):
         return "refused (ParameterError, no closed form)"
     bad = failures(r)
-    parts = [("**FAIL: " + "; ".join(bad) + "**") if bad else "ok",
+    known = r.cell.known.get((r.drag, r.method))
+    verdict = ("ok" if not bad else f"known limitation: {known}" if bad == [known]
+               else "**FAIL: " + "; ".join(bad) + "**")
+    parts = [verdict,
              f"{r.impacts} imp." + (", sticks" if r.sticking else "")]
     if r.method == 2 and r.min_gap < 0:
         parts.append(f"pen. {-r.min_gap:.1e} m")

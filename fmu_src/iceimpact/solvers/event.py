@@ -134,11 +134,24 @@ DRAGGED_RTOL = 1e-12
 DRAGGED_ATOL = (1e-15, 1e-15)  # x - x0 (m), v (m/s)
 
 
+class _FlightChunk:
+    """One solve_ivp call of an integrated flight: from ``lo`` (state ``y_lo``) to ``hi`` =
+    ``lo + length``, its dense output ``sol``."""
+
+    __slots__ = ("lo", "hi", "y_lo", "sol", "length")
+
+    def __init__(self, lo: float, hi: float, y_lo: np.ndarray, sol: object | None,
+                 length: float):
+        self.lo, self.hi, self.y_lo, self.sol, self.length = lo, hi, y_lo, sol, length
+
+
 class DraggedFlight(Flight):
     """Flight with the quadratic Morison drag on the structure (docs/morison.md), which has no
     closed form: the structure's increment ``[x - x0, v]`` is integrated with DOP853 (rtol 1e-12)
-    in chunks of fixed length from the anchor (so results do not depend on the communication
-    step), the ice keeps its closed form. The root search is the same as :class:`Flight`'s: its
+    in chunks fixed from the anchor (so results do not depend on the communication step): the
+    first 1/128 of the longest, each one twice the previous, up to 2 periods (0.05 to 5 s), so
+    that the short bounces of a chatter integrate little beyond their end. The ice keeps its
+    closed form. The root search is the same as :class:`Flight`'s: its
     bounds on the gap's second and third derivatives for all later times come from the
     structure's equation of motion (:meth:`DraggedStructure.bounds`, a non-growing energy of
     (v, x'')) and the ice's ``accel_bounds``; the values are the dense output's, so no root is
@@ -147,20 +160,26 @@ class DraggedFlight(Flight):
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
         self.structure = solver.dragged_structure
-        period = 2.0 * math.pi / math.sqrt(solver.k / solver.m)
-        self.chunk = min(max(0.05, 2.0 * period), 5.0)  # s, fixed from the anchor
-        self.hi = 0.0
+        self.chunk = self.longest_chunk(solver)
+        self.hi = 0.0                       # integrated up to here, s from the anchor
         self.y_hi = np.array([0.0, v0])
-        self.chunks: list[_Chunk] = []
+        self.next_length = self.chunk / 128.0  # of the chunk from hi, s
+        self.chunks: list[_FlightChunk] = []
         super().__init__(solver, t0, x0, v0, z0, w0, u, start)
         # a search step never asks for the flight more than a chunk past its frontier
         self.search.max_step = self.chunk
 
+    @staticmethod
+    def longest_chunk(solver: EventSolver) -> float:
+        """Longest integration chunk, s: 2 natural periods, 0.05 to 5 s."""
+        period = 2.0 * math.pi / math.sqrt(solver.k / solver.m)
+        return min(max(0.05, 2.0 * period), 5.0)
+
     def _rhs(self, tau: float, y: np.ndarray) -> list[float]:
         return [y[1], self.structure.acceleration(self.x0 + y[0], y[1], self.u)]
 
-    def _integrate(self, lo: float, y_lo: np.ndarray):
-        res = solve_ivp(self._rhs, (lo, lo + self.chunk), y_lo, method="DOP853",
+    def _integrate(self, lo: float, hi: float, y_lo: np.ndarray):
+        res = solve_ivp(self._rhs, (lo, hi), y_lo, method="DOP853",
                         rtol=DRAGGED_RTOL, atol=DRAGGED_ATOL, dense_output=True)
         if not res.success:
             raise SolverError(f"integration of the structure's flight failed at t = "
@@ -170,15 +189,17 @@ class DraggedFlight(Flight):
     def _structure(self, tau: float) -> tuple[float, float]:
         """x - x0 (m) and v (m/s) at tau (s from the anchor)."""
         while tau > self.hi:
-            res = self._integrate(self.hi, self.y_hi)
-            self.chunks.append(_Chunk(self.hi, self.hi + self.chunk, self.y_hi, res.sol))
-            self.hi, self.y_hi = self.hi + self.chunk, res.y[:, -1]
+            hi = self.hi + self.next_length
+            res = self._integrate(self.hi, hi, self.y_hi)
+            self.chunks.append(_FlightChunk(self.hi, hi, self.y_hi, res.sol, self.next_length))
+            self.hi, self.y_hi = hi, res.y[:, -1]
+            self.next_length = min(2.0 * self.next_length, self.chunk)
         if tau <= 0.0:
             return 0.0, self.v0
         for chunk in reversed(self.chunks):
             if chunk.lo <= tau <= chunk.hi:
                 if chunk.sol is None:  # restored from a snapshot: the same call, the same output
-                    chunk.sol = self._integrate(chunk.lo, chunk.y_lo).sol
+                    chunk.sol = self._integrate(chunk.lo, chunk.hi, chunk.y_lo).sol
                 y = chunk.sol(tau)
                 return float(y[0]), float(y[1])
         raise SolverError(f"the structure's flight is not integrated at t = {self.t0 + tau}")
@@ -206,10 +227,14 @@ class DraggedFlight(Flight):
     def snapshot(self, tau: float) -> dict[str, Any]:
         # The chunk holding tau is enough: integrated again from its start, it and the chunks
         # after it come out the same, to the last bit (the solver never looks back before tau).
+        # (lengths: the chunk's own, then doubling as before)
         chunk = next((c for c in self.chunks if c.hi >= tau), None)
-        lo, y_lo = (chunk.lo, chunk.y_lo) if chunk is not None else (self.hi, self.y_hi)
+        if chunk is None:
+            lo, y_lo, length = self.hi, self.y_hi, self.next_length
+        else:
+            lo, y_lo, length = chunk.lo, chunk.y_lo, chunk.length
         data = super().snapshot(tau)
-        data["integrated"] = {"lo": lo, "y_lo": _floats(y_lo)}
+        data["integrated"] = {"lo": lo, "y_lo": _floats(y_lo), "length": length}
         return data
 
     @classmethod
@@ -219,13 +244,17 @@ class DraggedFlight(Flight):
         flight = Record({k: v for k, v in rec.data.items() if k != "integrated"}, rec.path)
         make_flight = super().read(solver, flight, u)
         integrated = rec.record("integrated")
-        integrated.expect_keys(("lo", "y_lo"))
+        integrated.expect_keys(("lo", "y_lo", "length"))
         lo = integrated.real("lo", low=0.0)
         y_lo = integrated.reals("y_lo", 2)
+        longest = cls.longest_chunk(solver)
+        length = integrated.real("length", low=0.0, high=longest)
+        if length <= 0.0:
+            raise StateError(integrated.field("length"), length, f"in (0, {longest!r}] s")
 
         def make() -> DraggedFlight:
             seg = make_flight()
-            seg.hi, seg.y_hi, seg.chunks = lo, np.array(y_lo), []
+            seg.hi, seg.y_hi, seg.next_length, seg.chunks = lo, np.array(y_lo), length, []
             return seg
         return make
 
