@@ -210,6 +210,14 @@ def test_unsupported_or_meaningless_morison_scenes_are_refused(changes, name, sa
     assert info.value.name == name and says in str(info.value)
 
 
+def test_a_flow_whose_structure_drag_overflows_is_refused():
+    # b_s = 5e156 kg/s: b_s u overflows while the ice's drag and kinetic energy do not
+    scene = Scene(**{**PILE, "structure_A": 1e155}, drag_model=1, solver_method=2)
+    with pytest.raises(ParameterError) as info:
+        Simulator(scene).advance(1e-3, 1e152)
+    assert info.value.name == "flow.u" and "drag force on the structure" in str(info.value)
+
+
 def test_a_flow_too_fast_for_the_structure_drag_is_refused_during_the_run():
     sim = Simulator(Scene(**{**PILE, "structure_A": 100.0}, drag_model=2, solver_method=1))
     with pytest.raises(ParameterError) as info:

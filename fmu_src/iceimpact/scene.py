@@ -242,6 +242,11 @@ def validate_flow(u: Any, scene: Scene | None = None) -> float:
             limit = DRAG_RATE_MAX * scene.ice_M / (2.0 * scene.drag_B)
             raise ParameterError(FLOW_INPUT.name, u, _drag_rate_text(scene, limit, "|flow.u|"))
         if scene.structure_drag_on:
+            force = (scene.structure_drag_B * u * u if scene.drag_model == QUADRATIC_DRAG
+                     else scene.structure_drag_b * u)
+            if not math.isfinite(force):
+                raise ParameterError(FLOW_INPUT.name, u, "a flow speed whose Morison drag force "
+                                     "on the structure is finite (" + _OVERFLOW + ")")
             _check_structure_drag_rate(scene, abs(u), FLOW_INPUT.name)
     return u
 
