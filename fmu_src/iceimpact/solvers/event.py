@@ -188,7 +188,7 @@ class DraggedFlight(Flight):
 
     def _structure(self, tau: float) -> tuple[float, float]:
         """x - x0 (m) and v (m/s) at tau (s from the anchor)."""
-        while tau > self.hi:
+        while tau > self.hi or (not self.chunks and tau > 0.0):  # (restored: none yet)
             hi = self.hi + self.next_length
             res = self._integrate(self.hi, hi, self.y_hi)
             self.chunks.append(_FlightChunk(self.hi, hi, self.y_hi, res.sol, self.next_length))
