@@ -503,6 +503,13 @@ class EventSolver(Solver):
 
     name = "exact"
 
+    # no Morison drag on the structure unless __init__ finds it (subclasses with their own
+    # structure, such as the external one, keep these)
+    structure_b = 0.0
+    dragged_structure: DraggedStructure | None = None
+    _flight_cls: type[Flight] = Flight
+    _osc_by_flow: tuple[float, Oscillator] | None = None
+
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
         self.osc = Oscillator(self.m, self.c, self.k)
