@@ -95,6 +95,26 @@ def test_static_offset_under_quadratic_drag(method):
     assert res.x[-1] == pytest.approx(expected, rel=1e-8)
 
 
+@pytest.mark.parametrize(("method", "drag"), [(1, 1), (1, 2), (3, 1), (3, 2), (2, 1)])
+def test_sticking_equilibrium_and_contact_force(method, drag):
+    """Bodies at rest together in the flow: k x = F_ice + F_s (both drags push), while the contact
+    force is the ice's drag alone (the structure's own drag acts on it directly)."""
+    u = 0.3
+    scene = Scene(**PILE, impact_e=0.0, structure_c=4.0e4, flow_u=u, drag_model=drag,
+                  solver_method=method, solver_detection=2, solver_rtol=1e-10)
+    B, B_s = 0.5 * RHO * scene.ice_Cd * scene.ice_A, 0.5 * RHO * scene.structure_Cd * 1.0
+    if drag == 2:
+        f_ice, f_s = B * u * u, B_s * u * u
+    else:
+        f_ice, f_s = B * scene.drag_v_lin * u, B_s * scene.drag_v_lin * u
+    sim = Simulator(scene)
+    sim.advance_to(20.0)
+    report = sim.advance(0.5)
+    assert report.sticking
+    assert report.x == pytest.approx((f_ice + f_s) / scene.structure_k, rel=1e-6)
+    assert report.force == pytest.approx(f_ice, rel=1e-6)
+
+
 # -- energy balance --------------------------------------------------------------------------------
 
 def _trapezoid(y: np.ndarray, t: np.ndarray) -> float:
