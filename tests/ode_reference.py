@@ -1,9 +1,11 @@
 """An independent integration of the model with scipy ``solve_ivp``: the check on the exact solver.
 
-Shares no code with ``iceimpact``: the equations of motion (eq. 3-4, 8), the impact law (eq. 16-17)
-and the gap event are written out again here. Used by the tests (DOP853, rtol 1e-12) and as the
-speed baseline of ``benchmarks/core_speed.py`` (rtol 1e-10). It stops at the first impact that
-would start a Zeno sequence (closing speed below ``min_closing``), which it cannot handle.
+Shares no code with ``iceimpact``: the equations of motion (eq. 3-4, 8, with the Morison added
+mass and drag on the structure when a scene asks for them), the impact law (eq. 16-17, the added
+mass moving with the structure) and the gap event are written out again here. Used by the tests
+(DOP853, rtol 1e-12) and as the speed baseline of ``benchmarks/core_speed.py`` (rtol 1e-10). It
+stops at the first impact that would start a Zeno sequence (closing speed below ``min_closing``),
+which it cannot handle.
 """
 
 from __future__ import annotations
@@ -21,10 +23,15 @@ def simulate(scene, t_end: float, max_impacts: int = 10**9, rtol: float = 1e-12,
     ``approach`` and the count of right-hand-side evaluations ``nfev``. ``t0`` and ``y0``
     (x, v, z, w) start it from another state than the scene's initial one.
     """
-    m, c, k = scene.structure_m, scene.structure_c, scene.structure_k
+    rho = scene.fluid_rho
+    # the added mass rho Ca V moves with the structure (docs/morison.md)
+    m = scene.structure_m + rho * scene.structure_Ca * scene.structure_V
+    c, k = scene.structure_c, scene.structure_k
     M, e, u = scene.ice_M, scene.impact_e, scene.flow_u
-    B = 0.5 * scene.fluid_rho * scene.ice_Cd * scene.ice_A
+    B = 0.5 * rho * scene.ice_Cd * scene.ice_A
     b = B * scene.drag_v_lin
+    B_s = 0.5 * rho * scene.structure_Cd * scene.structure_A  # drag on the structure
+    b_s = B_s * scene.drag_v_lin
     quadratic = scene.drag_model == 2
 
     def rhs(t, y):
@@ -32,6 +39,14 @@ def simulate(scene, t_end: float, max_impacts: int = 10**9, rtol: float = 1e-12,
         r = w - u
         drag = -B * abs(r) * r if quadratic else -b * r
         return [v, -(c * v + k * x) / m, w, drag / M]
+
+    if B_s > 0.0:
+        def rhs(t, y):  # noqa: F811 (the flow drags the structure too)
+            x, v, z, w = y
+            r, r_s = w - u, u - v
+            drag = -B * abs(r) * r if quadratic else -b * r
+            drag_s = B_s * abs(r_s) * r_s if quadratic else b_s * r_s
+            return [v, (drag_s - c * v - k * x) / m, w, drag / M]
 
     def gap(t, y):
         return y[0] - y[2]

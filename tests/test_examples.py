@@ -10,6 +10,7 @@ print its tables and write one PNG per figure group and its JSON summary. The FM
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -145,3 +146,18 @@ def test_ice_on_tower_quick_mode(fmu: Path, tmp_path: Path) -> None:
     assert tower["1st step impulse (N.s)"] == pytest.approx(local["1st step impulse (N.s)"],
                                                              rel=1e-9)
     assert abs(first["1st step impulse (N.s)"] / tower["1st step impulse (N.s)"] - 1.0) > 0.1
+
+
+def test_morison_effect_script_runs(tmp_path: Path) -> None:
+    """``examples/morison_effect.py`` over 5 s: a table row per scene and variant, the PNG, and
+    the wet natural frequency sqrt(k / (m + rho Ca V)) where the added mass is on."""
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "morison_effect.py"), "--t-end", "5",
+         "--out", str(tmp_path)],
+        capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    rows = [line for line in proc.stdout.splitlines() if line.startswith("| Figure")]
+    assert len(rows) == 8
+    wet = f"{(1.0e6 / (1600.0 + 999.0 * math.pi / 4)) ** 0.5:.2f}"
+    assert [row.split("|")[3].strip() for row in rows] == ["25.00", wet, "25.00", wet] * 2
+    assert (tmp_path / "morison_effect.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -158,6 +158,15 @@ PARAMETERS: tuple[Variable, ...] = (
           "(both step from the same values, the structure feels a step's force over the next "
           "step: ECOS, libcosim). Ignored with the built-in structure", SCHEME_GAUSS_SEIDEL,
           {SCHEME_GAUSS_SEIDEL: "Gauss-Seidel, ice first", SCHEME_JACOBI: "Jacobi"}),
+    # Morison loads on the structure (docs/morison.md): each term is off while its product is 0
+    _real("structure.Ca", "1", "Morison added-mass coefficient of the structure: added mass "
+          "fluid.rho Ca V moves with it (0 = off)", 0.0, **_NON_NEGATIVE),
+    _real("structure.V", "m3", "displaced volume of the structure (added mass fluid.rho Ca V)",
+          0.0, **_NON_NEGATIVE),
+    _real("structure.Cd", "1", "Morison drag coefficient of the structure: drag "
+          "fluid.rho Cd A |u - v| (u - v) / 2 under drag.model (0 = off)", 0.0, **_NON_NEGATIVE),
+    _real("structure.A", "m2", "projected area of the structure facing the flow (drag)", 0.0,
+          **_NON_NEGATIVE),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).

@@ -96,6 +96,10 @@ class Scene:
     structure_v_in: float = _START["structure_v_in"]
     structure_a_in: float = _START["structure_a_in"]
     coupling_scheme: int = _START["coupling_scheme"]
+    structure_Ca: float = _START["structure_Ca"]
+    structure_V: float = _START["structure_V"]
+    structure_Cd: float = _START["structure_Cd"]
+    structure_A: float = _START["structure_A"]
 
     def __post_init__(self) -> None:
         validate(self)
@@ -112,14 +116,46 @@ class Scene:
         return self.drag_B * self.drag_v_lin
 
     @property
+    def added_mass(self) -> float:
+        """Morison added mass m_a = rho Ca V of the structure, kg (0: off; docs/morison.md)."""
+        return self.fluid_rho * self.structure_Ca * self.structure_V
+
+    @property
+    def structure_mass(self) -> float:
+        """Mass that moves with the structure, m + m_a, kg: its inertia in eq. 8 and in the
+        impact law (eq. 12-17), the added mass moving with it (docs/morison.md)."""
+        return self.structure_m + self.added_mass
+
+    @property
+    def structure_drag_B(self) -> float:
+        """Quadratic Morison drag constant of the structure B_s = rho Cd_s A_s / 2, kg/m."""
+        return 0.5 * self.fluid_rho * self.structure_Cd * self.structure_A
+
+    @property
+    def structure_drag_b(self) -> float:
+        """Linearised drag constant of the structure b_s = B_s drag.v_lin, kg/s."""
+        return self.structure_drag_B * self.drag_v_lin
+
+    @property
+    def structure_drag_on(self) -> bool:
+        """The flow drags the structure (structure.Cd structure.A > 0)."""
+        return self.structure_drag_B > 0.0
+
+    @property
+    def morison_on(self) -> bool:
+        """Either Morison term on the structure is on (added mass or drag)."""
+        return self.added_mass > 0.0 or self.structure_drag_on
+
+    @property
     def omega_n(self) -> float:
-        """Natural circular frequency sqrt(k/m) of the structure, rad/s."""
-        return math.sqrt(self.structure_k / self.structure_m)
+        """Natural circular frequency sqrt(k / (m + m_a)) of the structure, rad/s (sqrt(k/m)
+        without added mass)."""
+        return math.sqrt(self.structure_k / self.structure_mass)
 
     @property
     def zeta(self) -> float:
-        """Damping ratio c / (2 sqrt(k m)) of the structure."""
-        return self.structure_c / (2.0 * math.sqrt(self.structure_k * self.structure_m))
+        """Damping ratio c / (2 sqrt(k (m + m_a))) of the structure (structural damping only)."""
+        return self.structure_c / (2.0 * math.sqrt(self.structure_k * self.structure_mass))
 
     def replace(self, **changes: Any) -> Scene:
         """A copy with some fields changed (validated again)."""
@@ -213,6 +249,13 @@ def validate_flow(u: Any, scene: Scene | None = None) -> float:
         if _integrates_quadratic_drag(scene) and _drag_rate(scene, abs(u)) > DRAG_RATE_MAX:
             limit = DRAG_RATE_MAX * scene.ice_M / (2.0 * scene.drag_B)
             raise ParameterError(FLOW_INPUT.name, u, _drag_rate_text(scene, limit, "|flow.u|"))
+        if scene.structure_drag_on:
+            force = (scene.structure_drag_B * u * u if scene.drag_model == QUADRATIC_DRAG
+                     else scene.structure_drag_b * u)
+            if not math.isfinite(force):
+                raise ParameterError(FLOW_INPUT.name, u, "a flow speed whose Morison drag force "
+                                     "on the structure is finite (" + _OVERFLOW + ")")
+            _check_structure_drag_rate(scene, abs(u), FLOW_INPUT.name)
     return u
 
 
@@ -232,6 +275,36 @@ def _drag_rate_text(scene: Scene, limit: float, what: str) -> str:
             f"{scene.solver_method}: the drag rate 2 B {what} / ice.M must stay <= "
             f"{DRAG_RATE_MAX:g} 1/s, the stiffest the explicit integration of the drag "
             f"finishes in bounded time (B = fluid.rho ice.Cd ice.A / 2 = {scene.drag_B:.6g} kg/m)")
+
+
+def _structure_drag_rate(scene: Scene, speed: float) -> float | None:
+    """Relaxation rate of the Morison drag on the structure that a method integrates (1/s):
+    2 B_s speed / (m + m_a) with quadratic drag (methods 1 and 3), b_s / (m + m_a) with the
+    linearised drag (method 3); None where closed forms carry it."""
+    s = scene
+    if s.drag_model == QUADRATIC_DRAG and s.solver_method in (METHOD_EXACT, METHOD_ODE):
+        return 2.0 * s.structure_drag_B * speed / s.structure_mass
+    if s.drag_model == LINEAR_DRAG and s.solver_method == METHOD_ODE:
+        return s.structure_drag_b / s.structure_mass
+    return None
+
+
+def _check_structure_drag_rate(scene: Scene, speed: float, name: str) -> None:
+    """Refuse a Morison drag on the structure too stiff for the explicit integrators (the same
+    DRAG_RATE_MAX as the ice's drag); ``speed`` is the relative speed it acts at (m/s), named
+    ``name`` (the quadratic law's rate grows with it; the linearised one's is a constant)."""
+    rate = _structure_drag_rate(scene, speed)
+    if rate is not None and rate > DRAG_RATE_MAX:
+        quadratic = scene.drag_model == QUADRATIC_DRAG
+        raise ParameterError(name if quadratic else "B_s * drag.v_lin / (structure.m + m_a)",
+                             speed if quadratic else rate,
+                             f"a Morison drag rate on the structure <= {DRAG_RATE_MAX:g} 1/s "
+                             f"with drag.model = {scene.drag_model} and solver.method = "
+                             f"{scene.solver_method} (rate {rate:.3g} 1/s: 2 B_s |speed| / "
+                             "(m + m_a) quadratic, b_s / (m + m_a) linearised, B_s = "
+                             f"fluid.rho structure.Cd structure.A / 2 = "
+                             f"{scene.structure_drag_B:.6g} kg/m): the explicit integration of "
+                             "the drag finishes in bounded time only below it")
 
 
 def _check_work(scene: Scene) -> None:
@@ -262,6 +335,9 @@ def _check_work(scene: Scene) -> None:
                                  f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the "
                                  "explicit integration of the drag finishes in bounded time "
                                  "only below this rate")
+    if s.structure_drag_on:
+        _check_structure_drag_rate(s, max(abs(s.flow_u), abs(s.flow_u - s.structure_v0)),
+                                   "max(|flow.u|, |flow.u - structure.v0|)")
 
 
 #: The explicit Euler step of the quadratic drag (eq. 36) maps r = w - u to r (1 - q |r|) with
@@ -306,12 +382,27 @@ def _check_scales(scene: Scene) -> None:
     s = scene
     linear = s.drag_model == LINEAR_DRAG
     b = s.drag_b if linear else 0.0  # the linearised drag constant only matters for drag law 1
-    zeta = _ratio(s.structure_c, 2.0 * math.sqrt(s.structure_k * s.structure_m))
-    zeta_together = _ratio(s.structure_c + b,
-                           2.0 * math.sqrt(s.structure_k * (s.structure_m + s.ice_M)))
+    b_s = s.structure_drag_b if linear else 0.0  # the structure's, likewise (0 when off)
+    mass = s.structure_mass  # m + m_a: m when the added mass is off
+    zeta = _ratio(s.structure_c + b_s, 2.0 * math.sqrt(s.structure_k * mass))
+    zeta_together = _ratio(s.structure_c + b + b_s,
+                           2.0 * math.sqrt(s.structure_k * (mass + s.ice_M)))
+    added = s.added_mass > 0.0
+    morison = [
+        ("fluid.rho * structure.Ca * structure.V", s.added_mass,
+         "the added mass m_a (kg) finite", False),
+        ("fluid.rho * structure.Cd * structure.A / 2", s.structure_drag_B,
+         "the structure's drag constant B_s (kg/m) finite", False),
+        ("B_s / (structure.m + m_a)", s.structure_drag_B / mass,
+         "the structure's drag rate B_s/(m + m_a) (1/m) finite", False),
+        ("B_s * drag.v_lin / (structure.m + m_a)", b_s / mass,
+         "the structure's drag rate b_s/(m + m_a) (1/s) finite", False),
+    ] if s.morison_on else []
     checks = [
-        ("structure.k / structure.m", s.structure_k / s.structure_m,
-         "omega_n^2 = k/m (1/s^2) finite and > 0", True),
+        *morison,
+        ("structure.k / structure.m" if not added else "structure.k / (structure.m + m_a)",
+         s.structure_k / mass, "omega_n^2 = k/m (1/s^2) finite and > 0" if not added else
+         "omega_n^2 = k/(m + m_a) (1/s^2) finite and > 0", True),
         ("structure.c / structure.m", s.structure_c / s.structure_m, "c/m (1/s) finite", False),
         ("fluid.rho * ice.Cd * ice.A / 2", s.drag_B, "the drag constant B (kg/m) finite", False),
         ("B / ice.M", s.drag_B / s.ice_M, "the drag rate B/M (1/m) finite", False),
@@ -323,7 +414,7 @@ def _check_scales(scene: Scene) -> None:
          "the squared damping ratio of the bodies moving together finite", False),
         ("structure.k * structure.x0^2 / 2", 0.5 * s.structure_k * s.structure_x0 * s.structure_x0,
          "the initial strain energy (J) finite", False),
-        ("structure.m * structure.v0^2 / 2", 0.5 * s.structure_m * s.structure_v0 * s.structure_v0,
+        ("structure.m * structure.v0^2 / 2", 0.5 * mass * s.structure_v0 * s.structure_v0,
          "the initial kinetic energy of the structure (J) finite", False),
         ("ice.M * ice.v0^2 / 2", 0.5 * s.ice_M * s.ice_v0 * s.ice_v0,
          "the initial kinetic energy of the ice (J) finite", False),
@@ -338,6 +429,23 @@ def _ratio(a: float, b: float) -> float:
     return a / b if b != 0.0 else (math.inf if a != 0.0 else 0.0)
 
 
+def _check_morison(scene: Scene) -> None:
+    """Combinations the Morison loads on the structure do not support (docs/morison.md)."""
+    s = scene
+    if s.external and s.morison_on:
+        name, value = (("structure.Ca", s.structure_Ca) if s.added_mass != 0.0
+                       else ("structure.Cd", s.structure_Cd))
+        raise ParameterError(name, value, "0 with structure.model = 2: the external structure's "
+                             "fluid loads (added mass, drag) belong to the FMU that models it")
+    if (s.solver_method == METHOD_FIXED_STEP and s.drag_model == QUADRATIC_DRAG
+            and s.structure_drag_on):
+        raise ParameterError("structure.Cd", s.structure_Cd,
+                             "0 (or structure.A = 0) with drag.model = 2 and solver.method = 2: "
+                             "the article's fixed-step scheme keeps the structure in closed "
+                             "form, and the quadratic drag on it has none; use solver.method = "
+                             "1 or 3, or drag.model = 1")
+
+
 def validate(scene: Scene) -> None:
     """Raise :class:`ParameterError` for the first parameter outside its allowed range, then for
     combinations whose derived scales overflow (see :func:`_check_scales`)."""
@@ -350,6 +458,7 @@ def validate(scene: Scene) -> None:
         raise ParameterError("structure.model", scene.structure_model,
                              f"1 with solver.method = {scene.solver_method}: the external "
                              "structure (structure.model = 2) needs solver.method = 1 (exact)")
+    _check_morison(scene)
     if scene.ice_z0 > scene.structure_x0 and not scene.external:
         raise ParameterError("ice.z0", scene.ice_z0,
                              f"<= structure.x0 = {scene.structure_x0!r} (the ice starts upstream)")

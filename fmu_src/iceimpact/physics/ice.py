@@ -9,6 +9,9 @@ With r = w - u the velocity relative to the flow and u constant:
 
 The article integrates the quadratic law with explicit Euler (eq. 34-36); the closed form above is
 exact. Both hold for any sign of r0 and for u = 0; with no drag (Cd = 0) the ice coasts.
+
+The same laws give the Morison drag on the structure (:func:`make_structure_drag`, off unless a
+scene asks for it; docs/morison.md).
 """
 
 from __future__ import annotations
@@ -160,3 +163,15 @@ def make_drag(scene) -> LinearDrag | QuadraticDrag:
     if scene.drag_model == 2:
         return QuadraticDrag(scene.ice_M, scene.drag_B)
     return LinearDrag(scene.ice_M, scene.drag_b)
+
+
+def make_structure_drag(scene) -> LinearDrag | QuadraticDrag | None:
+    """Morison drag of the flow on the structure under ``drag.model``, None when off (structure.Cd
+    structure.A = 0; docs/morison.md). The same law as the ice's, on the structure's velocity v
+    and mass m + m_a: ``F_s = B_s |u - v| (u - v)`` (quadratic) or ``b_s (u - v)`` (linearised),
+    B_s = rho Cd_s A_s / 2, b_s = B_s v_lin."""
+    if not scene.structure_drag_on:
+        return None
+    if scene.drag_model == 2:
+        return QuadraticDrag(scene.structure_mass, scene.structure_drag_B)
+    return LinearDrag(scene.structure_mass, scene.structure_drag_b)

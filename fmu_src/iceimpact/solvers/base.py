@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..physics.contact import Impact
+from ..physics.ice import make_structure_drag
 from ..scene import Scene
 from .contact_rules import sticking_start
 from .state import STATE_VERSION, Record, StateError, check_version
@@ -67,7 +68,11 @@ class Solver:
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         self.scene = scene
-        self.m = scene.structure_m
+        # the mass moving with the structure: m + m_a with the Morison added mass (eq. 8 and the
+        # impact law, docs/morison.md), exactly m without it
+        self.m = scene.structure_mass
+        #: Morison drag of the flow on the structure (same law as the ice's), None when off
+        self.structure_drag = make_structure_drag(scene)
         self.c = scene.structure_c
         self.k = scene.structure_k
         self.M = scene.ice_M

@@ -213,6 +213,42 @@ class Together:
         return float((yb[2] - ya[2]) - self.M * (yb[1] - ya[1]))
 
 
+class TogetherWithStructureDrag(Together):
+    """Bodies moving together with the Morison drag on the structure as well (docs/morison.md):
+    ``(m + m_a + M) x'' + c x' + k x = F_drag(x') + F_s(x')``, ``m`` being m + m_a. The contact
+    force stays the drag on the ice minus the ice's inertia, and the integrated impulse ``P`` the
+    ice's drag impulse: the structure's drag acts on the structure, not through the contact."""
+
+    __slots__ = ("structure_drag",)
+
+    def __init__(self, m: float, c: float, k: float, M: float, drag, u: float,
+                 inertia_from_net: bool, structure_drag):
+        super().__init__(m, c, k, M, drag, u, inertia_from_net)
+        self.structure_drag = structure_drag
+
+    def __call__(self, t: float, y) -> list[float]:
+        f = self.drag.force(y[1], self.u)
+        f_s = self.structure_drag.force(y[1], self.u)
+        return [y[1], (f + f_s - self.c * y[1] - self.k * y[0]) / self.total, f]
+
+    def contact_force(self, y) -> float:
+        x, v = y[0], y[1]
+        f = self.drag.force(v, self.u)
+        net = f + self.structure_drag.force(v, self.u) - self.c * v - self.k * x
+        if self.inertia_from_net:
+            return sticking_contact_force(f, self.M * net / self.total)
+        return sticking_contact_force(f, self.M * (net / self.total))
+
+
+def make_together(m: float, c: float, k: float, M: float, drag, u: float, inertia_from_net: bool,
+                  structure_drag=None) -> Together:
+    """The sticking phase's equations: :class:`Together`, or :class:`TogetherWithStructureDrag`
+    when the flow drags the structure (``structure_drag`` not None)."""
+    if structure_drag is None:
+        return Together(m, c, k, M, drag, u, inertia_from_net)
+    return TogetherWithStructureDrag(m, c, k, M, drag, u, inertia_from_net, structure_drag)
+
+
 def sticking_start(was_sticking: bool, since: float | None, sticking: bool,
                    t: float) -> float | None:
     """Start time of the sticking phase (s) after a segment starting at t: kept while the bodies

@@ -27,9 +27,10 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from scipy.integrate import solve_ivp
 
 from ..physics.ice import make_drag
-from ..physics.structure import Oscillator
+from ..physics.structure import DraggedStructure, Oscillator, morison_oscillator
 from ..scene import Scene
 from .base import Solver, SolverError, State
 from .contact_rules import (
@@ -38,6 +39,7 @@ from .contact_rules import (
     Outcome,
     Phase,
     Together,
+    make_together,
     reanchor_on_flow_change,
     separates,
     sticking_contact_force,
@@ -72,6 +74,9 @@ class _SearchedSegment:
     ANCHOR: tuple[str, ...] = ()
     #: a contact force acts during the segment (its impulse is not zero)
     PUSHES = False
+    #: marching changes nothing in the segment but its search frontier, so a checkpoint of the
+    #: frontier undoes a step (:meth:`EventSolver.checkpoint`)
+    FRONTIER_ONLY = True
 
     def anchor(self) -> tuple[float, ...]:
         return tuple(getattr(self, name) for name in self.ANCHOR)
@@ -86,6 +91,7 @@ class _SearchedSegment:
                       tau_b: np.ndarray) -> np.ndarray:
         """Vectorised :meth:`impulse`, as :meth:`state_array`."""
         return np.zeros(np.shape(tau_a))
+    _SEARCHED_KEYS = ("phase", "t0", "anchor", "start", "search")
 
     def snapshot(self, tau: float) -> dict[str, Any]:
         return {"phase": self.phase.value, "t0": self.t0,
@@ -95,7 +101,7 @@ class _SearchedSegment:
     @classmethod
     def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
         """Validate a :meth:`snapshot` record; return the function that builds the segment."""
-        rec.expect_keys(("phase", "t0", "anchor", "start", "search"))
+        rec.expect_keys(cls._SEARCHED_KEYS)
         t0 = rec.real("t0", low=0.0)
         anchor = rec.reals("anchor", len(cls.ANCHOR))
         start = rec.real("start", low=0.0)
@@ -118,7 +124,7 @@ class Flight(_SearchedSegment):
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
-        self.osc = solver.osc
+        self.osc = solver.structure_osc(u)
         self.drag = solver.drag
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
@@ -177,8 +183,147 @@ class Flight(_SearchedSegment):
         return 0.0  # no contact force in flight
 
 
+#: Tolerances of the integration of the structure's flight under the quadratic Morison drag.
+DRAGGED_RTOL = 1e-12
+DRAGGED_ATOL = (1e-15, 1e-15)  # x - x0 (m), v (m/s)
+
+
+class _FlightChunk:
+    """One solve_ivp call of an integrated flight: from ``lo`` (state ``y_lo``) to ``hi`` =
+    ``lo + length``, its dense output ``sol``."""
+
+    __slots__ = ("lo", "hi", "y_lo", "sol", "length")
+
+    def __init__(self, lo: float, hi: float, y_lo: np.ndarray, sol: object | None,
+                 length: float):
+        self.lo, self.hi, self.y_lo, self.sol, self.length = lo, hi, y_lo, sol, length
+
+
+class DraggedFlight(Flight):
+    """Flight with the quadratic Morison drag on the structure (docs/morison.md), which has no
+    closed form: the structure's increment ``[x - x0, v]`` is integrated with DOP853 (rtol 1e-12)
+    in chunks fixed from the anchor (so results do not depend on the communication step): the
+    first 1/128 of the longest, each one twice the previous, up to 2 periods (0.05 to 5 s), so
+    that the short bounces of a chatter integrate little beyond their end. The ice keeps its
+    closed form. The root search is the same as :class:`Flight`'s: its
+    bounds on the gap's second and third derivatives for all later times come from the
+    structure's equation of motion (:meth:`DraggedStructure.bounds`, a non-growing energy of
+    (v, x'')) and the ice's ``accel_bounds``; the values are the dense output's, so no root is
+    skipped beyond the integration's accuracy."""
+
+    FRONTIER_ONLY = False  # its integration chunks change while marching
+    state_array = None     # no closed form: sampled point by point
+
+    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
+                 w0: float, u: float, start: float = 0.0):
+        self.structure = solver.dragged_structure
+        self.chunk = self.longest_chunk(solver)
+        self.hi = 0.0                       # integrated up to here, s from the anchor
+        self.y_hi = np.array([0.0, v0])
+        self.next_length = self.chunk / 128.0  # of the chunk from hi, s
+        self.chunks: list[_FlightChunk] = []
+        super().__init__(solver, t0, x0, v0, z0, w0, u, start)
+        # a search step never asks for the flight more than a chunk past its frontier
+        self.search.max_step = self.chunk
+
+    @staticmethod
+    def longest_chunk(solver: EventSolver) -> float:
+        """Longest integration chunk, s: 2 natural periods, 0.05 to 5 s."""
+        period = 2.0 * math.pi / math.sqrt(solver.k / solver.m)
+        return min(max(0.05, 2.0 * period), 5.0)
+
+    def _rhs(self, tau: float, y: np.ndarray) -> list[float]:
+        return [y[1], self.structure.acceleration(self.x0 + y[0], y[1], self.u)]
+
+    def _integrate(self, lo: float, hi: float, y_lo: np.ndarray):
+        res = solve_ivp(self._rhs, (lo, hi), y_lo, method="DOP853",
+                        rtol=DRAGGED_RTOL, atol=DRAGGED_ATOL, dense_output=True)
+        if not res.success:
+            raise SolverError(f"integration of the structure's flight failed at t = "
+                              f"{self.t0 + lo}: {res.message}")
+        return res
+
+    def _structure(self, tau: float) -> tuple[float, float]:
+        """x - x0 (m) and v (m/s) at tau (s from the anchor)."""
+        while tau > self.hi or (not self.chunks and tau > 0.0):  # (restored: none yet)
+            hi = self.hi + self.next_length
+            res = self._integrate(self.hi, hi, self.y_hi)
+            self.chunks.append(_FlightChunk(self.hi, hi, self.y_hi, res.sol, self.next_length))
+            self.hi, self.y_hi = hi, res.y[:, -1]
+            self.next_length = min(2.0 * self.next_length, self.chunk)
+        if tau <= 0.0:
+            return 0.0, self.v0
+        for chunk in reversed(self.chunks):
+            if chunk.lo <= tau <= chunk.hi:
+                if chunk.sol is None:  # restored from a snapshot: the same call, the same output
+                    chunk.sol = self._integrate(chunk.lo, chunk.hi, chunk.y_lo).sol
+                y = chunk.sol(tau)
+                return float(y[0]), float(y[1])
+        raise SolverError(f"the structure's flight is not integrated at t = {self.t0 + tau}")
+
+    def state(self, tau: float) -> tuple[float, float, float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        # the solver never looks back before its current time: drop chunks that end before it
+        while len(self.chunks) > 1 and self.chunks[0].hi < tau:
+            self.chunks.pop(0)
+        return self.x0 + dx, v, self.z0 + dz, w
+
+    def gap(self, tau: float) -> float:
+        dx, _ = self._structure(tau)
+        dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
+        return self.gap0 + (dx - dz)
+
+    def gap_and_rate(self, tau: float) -> tuple[float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        return self.gap0 + (dx - dz), v - w
+
+    def probe(self, tau: float) -> tuple[float, float, float, float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        a_x, a_x_max, j_x_max = self.structure.bounds(self.x0 + dx, v, self.u)
+        a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
+        return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
+
+    def snapshot(self, tau: float) -> dict[str, Any]:
+        # The chunk holding tau is enough: integrated again from its start, it and the chunks
+        # after it come out the same, to the last bit (the solver never looks back before tau).
+        # (lengths: the chunk's own, then doubling as before)
+        chunk = next((c for c in self.chunks if c.hi >= tau), None)
+        if chunk is None:
+            lo, y_lo, length = self.hi, self.y_hi, self.next_length
+        else:
+            lo, y_lo, length = chunk.lo, chunk.y_lo, chunk.length
+        data = super().snapshot(tau)
+        data["integrated"] = {"lo": lo, "y_lo": _floats(y_lo), "length": length}
+        return data
+
+    @classmethod
+    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
+        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
+        rec.expect_keys(cls._SEARCHED_KEYS + ("integrated",))
+        flight = Record({k: v for k, v in rec.data.items() if k != "integrated"}, rec.path)
+        make_flight = super().read(solver, flight, u)
+        integrated = rec.record("integrated")
+        integrated.expect_keys(("lo", "y_lo", "length"))
+        lo = integrated.real("lo", low=0.0)
+        y_lo = integrated.reals("y_lo", 2)
+        longest = cls.longest_chunk(solver)
+        length = integrated.real("length", low=0.0, high=longest)
+        if length <= 0.0:
+            raise StateError(integrated.field("length"), length, f"in (0, {longest!r}] s")
+
+        def make() -> DraggedFlight:
+            seg = make_flight()
+            seg.hi, seg.y_hi, seg.next_length, seg.chunks = lo, np.array(y_lo), length, []
+            return seg
+        return make
+
+
 class LinearStick(_SearchedSegment):
-    """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k)."""
+    """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k;
+    with the Morison terms on the structure, m is m + m_a and b_s adds to b: docs/morison.md)."""
 
     __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search")
     phase = Phase.STICK
@@ -192,8 +337,9 @@ class LinearStick(_SearchedSegment):
         self.b = solver.drag.b
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
         self.start = start
-        self.osc = Oscillator(solver.m + solver.M, solver.c + self.b, solver.k,
-                              offset=self.b * u / solver.k)
+        b_s = solver.structure_b  # linearised drag on the structure (0 when off)
+        self.osc = Oscillator(solver.m + solver.M, solver.c + self.b + b_s, solver.k,
+                              offset=(self.b + b_s) * u / solver.k)
         self.search = RootSearch(start, _time_eps(t0))
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
@@ -263,8 +409,9 @@ class QuadraticStick:
                  start: float = 0.0):
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
         self.start = start
-        self.together = Together(solver.m, solver.c, solver.k, solver.M, solver.drag, u,
-                                 inertia_from_net=False)
+        self.together = make_together(solver.m, solver.c, solver.k, solver.M, solver.drag, u,
+                                      inertia_from_net=False,
+                                      structure_drag=solver.structure_drag)
         self.taylor = _sticking_taylor(self.together)
         self.steps: list[TaylorStep] = []  # from the one holding the current time on
         self.separation: float | None = None
@@ -379,10 +526,17 @@ class QuadraticStick:
 
 def _sticking_taylor(together: Together) -> StickingTaylor:
     """The Taylor stepper for the sticking equation of ``together`` (its masses, damping,
-    stiffness, drag constant and flow speed); steps at most one period of the bodies together."""
+    stiffness, drag constants on the ice and, with the Morison terms, on the structure, and flow
+    speed); steps at most one period of the bodies together."""
     period = 2.0 * math.pi / math.sqrt(together.k / together.total)
+    structure_drag = getattr(together, "structure_drag", None)  # Morison drag on the structure
     return StickingTaylor(together.total, together.c, together.k, together.drag.B, together.u,
-                          together.M, max_step=period)
+                          together.M, max_step=period,
+                          structure_B=0.0 if structure_drag is None else structure_drag.B)
+
+
+def _floats(y) -> list[float]:
+    return [float(c) for c in y]
 
 
 def _entry(item: Any, field: str, names: tuple[str, ...]) -> Record:
@@ -477,10 +631,26 @@ class EventSolver(Solver):
 
     name = "exact"
 
+    # no Morison drag on the structure unless __init__ finds it (subclasses with their own
+    # structure, such as the external one, keep these)
+    structure_b = 0.0
+    dragged_structure: DraggedStructure | None = None
+    _flight_cls: type[Flight] = Flight
+    _osc_by_flow: tuple[float, Oscillator] | None = None
+
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
+        # Morison drag on the structure (docs/morison.md): linearised, a damping b_s and an offset
+        # b_s u / k of the closed form (structure_osc); quadratic, an integrated flight
+        # (DraggedFlight). Off: b_s = 0 and the flight is today's closed form.
+        drag_s = self.structure_drag
+        self.structure_b = drag_s.b if drag_s is not None and not drag_s.quadratic else 0.0
+        self.dragged_structure = (DraggedStructure(self.m, self.c, self.k, drag_s)
+                                  if drag_s is not None and drag_s.quadratic else None)
+        self._flight_cls = Flight if self.dragged_structure is None else DraggedFlight
+        self._osc_by_flow: tuple[float, Oscillator] | None = None
         self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels, EXACT_POLICY)
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
@@ -490,8 +660,30 @@ class EventSolver(Solver):
         self._begin(0.0, s.x, s.v, s.z, s.w, self.u)  # an impact at t = 0 goes to the 1st step
 
     # segment construction -----------------------------------------------------------------------
+    def structure_osc(self, u: float) -> Oscillator:
+        """The structure's closed form in a flow of speed u: the oscillator of m, c, k, with the
+        linearised Morison drag's damping and offset when it is on (the last one is kept)."""
+        if not self.structure_b:
+            return self.osc
+        if self._osc_by_flow is None or self._osc_by_flow[0] != u:
+            self._osc_by_flow = (u, morison_oscillator(self.m, self.c, self.k,
+                                                       self.structure_b, u))
+        return self._osc_by_flow[1]
+
+    def _structure_bounds(self, x: float, v: float, u: float) -> tuple[float, float, float]:
+        """The structure's acceleration and bounds on |x''| and |x'''| for all later times."""
+        if self.dragged_structure is not None:
+            return self.dragged_structure.bounds(x, v, u)
+        osc = self.structure_osc(u)
+        a_x, j_x, s_x = osc.derivatives(x, v)
+        return a_x, osc.amplitude_bound(a_x, j_x), osc.amplitude_bound(j_x, s_x)
+
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
-        return self.osc.acceleration(x, v), self.drag.accel_bounds(w, u)[0]
+        if self.dragged_structure is not None:
+            a_x = self.dragged_structure.acceleration(x, v, u)
+        else:
+            a_x = self.structure_osc(u).acceleration(x, v)
+        return a_x, self.drag.accel_bounds(w, u)[0]
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
                reanchor: bool = False) -> None:
@@ -511,7 +703,7 @@ class EventSolver(Solver):
             self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
 
     def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
-        self.seg = Flight(self, t, x, v, z, w, u, start)
+        self.seg = self._flight_cls(self, t, x, v, z, w, u, start)
         self._set_sticking(False, t)
 
     def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
@@ -528,10 +720,10 @@ class EventSolver(Solver):
             # the search's first stretch from 0 proves the opening: g(0) = 0, g'(0) = s > 0
             self._fly(t, x, v, x, w, u, 0.0)
             return
-        a_x, j_x, s_x = self.osc.derivatives(x, v)
+        a_x, _, j_x_max = self._structure_bounds(x, v, u)
         a_z, _, j_z_max = self.drag.accel_bounds(w, u)
         curvature = a_x - a_z
-        jerk_bound = self.osc.amplitude_bound(j_x, s_x) + j_z_max
+        jerk_bound = j_x_max + j_z_max
         start = 0.0
         if curvature > 0.0 and jerk_bound > 0.0:
             start = 2.0 * curvature / jerk_bound
@@ -613,7 +805,7 @@ class EventSolver(Solver):
         horizon = t_list[-1]
         while i < n:
             seg = self.seg
-            if not hasattr(seg, "state_array"):  # no closed form: march to this sample
+            if getattr(seg, "state_array", None) is None:  # no closed form: march to this sample
                 targets.append(i)
                 values.append(self._march(t_list[i], u))
                 out.set(i, self.state, self.sticking)
@@ -648,7 +840,7 @@ class EventSolver(Solver):
         linear sticking phase changes nothing else while marching (a quadratic one, with its
         Taylor steps, takes a full snapshot)."""
         seg = self.seg
-        if not isinstance(seg, _SearchedSegment):
+        if not isinstance(seg, _SearchedSegment) or not seg.FRONTIER_ONLY:
             return super().checkpoint()
         search = seg.search
         degenerate = self.rules.degenerate
@@ -686,7 +878,7 @@ class EventSolver(Solver):
         if (phase == Phase.STICK.value) != rec.data["sticking"]:
             raise StateError(seg_rec.field("phase"), phase, "stick exactly when sticking is true")
         if phase == Phase.FLIGHT.value:
-            cls = Flight
+            cls = self._flight_cls
         else:
             cls = QuadraticStick if self.drag.quadratic else LinearStick
         make_segment = cls.read(self, seg_rec, u)

@@ -52,7 +52,7 @@ import numpy as np
 
 from ..physics.contact import Impact, impact, impact_impulse
 from ..physics.ice import make_drag
-from ..physics.structure import Oscillator
+from ..physics.structure import Oscillator, morison_oscillator
 from ..scene import DETECTION_WINDOW, EULER_STABILITY_LIMIT, Scene
 from .base import Solver, SolverError, State
 from .state import Record, StateError
@@ -106,15 +106,30 @@ class FixedStepSolver(Solver):
         super().__init__(scene, record_impacts)
         self.dt = scene.solver_dt
         self.window = scene.solver_detection == DETECTION_WINDOW
-        self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
         self.u = scene.flow_u
+        self.osc = self._oscillator(self.u)
         self.pinned = False
         self.pin_x = 0.0
         self._chunk = CHUNK_MIN
         self.max_penetration = 0.0      # deepest z - x at a detected impact, m (diagnostic)
         s = self.state
         self._anchor(0.0, s.x, s.v, s.z, s.w)
+
+    def _oscillator(self, u: float) -> Oscillator:
+        """The structure's closed form (eq. 9-10) in a flow of speed u: with the linearised
+        Morison drag on it (docs/morison.md), a damping b_s and an offset b_s u / k; the scene
+        refuses the quadratic one for this method (no closed form)."""
+        if self.structure_drag is None:
+            return Oscillator(self.m, self.c, self.k)
+        return morison_oscillator(self.m, self.c, self.k, self.structure_drag.b, u)
+
+    def _pin_force(self) -> float:
+        """The constant contact force of the steady state (eq. 28), N: the ice's drag k x
+        (without the drag on the structure, which acts on it directly)."""
+        if self.structure_drag is None:
+            return self.k * self.pin_x
+        return self.drag.force(0.0, self.u)
 
     # grid bookkeeping ----------------------------------------------------------------------------
     def _anchor(self, t: float, x: float, v: float, z: float, w: float) -> None:
@@ -130,7 +145,10 @@ class FixedStepSolver(Solver):
     def _pin(self, t: float) -> None:
         """Steady state of eq. 27-29: k x = F_drag(0)."""
         self.pinned = True
-        self.pin_x = self.drag.force(0.0, self.u) / self.k
+        force = self.drag.force(0.0, self.u)
+        if self.structure_drag is not None:  # the flow drags the structure as well
+            force += self.structure_drag.force(0.0, self.u)
+        self.pin_x = force / self.k
         self._set_sticking(True, t)
 
     def _release(self, t: float) -> None:
@@ -301,6 +319,8 @@ class FixedStepSolver(Solver):
         if u != self.u:  # zero-order hold: a new grid starts at the change
             s = self.state
             self.u = u
+            if self.structure_drag is not None:
+                self.osc = self._oscillator(u)
             if self.pinned:
                 self._release(t_now)
             else:
@@ -311,7 +331,7 @@ class FixedStepSolver(Solver):
             impulse += self._march(n_end)
             n_end = math.floor((t_end - self.t_a) / self.dt + GRID_SLACK)
         if self.pinned:  # constant contact force k x = F since the pin (eq. 28)
-            impulse += self.k * self.pin_x * (t_end - max(t_now, self.sticking_since))
+            impulse += self._pin_force() * (t_end - max(t_now, self.sticking_since))
         self.state = self._state_at(t_end)
         return impulse
 
@@ -354,6 +374,7 @@ class FixedStepSolver(Solver):
 
         def apply() -> None:
             self.u, self.pinned, self.pin_x = u, pinned, pin_x
+            self.osc = self._oscillator(u)
             self._chunk, self.max_penetration = chunk, max_penetration
             self.t_a, self.anchor, self.n, self.grid = t_a, anchor, n, grid
             self._buf, self._buf_start = None, start

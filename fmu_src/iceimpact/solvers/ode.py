@@ -1,10 +1,12 @@
 """Method 3, ODE: the general path, ``scipy.integrate.solve_ivp`` with the gap as an event.
 
 This is the integration a user would write by hand. In flight the state ``[x, v, z, w]`` obeys
-``m x'' + c x' + k x = 0`` (eq. 8) and ``M w' = F_drag(w)`` (linearised, eq. 4-5, or quadratic,
-eq. 2-3 and 31-32); the gap ``g = x - z`` is a terminal event with direction -1 (eq. 25: the
-bodies meet). At the event the impact law of eq. 12-17 (:func:`iceimpact.physics.contact.impact`)
-gives the new velocities; positions do not jump (eq. 18) and the flight restarts from there.
+``m x'' + c x' + k x = 0`` (eq. 8; with the Morison terms on the structure, m is m + m_a and the
+drag F_s(x') is on the right, docs/morison.md) and ``M w' = F_drag(w)`` (linearised, eq. 4-5, or
+quadratic, eq. 2-3 and 31-32); the gap ``g = x - z`` is a terminal event with direction -1
+(eq. 25: the bodies meet). At the event the impact law of eq. 12-17
+(:func:`iceimpact.physics.contact.impact`) gives the new velocities; positions do not jump
+(eq. 18) and the flight restarts from there.
 
 The integrator is ``solver.ode_method`` (1 = RK45, 2 = DOP853, 3 = LSODA, 4 = Radau) with
 ``rtol = solver.rtol`` and ``atol = rtol * 1e-3`` (m, m/s: displacements of the article's scenes
@@ -51,6 +53,7 @@ from .contact_rules import (
     Outcome,
     Phase,
     Together,
+    make_together,
     reanchor_on_flow_change,
 )
 from .state import Record, StateError
@@ -87,6 +90,20 @@ class _Flight:
 
     def __call__(self, t: float, y: np.ndarray) -> list[float]:
         return [y[1], -(self.c * y[1] + self.k * y[0]) / self.m, y[3],
+                self.drag.force(y[3], self.u) / self.M]
+
+
+class _DraggedFlight(_Flight):
+    """Flight with the Morison drag on the structure (docs/morison.md):
+    ``m x'' = F_s(x') - c x' - k x``, m being m + m_a."""
+
+    def __init__(self, solver: OdeSolver):
+        super().__init__(solver)
+        self.structure_drag = solver.structure_drag
+
+    def __call__(self, t: float, y: np.ndarray) -> list[float]:
+        f_s = self.structure_drag.force(y[1], self.u)
+        return [y[1], (f_s - self.c * y[1] - self.k * y[0]) / self.m, y[3],
                 self.drag.force(y[3], self.u) / self.M]
 
 
@@ -161,17 +178,21 @@ class OdeSolver(Solver):
         self._begin(0.0, s.x, s.v, s.z, s.w)
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
-        return self.osc.acceleration(x, v), self.drag.force(w, u) / self.M
+        a_x = self.osc.acceleration(x, v)
+        if self.structure_drag is not None:
+            a_x += self.structure_drag.force(v, u) / self.m
+        return a_x, self.drag.force(w, u) / self.M
 
     # segments ------------------------------------------------------------------------------------
     def _equations(self, phase: Phase, start: float) -> None:
         """Right-hand side and terminal event of a segment of ``phase`` starting at ``start``."""
         self.phase, self.segment_start = phase, start
         if phase is Phase.FLIGHT:
-            self.rhs, self.event_fn = _Flight(self), _Gap(start)
+            flight = _Flight if self.structure_drag is None else _DraggedFlight
+            self.rhs, self.event_fn = flight(self), _Gap(start)
         else:
-            self.rhs = Together(self.m, self.c, self.k, self.M, self.drag, self.u,
-                                inertia_from_net=True)
+            self.rhs = make_together(self.m, self.c, self.k, self.M, self.drag, self.u,
+                                     inertia_from_net=True, structure_drag=self.structure_drag)
             self.event_fn = _ContactForce(self.rhs, start)
 
     def _segment(self, phase: Phase, t: float, y: list[float], hold: float = 0.0) -> None:

@@ -14,7 +14,9 @@ times. From a point a with f(a) >= 0:
   ``f'(a) + f''(a) s + J s^2 / 2``); on [a, a + h_mono] f has at most one root, found by
   ``scipy.optimize.brentq`` if f changes sign, and none if f(a + h_mono) > 0.
 
-Each iteration advances by the longest of these stretches. Near a simple root the monotone stretch
+Each iteration advances by the longest of these stretches, at most ``max_step`` (unbounded for
+closed forms; a signal integrated numerically sets it so that a step never asks for the solution
+far beyond the horizon). Near a simple root the monotone stretch
 brackets it at once; a grazing touch (f' -> 0 as f -> 0) is approached geometrically and cannot be
 stepped over, unlike a sign test on a fixed grid, which misses two close roots.
 
@@ -70,9 +72,9 @@ class RootSearch:
     """
 
     __slots__ = ("probe", "value", "value_and_rate", "a", "root", "time_eps", "iterations",
-                 "xtol", "creep")
+                 "xtol", "creep", "max_step")
 
-    def __init__(self, start: float, time_eps: float):
+    def __init__(self, start: float, time_eps: float, max_step: float = math.inf):
         self.probe = self.value = self.value_and_rate = None  # the signal, during a call
         self.a = start          # f(a) >= 0 and [start, a) is root-free
         self.root: float | None = None
@@ -80,6 +82,7 @@ class RootSearch:
         self.iterations = 0
         self.creep = 0
         self.xtol = 1e-15
+        self.max_step = max_step  # longest step (s): a shorter root-free stretch is still one
 
     def frontier(self) -> dict[str, Any]:
         """Where the search stands, as plain data: with the same signal and start,
@@ -152,7 +155,7 @@ class RootSearch:
             elif d2 <= 0.0:
                 h_mono = math.inf
             if h_mono > h_free:
-                b = a + min(h_mono, 1e300)
+                b = a + min(h_mono, 1e300, self.max_step)
                 if b > a:
                     if self.value_and_rate is not None:
                         self._descend(a, f, df, d2, b)
@@ -162,10 +165,10 @@ class RootSearch:
                         return
                     self.a = b
                     return
-        if h_free == math.inf:
+        if h_free == math.inf and self.max_step == math.inf:
             self.a = math.inf
             return
-        step = h_free
+        step = min(h_free, self.max_step)
         eps = self.time_eps + 8.9e-16 * a  # a few ulps of the absolute time
         if step < eps:
             if df < 0.0 or self.iterations > MAX_ITERATIONS:

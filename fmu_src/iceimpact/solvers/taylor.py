@@ -152,12 +152,15 @@ class StickingTaylor:
     """Taylor steps of the sticking equation for given coefficients: the bodies' total mass
     (kg), the structural damping c (N.s/m) and stiffness k (N/m), the quadratic drag constant B
     (kg/m, eq. 33) and flow speed u (m/s), and the ice mass M (kg) whose inertia the contact force
-    subtracts from the drag."""
+    subtracts from the drag. ``structure_B`` (kg/m) is the quadratic Morison drag on the
+    structure (docs/morison.md): it drives the bodies with the ice's drag, but is no part of the
+    contact force nor of the ice's drag impulse P."""
 
     def __init__(self, total_mass: float, damping: float, stiffness: float, drag_B: float,
-                 flow_u: float, ice_mass: float, max_step: float):
+                 flow_u: float, ice_mass: float, max_step: float, structure_B: float = 0.0):
         self.total, self.c, self.k = total_mass, damping, stiffness
         self.B, self.u, self.M = drag_B, flow_u, ice_mass
+        self.structure_B = structure_B  # quadratic Morison drag on the structure (0: off)
         self.max_step = max_step
         self._order_over = [1.0 / (total_mass * (n + 1)) for n in range(ORDER)]
 
@@ -166,6 +169,7 @@ class StickingTaylor:
         lam, orders 0..ORDER (lam to ORDER - 1, then 0)."""
         c, k = self.c, self.k
         sB = sign * self.B
+        s_total = sign * (self.B + self.structure_B) if self.structure_B else None
         x, v, p0 = y
         rs = [self.u - v]
         backwards = rs[:]  # r_n, ..., r_0
@@ -173,9 +177,13 @@ class StickingTaylor:
         order_over = self._order_over
         reciprocals = _RECIPROCAL_LIST
         for n in range(ORDER):
-            f = sB * sum(map(_mul, rs, backwards))  # s B (r^2)_n, the Cauchy product
+            square = sum(map(_mul, rs, backwards))  # (r^2)_n, the Cauchy product
+            f = sB * square  # the drag on the ice
             fs.append(f)
-            v_next = (f - c * v - k * x) * order_over[n]
+            if s_total is not None:  # with the drag on the structure as well
+                v_next = (s_total * square - c * v - k * x) * order_over[n]
+            else:
+                v_next = (f - c * v - k * x) * order_over[n]
             x = v * reciprocals[n]
             v = v_next
             rs.append(-v_next)
