@@ -495,6 +495,26 @@ def test_run_samples_what_the_simulator_reports_to_rounding(name):
     assert res.sticking.any() and not res.sticking.all()
 
 
+def test_run_marches_a_segment_without_array_forms_sample_by_sample(monkeypatch):
+    """A kind of segment with neither closed forms for arrays nor dense steps is sampled as the
+    simulator steps it: the same states, impulses and impacts as the vectorised sampling."""
+    from iceimpact.solvers.event import QuadraticStick
+
+    values, t_end = SAMPLED_SCENES["quadratic sticking parts"]
+    scene = Scene(**values)
+    vectorised = run(scene, t_end, dt=0.02)
+    monkeypatch.delattr(QuadraticStick, "states_at")
+    marched = run(scene, t_end, dt=0.02)
+    assert np.array_equal(marched.impacts["t"], vectorised.impacts["t"])
+    assert np.array_equal(marched.sticking, vectorised.sticking)
+    for name in ("x", "v", "z", "w"):
+        got, want = getattr(marched, name), getattr(vectorised, name)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.max(np.abs(want)),
+                                   err_msg=name)
+    np.testing.assert_allclose(marched.impulse, vectorised.impulse, rtol=1e-9,
+                               atol=1e-12 * np.max(np.abs(vectorised.impulse)))
+
+
 def test_run_gap_is_never_negative_where_the_ice_passes_through():
     """The fixed-step window (eq. 26) lets the ice through the structure: reported as a
     penetration, never as a negative gap."""
