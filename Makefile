@@ -33,7 +33,7 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/core_speed.py
 
-# the article's figures and its lock-in case through the FMU (~7 min), and the regime map (~5 min)
+# the article's figures and its lock-in case through the FMU (~7 min), and the regime map (~15 s)
 reproduce: $(STAMP)
 	$(PY) build_fmu.py
 	$(PY) examples/reproduce_linear.py --img-dir docs/img

@@ -444,6 +444,9 @@ def test_run_reports_what_the_simulator_reports(method):
     assert len(res.impacts) == sim.impact_count
 
 
+#: a heavy floe's deflection when kicked in contact: four times its drag at u = 2 m/s over k
+_KICKED_X0 = Scene(drag_model=2).drag_B * 4.0 / Scene().structure_k
+
 #: exact-method scenes for run()'s vectorised sampling, with their horizons (s): every kind of
 #: segment (flight, linear and quadratic sticking), under- and over-damped sticking
 SAMPLED_SCENES = {
@@ -453,6 +456,14 @@ SAMPLED_SCENES = {
     "overdamped sticking": (dict(impact_e=0.3, structure_c=2.0 * math.sqrt(1e6 * 3200.0),
                                  flow_u=0.5), 3.0),
     "overdamped": (dict(impact_e=0.0, structure_c=2e5, structure_k=1e5, flow_u=0.5), 3.0),
+    # a heavy floe kicked while in contact: four quadratic sticking phases that part again
+    "quadratic sticking parts": (dict(impact_e=0.3, drag_model=2, ice_M=6400.0, flow_u=2.0,
+                                      structure_x0=_KICKED_X0, structure_v0=0.3,
+                                      ice_z0=_KICKED_X0, ice_v0=0.3), 5.0),
+    # ice faster than a slow flow, stuck to the structure: u - v changes sign, then they part
+    "quadratic sticking flips": (dict(impact_e=0.0, drag_model=2, flow_u=0.01,
+                                      structure_x0=1e-3, structure_v0=0.05, ice_z0=1e-3,
+                                      ice_v0=0.05), 3.0),
 }
 
 
@@ -482,6 +493,26 @@ def test_run_samples_what_the_simulator_reports_to_rounding(name):
     assert res.sticking_since == sim.sticking_since
     # both kinds of segment are sampled
     assert res.sticking.any() and not res.sticking.all()
+
+
+def test_run_marches_a_segment_without_array_forms_sample_by_sample(monkeypatch):
+    """A kind of segment with neither closed forms for arrays nor dense steps is sampled as the
+    simulator steps it: the same states, impulses and impacts as the vectorised sampling."""
+    from iceimpact.solvers.event import QuadraticStick
+
+    values, t_end = SAMPLED_SCENES["quadratic sticking parts"]
+    scene = Scene(**values)
+    vectorised = run(scene, t_end, dt=0.02)
+    monkeypatch.delattr(QuadraticStick, "states_at")
+    marched = run(scene, t_end, dt=0.02)
+    assert np.array_equal(marched.impacts["t"], vectorised.impacts["t"])
+    assert np.array_equal(marched.sticking, vectorised.sticking)
+    for name in ("x", "v", "z", "w"):
+        got, want = getattr(marched, name), getattr(vectorised, name)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * np.max(np.abs(want)),
+                                   err_msg=name)
+    np.testing.assert_allclose(marched.impulse, vectorised.impulse, rtol=1e-9,
+                               atol=1e-12 * np.max(np.abs(vectorised.impulse)))
 
 
 def test_run_gap_is_never_negative_where_the_ice_passes_through():

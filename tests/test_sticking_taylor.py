@@ -288,3 +288,30 @@ def test_steps_that_do_not_advance_the_time_are_refused(monkeypatch):
     with pytest.raises(SolverError, match="stalled"):
         sim.advance(0.01, 0.2)  # a new flow: a new sticking segment, whose steps stall
     assert sim.save()["solver"] == saved["solver"]
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_vectorised_states_equal_the_point_by_point_ones(name):
+    """run()'s sampling evaluates a sticking phase's Taylor polynomials at all its samples at
+    once (QuadraticStick.states_at, impulses_between): the scalar state and impulse at each
+    time to rounding, at times inside steps, on step boundaries and at the separation."""
+    make, t_end = CASES[name]
+    scene, x0, v0 = make()
+    vector = segment(scene, x0, v0)
+    t_sep = vector.next_event(t_end)
+    stop = t_end if t_sep is None else t_sep
+    boundaries = [s.lo for s in vector.steps] + [s.hi for s in vector.steps]
+    times = np.unique(np.concatenate((np.linspace(0.0, stop, 997), boundaries,
+                                      [stop]))).clip(0.0, stop)
+    y = vector.states_at(times)
+    impulses = vector.impulses_between(times, y)
+    scalar = segment(scene, x0, v0)
+    assert scalar.next_event(t_end) == t_sep
+    want = np.array([scalar._y(t) for t in times.tolist()])
+    for column, label in enumerate(("x", "v", "P")):
+        np.testing.assert_allclose(y[:, column], want[:, column], rtol=0,
+                                   atol=1e-14 * np.max(np.abs(want[:, column])), err_msg=label)
+    want_impulses = [scalar.impulse(a, b) for a, b in zip(times[:-1], times[1:], strict=True)]
+    # a piece is a difference of the drag impulse P and of M v: their rounding
+    scale = np.max(np.abs(want[:, 2])) + scene.ice_M * np.max(np.abs(want[:, 1]))
+    np.testing.assert_allclose(impulses, want_impulses, rtol=0, atol=1e-14 * scale)

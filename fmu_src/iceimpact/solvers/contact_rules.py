@@ -210,7 +210,12 @@ class Together:
     def impulse(self, ya, yb) -> float:
         """Impulse of the contact force on the structure between states ya and yb, N.s:
         drag impulse on the ice minus its momentum change."""
-        return float((yb[2] - ya[2]) - self.M * (yb[1] - ya[1]))
+        return float(self.impulse_array(ya, yb))
+
+    def impulse_array(self, ya, yb):
+        """:meth:`impulse` element by element: ya and yb are rows x, v, P of arrays (or one
+        state each)."""
+        return (yb[2] - ya[2]) - self.M * (yb[1] - ya[1])
 
 
 class TogetherWithStructureDrag(Together):

@@ -67,8 +67,9 @@ class _SearchedSegment:
 
     Its ``anchor``, ``state_array``, ``impulse_array`` and ``PUSHES`` let
     :meth:`EventSolver.sample` evaluate all the samples in segments of one kind at once; any
-    segment kind that gives them joins that vectorised pass, the others are sampled step by
-    step."""
+    segment kind that gives them joins that vectorised pass (a segment of Taylor steps gives
+    ``states_at`` and ``impulses_between`` instead, evaluated per segment), the others are
+    sampled step by step."""
 
     __slots__ = ()
     ANCHOR: tuple[str, ...] = ()
@@ -481,9 +482,33 @@ class QuadraticStick:
         x, v, _ = self._y(tau)
         # the solver never looks back before its current time: drop steps that end before it
         steps = self.steps
-        while len(steps) > 1 and steps[0].hi < tau:
-            steps.pop(0)
+        if len(steps) > 1 and steps[0].hi < tau:
+            drop = 1
+            while drop < len(steps) - 1 and steps[drop].hi < tau:
+                drop += 1
+            del steps[:drop]
         return x, v, x, v
+
+    def states_at(self, tau: np.ndarray) -> np.ndarray:
+        """Vectorised :meth:`_y`: rows (x, v, P) at the times tau (s from the anchor,
+        increasing, within the steps reached: :meth:`next_event` was asked up to the last one),
+        each in the last step starting at or before it, as :meth:`_y` picks it; the samples in
+        one step are evaluated at once (:meth:`TaylorStep.states`), equal to :meth:`_y` to
+        rounding."""
+        steps = self.steps
+        index = np.searchsorted([s.lo for s in steps], tau, side="right") - 1
+        np.maximum(index, 0, out=index)  # none before the first step kept (as _y)
+        out = np.empty((tau.size, 3))
+        bounds = [0, *(np.flatnonzero(np.diff(index)) + 1).tolist(), tau.size]
+        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+            out[a:b] = steps[index[a]].states(tau[a:b])
+        return out
+
+    def impulses_between(self, tau: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Vectorised :meth:`impulse` over the pieces tau[k]..tau[k+1], from the states ``y``
+        at tau (rows of :meth:`states_at`)."""
+        pieces = self.together.impulse_array(y[:-1].T, y[1:].T)
+        return np.where(tau[1:] > tau[:-1], pieces, 0.0)
 
     def next_event(self, tau_end: float) -> float | None:
         while tau_end > self.frontier:
@@ -787,7 +812,9 @@ class EventSolver(Solver):
         The march visits the same segments and events; the states at the sample times and the
         contact impulses are then evaluated per kind of segment in one vectorised pass of the
         closed forms (equal to the scalar ones to rounding). A quadratic-drag sticking phase,
-        which has no closed form, is sampled as it is marched."""
+        which has no closed form, evaluates its Taylor steps' polynomials at all its samples at
+        once (:meth:`QuadraticStick.states_at`, equal to :meth:`QuadraticStick.state` to
+        rounding); a segment with neither is marched sample by sample."""
         if u != self.u:
             x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
                                                  self.seg.phase is Phase.STICK)
@@ -805,7 +832,8 @@ class EventSolver(Solver):
         horizon = t_list[-1]
         while i < n:
             seg = self.seg
-            if getattr(seg, "state_array", None) is None:  # no closed form: march to this sample
+            stepped = hasattr(seg, "states_at")  # dense output of steps, per segment
+            if not (stepped or getattr(seg, "state_array", None) is not None):  # march to it
                 targets.append(i)
                 values.append(self._march(t_list[i], u))
                 out.set(i, self.state, self.sticking)
@@ -814,10 +842,13 @@ class EventSolver(Solver):
             t0 = seg.t0
             tau_event = seg.next_event(horizon - t0)
             j = n if tau_event is None else _first_sample_after(t_list, i, t0, tau_event)
-            group = groups.get(type(seg))
-            if group is None:
-                group = groups[type(seg)] = _SampleGroup(seg)
-            group.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
+            if stepped:
+                self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
+            else:
+                group = groups.get(type(seg))
+                if group is None:
+                    group = groups[type(seg)] = _SampleGroup(seg)
+                group.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
             if tau_event is None:
                 self.tau = horizon - t0
                 x, v, z, w = seg.state(self.tau)
@@ -833,6 +864,24 @@ class EventSolver(Solver):
         np.add.at(impulse, targets, values_array)
         out.impulse = impulse
         return out
+
+    def _sample_steps(self, seg: QuadraticStick, times: np.ndarray, i: int, j: int,
+                      tau_event: float | None, out: Samples, targets: list[int],
+                      values: list[float]) -> None:
+        """Samples i..j-1 in a sticking phase of Taylor steps, from the current position in it
+        (and its end at ``tau_event`` before sample j, if it ends): states and the impulse
+        pieces the scalar march adds, in its order, all evaluated at once."""
+        tau = times[i:j] - seg.t0
+        ends = tau if tau_event is None else np.append(tau, tau_event)
+        tau_all = np.concatenate(([self.tau], ends))
+        y = seg.states_at(tau_all)
+        x, v = y[1:j - i + 1, 0], y[1:j - i + 1, 1]
+        out.x[i:j], out.v[i:j], out.z[i:j], out.w[i:j] = x, v, x, v
+        out.sticking[i:j] = seg.phase is Phase.STICK
+        targets.extend(range(i, j))
+        if tau_event is not None:
+            targets.append(j)
+        values.extend(seg.impulses_between(tau_all, y).tolist())
 
     # snapshots ----------------------------------------------------------------------------------
     def checkpoint(self) -> Any:

@@ -147,6 +147,17 @@ class TaylorStep:
         """[x, v, P] at the normalised time theta of the step."""
         return (_power(theta, _POWERS) @ self.table).tolist()
 
+    def states(self, tau: np.ndarray) -> np.ndarray:
+        """Vectorised :meth:`state`: rows (x, v, P) at the times tau (s from the segment's
+        anchor, each >= lo), the polynomials evaluated for all of them at once (equal to
+        :meth:`state` to rounding: one matrix product instead of one per time)."""
+        out = np.empty((tau.size, 3))
+        inside = tau < self.hi
+        theta = (tau[inside] - self.lo) / self.h
+        out[inside] = _power(theta[:, None], _POWERS) @ self.table
+        out[~inside] = self.y_hi
+        return out
+
 
 class StickingTaylor:
     """Taylor steps of the sticking equation for given coefficients: the bodies' total mass
