@@ -66,8 +66,8 @@ def reference(values: dict, t_end: float, flow=None,
 
 def assert_outputs_equal(actual, expected: dict[str, np.ndarray], start: int = 0,
                          force_rtol: float = 0.0) -> None:
-    """Equal to 1e-12 absolute; ``force_rtol`` for contact.force (and coupling.force) when the step sizes differ in
-    their last bits (force = impulse / h magnifies them)."""
+    """Equal to 1e-12 absolute; ``force_rtol`` for contact.force (and coupling.force) when the
+    step sizes differ in their last bits (force = impulse / h magnifies them)."""
     for o in OUTPUTS:
         got = np.asarray(actual[o.name])[start:]
         want = expected[o.name][start:]
