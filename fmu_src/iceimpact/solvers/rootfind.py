@@ -14,6 +14,10 @@ times. From a point a with f(a) >= 0:
   ``f'(a) + f''(a) s + J s^2 / 2``); on [a, a + h_mono] f has at most one root, found by
   ``scipy.optimize.brentq`` if f changes sign, and none if f(a + h_mono) > 0.
 
+- Clearance (optional): the caller may prove a root-free span by another argument, e.g. the
+  envelope of an oscillator, which the Taylor bound cannot see past: ``clearance(a)`` returns
+  its length (0 when it proves nothing).
+
 Each iteration advances by the longest of these stretches. Near a simple root the monotone stretch
 brackets it at once; a grazing touch (f' -> 0 as f -> 0) is approached geometrically and cannot be
 stepped over, unlike a sign test on a fixed grid, which misses two close roots.
@@ -47,12 +51,15 @@ class RootSearch:
     results do not depend on how the caller chops time.
     """
 
-    __slots__ = ("probe", "value", "a", "root", "time_eps", "iterations", "xtol", "creep")
+    __slots__ = ("probe", "value", "clearance", "a", "root", "time_eps", "iterations", "xtol",
+                 "creep")
 
     def __init__(self, probe: Callable[[float], tuple[float, float, float]],
-                 value: Callable[[float], float], start: float, time_eps: float):
+                 value: Callable[[float], float], start: float, time_eps: float,
+                 clearance: Callable[[float], float] | None = None):
         self.probe = probe
         self.value = value
+        self.clearance = clearance
         self.a = start          # f(a) >= 0 and [start, a) is root-free
         self.root: float | None = None
         self.time_eps = time_eps  # smallest meaningful time increment
@@ -103,6 +110,8 @@ class RootSearch:
             return
         disc = math.sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
+        if self.clearance is not None:
+            h_free = max(h_free, self.clearance(a))
         if df >= 0.0:
             # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
             if jerk > 0.0:
