@@ -11,6 +11,7 @@ import random
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from scipy.optimize import brentq
 
 from iceimpact import ParameterError, Scene, Simulator, load_scene
 from iceimpact.cli import main as cli_main
@@ -268,3 +269,34 @@ def test_cli_refuses_a_scene_it_cannot_run_in_bounded_time():
     status, err = _cli(["simulate", "--set", "structure.k=1e40", "--t-end", "1e-3",
                         "--dt", "1e-3"])
     assert status == 2 and "omega_n <=" in err and "Traceback" not in err
+
+
+# --- faults the random search found (tests/random_search.py --scales --flows) -----------------
+
+def test_a_stiff_structure_ringing_far_from_the_ice_costs_no_work_per_period():
+    """Method 1, a stiff undamped structure (omega_n 1.3e7 rad/s) ringing with 0.6 m amplitude
+    while the ice coasts towards the lowest point of its swing: the root search's Taylor steps
+    (curvature bound omega_n^2 x amplitude) took a few evaluations per period, over 30 s of
+    work per simulated second. The structure's envelope now proves the gap open until the ice
+    can reach it. The impact time agrees with the closed form written out here
+    (x = x0 cos(omega_n t), z = z0 + w0 t)."""
+    omega, x0, z0, w0 = 1.3e7, -0.6, -0.65, 0.1
+    sim = Simulator(Scene(structure_m=1600.0, structure_k=1600.0 * omega ** 2, structure_c=0.0,
+                          structure_x0=x0, structure_v0=0.0, ice_M=1600.0, ice_Cd=0.0,
+                          ice_z0=z0, ice_v0=w0, flow_u=0.1, impact_e=1.0, solver_method=1))
+    while sim.t < 0.45 - 1e-12:
+        r = sim.advance(0.05)
+        assert r.gap > 0.0 and sim.impact_count == 0
+    # a handful of search iterations, not one per fraction of each of 9e5 periods
+    assert sim.solver.seg.search.iterations < 10
+    sim.advance(0.1)
+    assert sim.impact_count == 1
+
+    def gap(t):
+        return x0 * math.cos(omega * t) - (z0 + w0 * t)
+
+    # the ice reaches the swing's lowest point x0 at t = 0.5 s; the impact is on the way down
+    # to the first trough (t = 2 pi j / omega) after that
+    trough = 2.0 * math.pi * math.ceil((x0 - z0) / w0 * omega / (2.0 * math.pi)) / omega
+    exact = brentq(gap, trough - math.pi / omega, trough, xtol=1e-18, rtol=1e-15)
+    assert abs(sim.impacts[0].t - exact) <= 1e-14

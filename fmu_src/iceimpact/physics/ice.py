@@ -144,6 +144,13 @@ class QuadraticDrag:
         return a, abs(a), 2.0 * self.beta * abs(r) * abs(a)
 
 
+def downstream_speed_bound(w: float, u: float) -> float:
+    """Bound on the ice's downstream velocity (m/s, >= 0) for all later times of a free flight
+    from velocity w in a flow u: under either drag law (and with none) the velocity relative to
+    the flow, w - u, only decays without changing sign, so w stays between w and u."""
+    return max(w, u, 0.0)
+
+
 def make_drag(scene) -> LinearDrag | QuadraticDrag:
     """The drag law a scene asks for (``drag.model`` 1 = linearised, 2 = quadratic)."""
     if scene.drag_model == 2:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..physics.ice import make_drag
+from ..physics.ice import downstream_speed_bound, make_drag
 from ..physics.structure import Oscillator
 from ..scene import Scene
 from .base import Solver, SolverError, State
@@ -46,6 +46,9 @@ from .state import Record, StateError
 #: Tolerances of the ODE integration of the quadratic-drag sticking phase.
 STICK_RTOL = 1e-12
 STICK_ATOL = (1e-15, 1e-15, 1e-12)  # x (m), v (m/s), drag impulse (N.s)
+
+#: Rounding of a gap evaluated from positions of magnitude X is below GAP_ULPS * X (m).
+GAP_ULPS = 16.0 * 2.0 ** -52
 
 #: At most this many integration chunks of a quadratic-drag sticking phase are saved in a
 #: snapshot (those the future can ask for: one, or two at a chunk boundary).
@@ -96,7 +99,7 @@ class Flight(_SearchedSegment):
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
         self.gap0 = x0 - z0
-        self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0))
+        self.search = RootSearch(self.probe, self.gap, start, _time_eps(t0), self.clearance)
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
@@ -119,6 +122,27 @@ class Flight(_SearchedSegment):
         return (self.gap0 + (dx - dz), v - w, a_x - a_z,
                 self.osc.amplitude_bound(a_x, j_x) + a_z_max,
                 self.osc.amplitude_bound(j_x, s_x) + j_z_max)
+
+    def clearance(self, tau: float) -> float:
+        """Time from tau (s) during which the gap provably stays open, from the structure's
+        envelope: the free structure never goes below ``offset - R``, R its amplitude bound
+        (its energy never grows, eq. 8-10), and the ice moves downstream no faster than
+        :func:`~iceimpact.physics.ice.downstream_speed_bound`. So the gap stays above
+        ``offset - R - z(tau) - speed s`` (beyond the rounding of the positions).
+
+        A stiff structure ringing with a large amplitude while the ice is still outside its
+        reach costs the Taylor steps of the root search a few evaluations per period (its bound
+        on the gap's curvature is omega_n^2 R); this spans those periods at once."""
+        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
+        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        x, z = self.x0 + dx, self.z0 + dz
+        offset = self.osc.offset
+        reach = self.osc.amplitude_bound(x - offset, v)
+        margin = (offset - reach - z) - GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
+        if margin <= 0.0:
+            return 0.0
+        speed = downstream_speed_bound(w, self.u)
+        return math.inf if speed == 0.0 else margin / speed
 
     def next_event(self, tau_end: float) -> float | None:
         return self.search.next_root_before(tau_end)
