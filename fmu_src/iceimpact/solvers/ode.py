@@ -27,9 +27,11 @@ Each ``solve_ivp`` call covers at most a chunk of :data:`CHUNK_PERIODS` structur
 :data:`CHUNK_MAX` seconds) from the
 start of the segment, and its dense output answers the communication steps inside it, so the
 result does not depend on the communication step (unless the flow speed changes, which restarts
-the integration at the change). Work is bounded: every impact either lasts a resolvable bounce or
-ends the bouncing, and repeated events at one instant (a degenerate contact, or integration noise
-at a loose tolerance) make the bodies stick.
+the integration at the change). After a flow change the first call spans only the step being
+taken, and each next one twice the previous, up to the chunk: a flow changing at every step costs
+work in proportion to the step, not a whole chunk per step. Work is bounded: every impact either
+lasts a resolvable bounce or ends the bouncing, and repeated events at one instant (a degenerate
+contact, or integration noise at a loose tolerance) make the bodies stick.
 """
 
 from __future__ import annotations
@@ -158,6 +160,7 @@ class OdeSolver(Solver):
         self._events_here = 0
         self._last_event_t = -math.inf
         s = self.state
+        self.first_span = self.chunk  # length of a segment's first solve_ivp call, s
         self._begin(0.0, s.x, s.v, s.z, s.w)
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
@@ -182,15 +185,23 @@ class OdeSolver(Solver):
         self.y_hi = np.array(y, dtype=float)
         self.y_now = self.y_hi.copy()
         self.y_lo: np.ndarray | None = None   # start of the integrated chunk (none yet)
+        self.chunk_hi = t                     # where its solve_ivp call was asked to end
+        self.first_span = self.chunk          # (advance_to shortens it after a flow change)
         self.sol = None                       # its dense output
         self.event: tuple[float, np.ndarray] | None = None
         # a forced hold ignores the separation event for a while
         self.hold_until = t + hold if hold > 0.0 else -math.inf
         self._set_sticking(phase is Phase.STICK, t)
 
-    def _integrate(self, lo: float, y_lo: np.ndarray):
-        """One solve_ivp call from (lo, y_lo): a chunk, or up to the end of a forced hold."""
-        hi = lo + self.chunk
+    def _next_span(self) -> float:
+        """Length of the next solve_ivp call of the segment (s): the first span, then twice
+        the previous call's, up to the chunk."""
+        if self.y_lo is None:
+            return self.first_span
+        return min(2.0 * (self.chunk_hi - self.t_lo), self.chunk)
+
+    def _integrate(self, lo: float, y_lo: np.ndarray, hi: float):
+        """One solve_ivp call from (lo, y_lo) to hi, or up to the end of a forced hold."""
         events = self.event_fn
         if lo < self.hold_until:
             hi, events = self.hold_until, None
@@ -204,9 +215,9 @@ class OdeSolver(Solver):
     def _extend(self) -> None:
         """Integrate one more chunk of the current segment (stops at its event)."""
         lo = self.t_hi
-        res, hi, events = self._integrate(lo, self.y_hi)
+        res, hi, events = self._integrate(lo, self.y_hi, lo + self._next_span())
         self.nfev += res.nfev
-        self.sol, self.t_lo, self.y_lo = res.sol, lo, self.y_hi
+        self.sol, self.t_lo, self.y_lo, self.chunk_hi = res.sol, lo, self.y_hi, hi
         if events is None:  # end of a forced hold: the contact logic decides again
             self.event = (hi, res.y[:, -1])
             self.t_hi, self.y_hi = hi, res.y[:, -1]
@@ -221,7 +232,7 @@ class OdeSolver(Solver):
         if t >= self.t_hi or self.y_lo is None:
             return self.y_hi
         if self.sol is None:  # restored from a snapshot: the same call gives the same output
-            self.sol = self._integrate(self.t_lo, self.y_lo)[0].sol
+            self.sol = self._integrate(self.t_lo, self.y_lo, self.chunk_hi)[0].sol
         return self.sol(t)
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float,
@@ -268,6 +279,9 @@ class OdeSolver(Solver):
             self.u = u
             x, v, z, w = reanchor_on_flow_change(s.x, s.v, s.z, s.w, self.phase is Phase.STICK)
             self._begin(s.t, x, v, z, w, reanchor=True)
+            # the flow may change again at the next step: integrate ahead by this step only
+            # (doubling from there), not a whole chunk
+            self.first_span = min(self.chunk, t_end - s.t)
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         while True:
@@ -303,7 +317,7 @@ class OdeSolver(Solver):
     # snapshots ----------------------------------------------------------------------------------
     _KEYS = ("u", "pending_impulse", "nfev", "events_here", "last_event_t", "degenerate",
              "phase", "segment_start", "hold_until", "t_lo", "t_hi", "y_lo", "y_hi", "y_now",
-             "event")
+             "event", "first_span", "chunk_hi")
 
     def _snapshot(self) -> dict[str, Any]:
         return {"u": self.u, "pending_impulse": self.pending_impulse, "nfev": self.nfev,
@@ -314,7 +328,8 @@ class OdeSolver(Solver):
                 "y_lo": None if self.y_lo is None else _floats(self.y_lo),
                 "y_hi": _floats(self.y_hi), "y_now": _floats(self.y_now),
                 "event": None if self.event is None else [self.event[0],
-                                                          _floats(self.event[1])]}
+                                                          _floats(self.event[1])],
+                "first_span": self.first_span, "chunk_hi": self.chunk_hi}
 
     def _read(self, rec: Record, t: float) -> Callable[[], None]:
         u = rec.real("u")
@@ -332,6 +347,10 @@ class OdeSolver(Solver):
         hold_until = rec.real("hold_until", finite=False, high=math.inf)
         t_lo = rec.real("t_lo", low=start)
         t_hi = rec.real("t_hi", low=t_lo)
+        first_span = rec.real("first_span", low=0.0, high=self.chunk)
+        if first_span == 0.0:
+            raise StateError(rec.field("first_span"), first_span, f"in (0, {self.chunk!r}] s")
+        chunk_hi = rec.real("chunk_hi", low=t_lo)
         y_lo = rec.reals("y_lo", size, allow_none=True)
         y_hi = rec.reals("y_hi", size)
         y_now = rec.reals("y_now", size)
@@ -348,6 +367,7 @@ class OdeSolver(Solver):
             self._events_here, self._last_event_t = events_here, last_event_t
             self.rules.degenerate.set(degenerate)
             self.hold_until, self.t_lo, self.t_hi = hold_until, t_lo, t_hi
+            self.first_span, self.chunk_hi = first_span, chunk_hi
             self.y_lo = None if y_lo is None else np.array(y_lo)
             self.sol = None
             self.y_hi, self.y_now = np.array(y_hi), np.array(y_now)
