@@ -17,6 +17,7 @@ from scipy.optimize import brentq
 from iceimpact import ParameterError, Scene, Simulator, load_scene
 from iceimpact.cli import main as cli_main
 from iceimpact.fmi.adapter import FmuModel
+from iceimpact.physics.ice import LinearDrag, QuadraticDrag
 from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE, TIME_RESOLUTION
 from iceimpact.solvers.contact_rules import CHATTER_FRACTION
 
@@ -342,3 +343,29 @@ def test_method_3_follows_a_flow_changing_at_every_step(drag):
     inputs = [(7e-4, _reversing(0.1, i)) for i in range(20)] + [(0.05, 0.1)] * 10
     twin = Simulator.from_snapshot(saved)
     assert [twin.advance(h, u) for h, u in inputs] == [ode.advance(h, u) for h, u in inputs]
+
+
+@pytest.mark.parametrize("drag", [LinearDrag(1.0, 0.0), QuadraticDrag(1.0, 0.0),
+                                  LinearDrag(1.0, 3.0), QuadraticDrag(1.0, 3.0)])
+def test_the_ice_velocity_is_exact_at_the_anchor(drag):
+    """w(0) = w0 to the last bit, and w = w0 at all times without drag, even when |w0| is far
+    below |u|: u + (w0 - u) e^0 gave 0 for w0 = 1e-169, u = 0.1."""
+    for w0 in (1e-169, -1.3e-169, 0.37, -2.0):
+        assert drag.displacement_change(w0, 0.1, 0.0) == (0.0, w0)
+        if drag.force(1.0, 0.0) == 0.0:  # no drag: the ice coasts
+            assert drag.displacement_change(w0, 0.1, 7.0)[1] == w0
+
+
+def test_bodies_at_rest_with_no_drag_and_a_toggled_flow_finish():
+    """Method 1, both bodies in contact at speeds of 1e-169 m/s, no drag, the flow toggled:
+    every flight from the contact saw the ice's velocity as 0 (the rounding above), an approach
+    at rounding speed, and met a contact again at the same instant, without end (the first
+    0.1 ms step did not finish in 30 s)."""
+    v0 = -1.3342728836344646e-169
+    sim = Simulator(Scene(structure_m=3.6256e-4, structure_c=0.0, structure_k=5.065e-7,
+                          structure_x0=0.0, structure_v0=v0, ice_M=6.6e-8, ice_Cd=0.0,
+                          ice_z0=0.0, ice_v0=v0, impact_e=0.0, drag_model=1, flow_u=0.0,
+                          solver_method=1))
+    for i in range(100):
+        r = sim.advance(1e-4, _toggled(i))
+        assert r.gap >= 0.0 and r.impulse >= 0.0 and abs(r.w) <= abs(v0)

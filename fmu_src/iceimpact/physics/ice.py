@@ -77,7 +77,8 @@ class LinearDrag:
         """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
         x = self.kappa * t
-        return w0 * t + r0 * t * _decay_lag(x), u + r0 * math.exp(-x)
+        # w0 + r0 (e^{-x} - 1): exactly w0 at t = 0 and without drag, even when |w0| << |u|
+        return w0 * t + r0 * t * _decay_lag(x), w0 + r0 * math.expm1(-x)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
@@ -125,7 +126,8 @@ class QuadraticDrag:
         """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
         y = self.beta * abs(r0) * t
-        return w0 * t + r0 * t * _log_lag(y), u + r0 / (1.0 + y)
+        # w0 - r0 y / (1 + y): exactly w0 at t = 0 and without drag, even when |w0| << |u|
+        return w0 * t + r0 * t * _log_lag(y), w0 - r0 * (y / (1.0 + y))
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
