@@ -18,6 +18,7 @@ from iceimpact import ParameterError, Scene, Simulator, load_scene
 from iceimpact.cli import main as cli_main
 from iceimpact.fmi.adapter import FmuModel
 from iceimpact.physics.ice import LinearDrag, QuadraticDrag
+from iceimpact.physics.structure import Oscillator
 from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE, TIME_RESOLUTION
 from iceimpact.solvers.contact_rules import CHATTER_FRACTION
 
@@ -369,3 +370,26 @@ def test_bodies_at_rest_with_no_drag_and_a_toggled_flow_finish():
     for i in range(100):
         r = sim.advance(1e-4, _toggled(i))
         assert r.gap >= 0.0 and r.impulse >= 0.0 and abs(r.w) <= abs(v0)
+
+
+def test_a_decayed_velocity_keeps_its_precision():
+    """The flight's closed form recovered C(t) as (C - 1) + 1, an error of one ulp of 1: the
+    velocity of a strongly over-damped structure (zeta = 46) carried eps |v0| long after it had
+    decayed below that, and the root search, seeing that noise as a slope, crawled along a gap
+    of 1e-24 m (0.01 s did not finish in 30 s). Checked against the slow exponential of the
+    over-damped response, v = v0 s1 e^{s1 t} / (s1 - s2) once the fast one has died out."""
+    m, c, k, v0 = 0.1326, 5.502e6, 2.658e10, 0.558
+    osc = Oscillator(m, c, k)
+    sigma, wo = c / (2.0 * m), math.sqrt((c / (2.0 * m)) ** 2 - k / m)
+    slow, fast = -(k / m) / (sigma + wo), -(sigma + wo)
+    for t in (1e-3, 7.6e-3, 3e-2):
+        dx, v = osc.displacement_change(0.0, v0, t)
+        exact = v0 * slow * math.exp(slow * t) / (slow - fast)
+        assert v == pytest.approx(exact, rel=1e-9)
+        assert dx == pytest.approx(v0 * math.exp(slow * t) / (slow - fast), rel=1e-9)
+    sim = Simulator(Scene(structure_m=m, structure_c=c, structure_k=k, structure_x0=0.0,
+                          structure_v0=v0, ice_M=4.3e-3, ice_Cd=0.0, ice_z0=0.0, ice_v0=0.0,
+                          impact_e=0.0, flow_u=0.0, solver_method=1))
+    sim.advance(0.01)
+    assert sim.solver.seg.search.iterations < 1000 and sim.solver.state.gap > 0.0
+

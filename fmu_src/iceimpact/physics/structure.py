@@ -70,23 +70,33 @@ class Oscillator:
         slow, fast = math.exp(self._s_slow * t), math.exp(self._s_fast * t)
         return 0.5 * (slow + fast), 0.5 * (slow - fast) / self.omega
 
-    def basis_minus_one(self, t: float) -> tuple[float, float]:
-        """(C(t) - 1, S(t)) without cancellation at small t (for displacement increments)."""
-        decay_m1 = math.expm1(-self.sigma * t)
+    def basis_parts(self, t: float) -> tuple[float, float, float]:
+        """(C(t), C(t) - 1, S(t)), each without cancellation: C - 1 at small t (displacement
+        increments), C once the response has decayed (a velocity recovered as (C - 1) + 1
+        would carry an error of one ulp of 1, i.e. eps |v0|, long after v itself is below it)."""
+        arg = -self.sigma * t
+        if arg < -0.7:  # the decay is below 1/2: e - 1 has no cancellation
+            decay = math.exp(arg)
+            decay_m1 = decay - 1.0
+        else:           # above 1/2: 1 + (e - 1) loses nothing
+            decay_m1 = math.expm1(arg)
+            decay = 1.0 + decay_m1
         if self.regime == UNDER:
             wt = self.omega * t
+            cos_wt = math.cos(wt)
             half = math.sin(0.5 * wt)
-            return (decay_m1 * math.cos(wt) - 2.0 * half * half,
-                    (1.0 + decay_m1) * math.sin(wt) / self.omega)
+            return (decay * cos_wt, decay_m1 * cos_wt - 2.0 * half * half,
+                    decay * math.sin(wt) / self.omega)
         if self.regime == CRITICAL:
-            return decay_m1, t * (1.0 + decay_m1)
+            return decay, decay_m1, t * decay
         wt = self.omega * t
         if wt < 1.0:
+            cosh_wt = math.cosh(wt)
             half = math.sinh(0.5 * wt)
-            return (decay_m1 * math.cosh(wt) + 2.0 * half * half,
-                    (1.0 + decay_m1) * math.sinh(wt) / self.omega)
+            return (decay * cosh_wt, decay_m1 * cosh_wt + 2.0 * half * half,
+                    decay * math.sinh(wt) / self.omega)
         c, s = self.basis(t)
-        return c - 1.0, s
+        return c, c - 1.0, s
 
     def basis_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(C(t), S(t)) for an array of t >= 0."""
@@ -118,8 +128,7 @@ class Oscillator:
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
         """x(t) - x0 (free of the rounding of x0) and v(t): gaps near contact need it."""
         y0 = x0 - self.offset
-        cm1, s = self.basis_minus_one(t)
-        c = cm1 + 1.0
+        c, cm1, s = self.basis_parts(t)
         return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
