@@ -179,7 +179,8 @@ class OdeSolver(Solver):
 
     def _segment(self, phase: Phase, t: float, y: list[float], hold: float = 0.0) -> None:
         """Start a flight ``[x, v, z, w]`` or a sticking phase ``[x, v, drag impulse]`` at t;
-        a sticking phase ignores separation for ``hold`` seconds."""
+        it ignores its event (the gap closing, the contact force turning tensile) for ``hold``
+        seconds."""
         self._equations(phase, t)
         self.t_lo = self.t_hi = t
         self.y_hi = np.array(y, dtype=float)
@@ -189,7 +190,7 @@ class OdeSolver(Solver):
         self.first_span = self.chunk          # (advance_to shortens it after a flow change)
         self.sol = None                       # its dense output
         self.event: tuple[float, np.ndarray] | None = None
-        # a forced hold ignores the separation event for a while
+        # a forced hold ignores the segment's event for a while
         self.hold_until = t + hold if hold > 0.0 else -math.inf
         self._set_sticking(phase is Phase.STICK, t)
 
@@ -250,11 +251,18 @@ class OdeSolver(Solver):
             return
         if self._events_here > MAX_EVENTS_AT_ONE_INSTANT and not reanchor:
             # degenerate contact or integration noise (events repeating at one instant): plastic
-            # contact, held for a moment, so that the work stays bounded (a flight from here
-            # would meet the same noise event again)
+            # contact, then, for a moment, no event is looked for, so that the work stays
+            # bounded (the next segment would meet the same noise event again). The bodies stay
+            # together while the contact force pushes and fly apart while it pulls: a contact
+            # only pushes
             v_common, impulse = self.rules.plastic_merge(v, w)
             self.pending_impulse += impulse
-            self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
+            lam = self.rules.free_contact_force(x, v_common, v_common, self.u)
+            if self.rules.tensile(lam, x, v_common, v_common, self.u):
+                self._segment(Phase.FLIGHT, t, [x, v_common, x, v_common],
+                              hold=self.rules.chatter_time)
+            else:
+                self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
             return
         decision = self.rules.at_contact(t, x, v, w, self.u, reanchor)
         if decision.outcome is Outcome.IMPACT:
@@ -298,7 +306,9 @@ class OdeSolver(Solver):
                         self._segment(Phase.FLIGHT, t_ev, [x, v, x, v])
                 else:
                     x, v, w = float(y_ev[0]), float(y_ev[1]), float(y_ev[3])
-                    if w > v:
+                    if self.hold_until == t_ev:  # end of a flight without events
+                        self._begin(t_ev, x, v, min(float(y_ev[2]), x), w)
+                    elif w > v:
                         self._impact(t_ev, x, v, w)
                     else:  # touch without closing speed: the contact logic decides
                         self._begin(t_ev, x, v, x, w)
