@@ -63,6 +63,10 @@ MAX_EVENTS_AT_ONE_INSTANT = 8
 #: solve_ivp methods by ``solver.ode_method``.
 ODE_METHODS = {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}
 
+#: A parting speed below PARTING_NOISE times the velocities' tolerance (rtol |v| + atol) is
+#: integration noise (contact_rules.ContactPolicy.stick_slow_parting).
+PARTING_NOISE = 10.0
+
 #: atol = rtol * ATOL_SCALE for every component (m, m/s, and N.s for the integrated drag impulse).
 ATOL_SCALE = 1e-3
 
@@ -150,8 +154,10 @@ class OdeSolver(Solver):
         self.atol = self.rtol * ATOL_SCALE
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
+        # a parting within 10 times the velocities' tolerance is integration noise
         self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels,
-                                  INTEGRATED_POLICY)
+                                  INTEGRATED_POLICY, (PARTING_NOISE * self.rtol,
+                                                      PARTING_NOISE * self.atol))
         period = 2.0 * math.pi / scene.omega_n
         self.chunk = min(max(1.0, CHUNK_PERIODS * period), CHUNK_MAX)
         self.u = scene.flow_u
