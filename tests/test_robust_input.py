@@ -269,6 +269,23 @@ def test_cli_bad_arguments_exit_2_with_a_message(name, value, option):
     assert "error:" in err and "Traceback" not in err, err
 
 
+def test_underflowing_scales_are_a_parameter_error_not_a_zero_division():
+    """structure.k = structure.m = 1e-200 raised a bare ZeroDivisionError (sqrt(k m) = 0):
+    a ParameterError naming the combination, in Python, through the CLI and through the FMU."""
+    with pytest.raises(ParameterError, match=r"zeta\^2 = .* = inf is not allowed"):
+        Scene(structure_k=1e-200, structure_m=1e-200)
+    status, err = _cli(["simulate", "--set", "structure.k=1e-200", "--set", "structure.m=1e-200",
+                        "--t-end", "1e-3", "--dt", "1e-3"])
+    assert status == 2 and "zeta^2" in err and "Traceback" not in err
+    logs: list[str] = []
+    fmu = FmuModel(lambda status, text: logs.append(text))
+    fmu.set("structure.k", 1e-200)
+    fmu.set("structure.m", 1e-200)
+    fmu.initialize()
+    assert not fmu.do_step(0.0, 1e-3)
+    assert any("zeta^2" in text for text in logs)
+
+
 def test_cli_refuses_a_scene_it_cannot_run_in_bounded_time():
     status, err = _cli(["simulate", "--set", "structure.k=1e40", "--t-end", "1e-3",
                         "--dt", "1e-3"])
