@@ -97,18 +97,19 @@ class _Flight:
 
 
 class _Gap:
-    """Terminal event: the gap x - z closes (eq. 25)."""
+    """Terminal event: the gap x - z closes (eq. 25), or, with a ``slack`` (m), falls below
+    -slack (a flight that starts from contact under integration noise, see ``OdeSolver._begin``)."""
 
     terminal = True
     direction = -1
 
-    def __init__(self, start: float):
-        self.start = start
+    def __init__(self, start: float, slack: float = 0.0):
+        self.start, self.slack = start, slack
 
     def __call__(self, t: float, y: np.ndarray) -> float:
         # at the start the bodies may touch (g = 0): count that as open, so that only a crossing
         # after the start is an event (and the root bracket stays valid)
-        gap = y[0] - y[2]
+        gap = y[0] - y[2] + self.slack
         return gap if t > self.start else max(gap, _TINY)
 
 
@@ -173,21 +174,23 @@ class OdeSolver(Solver):
         return self.osc.acceleration(x, v), self.drag.force(w, u) / self.M
 
     # segments ------------------------------------------------------------------------------------
-    def _equations(self, phase: Phase, start: float) -> None:
-        """Right-hand side and terminal event of a segment of ``phase`` starting at ``start``."""
-        self.phase, self.segment_start = phase, start
+    def _equations(self, phase: Phase, start: float, gap_slack: float = 0.0) -> None:
+        """Right-hand side and terminal event of a segment of ``phase`` starting at ``start``
+        (a flight's gap event at -``gap_slack``)."""
+        self.phase, self.segment_start, self.gap_slack = phase, start, gap_slack
         if phase is Phase.FLIGHT:
-            self.rhs, self.event_fn = _Flight(self), _Gap(start)
+            self.rhs, self.event_fn = _Flight(self), _Gap(start, gap_slack)
         else:
             self.rhs = Together(self.m, self.c, self.k, self.M, self.drag, self.u,
                                 inertia_from_net=True)
             self.event_fn = _ContactForce(self.rhs, start)
 
-    def _segment(self, phase: Phase, t: float, y: list[float], hold: float = 0.0) -> None:
+    def _segment(self, phase: Phase, t: float, y: list[float], hold: float = 0.0,
+                 gap_slack: float = 0.0) -> None:
         """Start a flight ``[x, v, z, w]`` or a sticking phase ``[x, v, drag impulse]`` at t;
-        it ignores its event (the gap closing, the contact force turning tensile) for ``hold``
-        seconds."""
-        self._equations(phase, t)
+        a sticking phase ignores separation for ``hold`` seconds; a flight's gap event is at
+        -``gap_slack``."""
+        self._equations(phase, t, gap_slack)
         self.t_lo = self.t_hi = t
         self.y_hi = np.array(y, dtype=float)
         self.y_now = self.y_hi.copy()
@@ -196,7 +199,7 @@ class OdeSolver(Solver):
         self.first_span = self.chunk          # (advance_to shortens it after a flow change)
         self.sol = None                       # its dense output
         self.event: tuple[float, np.ndarray] | None = None
-        # a forced hold ignores the segment's event for a while
+        # a forced hold ignores the separation event for a while
         self.hold_until = t + hold if hold > 0.0 else -math.inf
         self._set_sticking(phase is Phase.STICK, t)
 
@@ -257,16 +260,17 @@ class OdeSolver(Solver):
             return
         if self._events_here > MAX_EVENTS_AT_ONE_INSTANT and not reanchor:
             # degenerate contact or integration noise (events repeating at one instant): plastic
-            # contact, then, for a moment, no event is looked for, so that the work stays
-            # bounded (the next segment would meet the same noise event again). The bodies stay
-            # together while the contact force pushes and fly apart while it pulls: a contact
-            # only pushes
+            # contact, so that the work stays bounded (the next segment would meet the same
+            # noise event again). While the contact force pushes, the bodies are held together
+            # for a moment; while it pulls they fly apart (a contact only pushes), the gap event
+            # set below the noise of the positions (10 times their tolerance): a real contact
+            # is met there, within the method's penetration tolerance
             v_common, impulse = self.rules.plastic_merge(v, w)
             self.pending_impulse += impulse
             lam = self.rules.free_contact_force(x, v_common, v_common, self.u)
             if self.rules.tensile(lam, x, v_common, v_common, self.u):
-                self._segment(Phase.FLIGHT, t, [x, v_common, x, v_common],
-                              hold=self.rules.chatter_time)
+                slack = PARTING_NOISE * (self.atol + self.rtol * abs(x))
+                self._segment(Phase.FLIGHT, t, [x, v_common, x, v_common], gap_slack=slack)
             else:
                 self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
             return
@@ -312,9 +316,7 @@ class OdeSolver(Solver):
                         self._segment(Phase.FLIGHT, t_ev, [x, v, x, v])
                 else:
                     x, v, w = float(y_ev[0]), float(y_ev[1]), float(y_ev[3])
-                    if self.hold_until == t_ev:  # end of a flight without events
-                        self._begin(t_ev, x, v, min(float(y_ev[2]), x), w)
-                    elif w > v:
+                    if w > v:
                         self._impact(t_ev, x, v, w)
                     else:  # touch without closing speed: the contact logic decides
                         self._begin(t_ev, x, v, x, w)
@@ -333,7 +335,7 @@ class OdeSolver(Solver):
     # snapshots ----------------------------------------------------------------------------------
     _KEYS = ("u", "pending_impulse", "nfev", "events_here", "last_event_t", "degenerate",
              "phase", "segment_start", "hold_until", "t_lo", "t_hi", "y_lo", "y_hi", "y_now",
-             "event", "first_span", "chunk_hi")
+             "event", "first_span", "chunk_hi", "gap_slack")
 
     def _snapshot(self) -> dict[str, Any]:
         return {"u": self.u, "pending_impulse": self.pending_impulse, "nfev": self.nfev,
@@ -345,7 +347,8 @@ class OdeSolver(Solver):
                 "y_hi": _floats(self.y_hi), "y_now": _floats(self.y_now),
                 "event": None if self.event is None else [self.event[0],
                                                           _floats(self.event[1])],
-                "first_span": self.first_span, "chunk_hi": self.chunk_hi}
+                "first_span": self.first_span, "chunk_hi": self.chunk_hi,
+                "gap_slack": self.gap_slack}
 
     def _read(self, rec: Record, t: float) -> Callable[[], None]:
         u = rec.real("u")
@@ -367,6 +370,7 @@ class OdeSolver(Solver):
         if first_span == 0.0:
             raise StateError(rec.field("first_span"), first_span, f"in (0, {self.chunk!r}] s")
         chunk_hi = rec.real("chunk_hi", low=t_lo)
+        gap_slack = rec.real("gap_slack", low=0.0)
         y_lo = rec.reals("y_lo", size, allow_none=True)
         y_hi = rec.reals("y_hi", size)
         y_now = rec.reals("y_now", size)
@@ -378,7 +382,7 @@ class OdeSolver(Solver):
 
         def apply() -> None:
             self.u = u
-            self._equations(phase, start)
+            self._equations(phase, start, gap_slack)
             self.pending_impulse, self.nfev = pending, nfev
             self._events_here, self._last_event_t = events_here, last_event_t
             self.rules.degenerate.set(degenerate)
