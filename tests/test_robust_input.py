@@ -480,3 +480,25 @@ def test_method_3_bodies_parting_under_noise_still_meet_again():
         a, b = exact.advance(1e-4), ode.advance(1e-4)
         assert ode.solver.state.gap >= -1e-10 and b.impulse >= 0.0
         assert b.x == pytest.approx(a.x, rel=1e-6, abs=1e-9)
+
+
+def test_sticking_far_from_its_equilibrium_keeps_the_impulse_sound():
+    """Method 1, linear drag: a soft structure (k = 1.2e-4 N/m) pressed by a strong drag
+    (b = 8.1e5 kg/s) sticks towards an equilibrium b u / k = 6.9e8 m away. Positions about it
+    carry its rounding (1e-7 m) and b (xb - xa) turned that into contact impulses of +-0.1 N.s,
+    some tensile. The displacement increments now come from the exponents of the over-damped
+    motion: each step's impulse equals the structure's momentum balance
+    m dv + c dx + k x dt (the force on the structure is its inertia, damping and spring)."""
+    m, k = 1.0, 1.1779e-4
+    sim = Simulator(Scene(structure_m=m, structure_c=0.0, structure_k=k, structure_x0=0.0,
+                          structure_v0=0.0, ice_M=393.5, ice_A=812.19, ice_Cd=2.0, ice_z0=0.0,
+                          ice_v0=0.0, impact_e=0.0, drag_model=1, flow_u=0.1,
+                          solver_method=1))
+    v_before, x_before = 0.0, 0.0
+    for _ in range(8):
+        r = sim.advance(1e-3)
+        assert r.sticking and r.impulse >= 0.0
+        balance = m * (r.v - v_before) + k * 0.5 * (r.x + x_before) * 1e-3
+        assert r.impulse == pytest.approx(balance, rel=1e-6, abs=1e-12)
+        v_before, x_before = r.v, r.x
+

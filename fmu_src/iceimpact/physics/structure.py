@@ -126,8 +126,21 @@ class Oscillator:
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
-        """x(t) - x0 (free of the rounding of x0) and v(t): gaps near contact need it."""
+        """x(t) - x0 (free of the rounding of x0) and v(t): gaps near contact need it.
+
+        Well over-damped (wo > sigma / 2), on the two exponents s1 (slow), s2 (fast):
+        ``y = A e^{s1 t} + B e^{s2 t}``, so ``x(t) - x0 = A (e^{s1 t} - 1) + B (e^{s2 t} - 1)``.
+        With the basis functions, y0 (C - 1) and (v0 + sigma y0) S cancel each other when y0 is
+        far larger than the motion (a sticking phase whose equilibrium b u / k is 1e9 m away
+        moves 1e-4 m in a step); the exponent form has no such cancellation."""
         y0 = x0 - self.offset
+        if self.regime == OVER and self.omega > 0.5 * self.sigma:
+            slow, fast = self._s_slow, self._s_fast
+            gap = slow - fast  # 2 wo
+            a = (v0 - fast * y0) / gap
+            b = (slow * y0 - v0) / gap
+            return (a * math.expm1(slow * t) + b * math.expm1(fast * t),
+                    a * slow * math.exp(slow * t) + b * fast * math.exp(fast * t))
         c, cm1, s = self.basis_parts(t)
         return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)

@@ -198,9 +198,11 @@ class LinearStick(_SearchedSegment):
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
         if tau_b <= tau_a:
             return 0.0
-        xa, va = self.osc.response(self.x0, self.v0, tau_a)
-        xb, vb = self.osc.response(self.x0, self.v0, tau_b)
-        return -self.b * ((xb - xa) - self.u * (tau_b - tau_a)) - self.M * (vb - va)
+        # displacement increments from the anchor: positions about an equilibrium b u / k far
+        # away carry its rounding, which b (xb - xa) would multiply
+        dxa, va = self.osc.displacement_change(self.x0, self.v0, tau_a)
+        dxb, vb = self.osc.displacement_change(self.x0, self.v0, tau_b)
+        return -self.b * ((dxb - dxa) - self.u * (tau_b - tau_a)) - self.M * (vb - va)
 
 
 class _Separation:
