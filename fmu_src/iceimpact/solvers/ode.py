@@ -293,13 +293,17 @@ class OdeSolver(Solver):
     # marching ------------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
         if u != self.u:  # zero-order hold: restart the integration at the change
-            s = self.state
+            # from the current segment's state (y_now), which follows any event at this time:
+            # self.state is the last reported one, before an impact at t = 0
+            t = self.state.t
+            y = [float(c) for c in self.y_now]
+            sticking = self.phase is Phase.STICK
             self.u = u
-            x, v, z, w = reanchor_on_flow_change(s.x, s.v, s.z, s.w, self.phase is Phase.STICK)
-            self._begin(s.t, x, v, z, w, reanchor=True)
+            x, v, z, w = reanchor_on_flow_change(*(y[:2] * 2 if sticking else y), sticking)
+            self._begin(t, x, v, z, w, reanchor=True)
             # the flow may change again at the next step: integrate ahead by this step only
             # (doubling from there), not a whole chunk
-            self.first_span = min(self.chunk, t_end - s.t)
+            self.first_span = min(self.chunk, t_end - t)
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         while True:
