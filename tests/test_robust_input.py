@@ -557,3 +557,19 @@ def test_a_light_floe_sticking_under_a_strong_linear_drag_finishes():
         r = sim.advance(0.37)
         assert r.gap >= 0.0 and r.impulse >= 0.0
     assert sim.solver.seg.search.iterations < 100_000
+
+
+def test_method_3_work_per_impact_follows_the_impact_not_the_chunk():
+    """Method 3, a stiff undamped structure (omega_n 3e3 rad/s) bouncing the ice every ~0.4 ms:
+    each impact started a segment integrated a whole chunk (1 s, ~1e4 periods) ahead, 4.6e5
+    evaluations for 10 ms. A segment's first call now spans one period, then doubles."""
+    sim = Simulator(Scene(structure_m=1.0, structure_c=0.0, structure_k=9.171e6,
+                          structure_x0=0.0, structure_v0=0.0, ice_M=1.0, ice_A=1.023,
+                          ice_Cd=0.2168, ice_z0=-1e-5, ice_v0=0.0, impact_e=1.0, drag_model=1,
+                          drag_v_lin=0.9937, flow_u=3.48, solver_method=3))
+    for i in range(100):
+        r = sim.advance(1e-4, -3.48 if i % 4 == 3 else 3.48)
+        assert r.gap >= 0.0 and r.impulse >= 0.0
+    assert sim.impact_count >= 10
+    assert sim.solver.nfev < 50_000
+

@@ -27,9 +27,10 @@ Each ``solve_ivp`` call covers at most a chunk of :data:`CHUNK_PERIODS` structur
 :data:`CHUNK_MAX` seconds) from the
 start of the segment, and its dense output answers the communication steps inside it, so the
 result does not depend on the communication step (unless the flow speed changes, which restarts
-the integration at the change). After a flow change the first call spans only the step being
-taken, and each next one twice the previous, up to the chunk: a flow changing at every step costs
-work in proportion to the step, not a whole chunk per step. Work is bounded: every impact either
+the integration at the change). A segment's first call spans one period of the structure (after
+a flow change: the step being taken, if shorter), and each next one twice the previous, up to
+the chunk: a segment that an impact ends early, or a flow changing at every step, costs work in
+proportion to its own length, not a whole chunk. Work is bounded: every impact either
 lasts a resolvable bounce or ends the bouncing, and repeated events at one instant (a degenerate
 contact, or integration noise at a loose tolerance) make the bodies stick.
 """
@@ -161,13 +162,16 @@ class OdeSolver(Solver):
                                                       PARTING_NOISE * self.atol))
         period = 2.0 * math.pi / scene.omega_n
         self.chunk = min(max(1.0, CHUNK_PERIODS * period), CHUNK_MAX)
+        # a segment's first call spans one period, then each next one twice the previous, up to
+        # the chunk: a segment that an impact ends early costs about its own length, not a chunk
+        self.first_chunk = min(period, self.chunk)
         self.u = scene.flow_u
         self.pending_impulse = 0.0
         self.nfev = 0                   # right-hand-side evaluations, for the benchmarks
         self._events_here = 0
         self._last_event_t = -math.inf
         s = self.state
-        self.first_span = self.chunk  # length of a segment's first solve_ivp call, s
+        self.first_span = self.first_chunk  # length of a segment's first solve_ivp call, s
         self._begin(0.0, s.x, s.v, s.z, s.w)
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
@@ -196,7 +200,7 @@ class OdeSolver(Solver):
         self.y_now = self.y_hi.copy()
         self.y_lo: np.ndarray | None = None   # start of the integrated chunk (none yet)
         self.chunk_hi = t                     # where its solve_ivp call was asked to end
-        self.first_span = self.chunk          # (advance_to shortens it after a flow change)
+        self.first_span = self.first_chunk    # (advance_to shortens it after a flow change)
         self.sol = None                       # its dense output
         self.event: tuple[float, np.ndarray] | None = None
         # a forced hold ignores the separation event for a while
@@ -303,7 +307,7 @@ class OdeSolver(Solver):
             self._begin(t, x, v, z, w, reanchor=True)
             # the flow may change again at the next step: integrate ahead by this step only
             # (doubling from there), not a whole chunk
-            self.first_span = min(self.chunk, t_end - t)
+            self.first_span = min(self.first_chunk, t_end - t)
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         while True:
