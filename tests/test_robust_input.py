@@ -573,3 +573,12 @@ def test_method_3_work_per_impact_follows_the_impact_not_the_chunk():
     assert sim.impact_count >= 10
     assert sim.solver.nfev < 50_000
 
+
+def test_a_structure_damped_too_stiffly_to_integrate_is_refused_for_method_3():
+    """An over-damped structure relaxes at up to c / m: for method 3's explicit integrators a
+    rate like the drag's, held to the same limit."""
+    with pytest.raises(ParameterError,
+                       match=r"structure.c / structure.m = 2000000.0 is not allowed: <= 1e\+06"):
+        Scene(structure_c=2e6 * 1600.0, solver_method=3)
+    Scene(structure_c=2e6 * 1600.0, solver_method=1)
+    Scene(structure_c=0.9e6 * 1600.0, solver_method=3)

@@ -251,7 +251,13 @@ def _check_work(scene: Scene) -> None:
         if _drag_rate(s, speed) > DRAG_RATE_MAX:
             limit = DRAG_RATE_MAX * s.ice_M / (2.0 * s.drag_B)
             raise ParameterError(_SPEED_BOUND, speed, _drag_rate_text(s, limit, "speed"))
-    elif s.solver_method == METHOD_ODE and s.drag_model == LINEAR_DRAG:
+    if s.solver_method == METHOD_ODE and s.structure_c / s.structure_m > DRAG_RATE_MAX:
+        # an over-damped structure relaxes at up to c / m: the same step bound as a drag rate
+        raise ParameterError("structure.c / structure.m", s.structure_c / s.structure_m,
+                             f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the explicit "
+                             "integration of the structure's damping finishes in bounded time "
+                             "only below this rate; use solver.method = 1 or 2")
+    if s.solver_method == METHOD_ODE and s.drag_model == LINEAR_DRAG:
         if s.drag_b / s.ice_M > DRAG_RATE_MAX:
             raise ParameterError("B * drag.v_lin / ice.M", s.drag_b / s.ice_M,
                                  f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the "
