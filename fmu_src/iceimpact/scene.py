@@ -324,12 +324,21 @@ def _check_work(scene: Scene) -> None:
                              f"omega_n <= {omega_max:.3g} rad/s with solver.method = "
                              f"{s.solver_method}: {why}")
     if _integrates_quadratic_drag(s):
-        speed = max(abs(s.flow_u), abs(s.ice_v0 - s.flow_u))
+        # the speed relative to the flow the integrated drag can meet: the ice's own, or what
+        # an impact gives it, up to twice the structure's speed, which never exceeds
+        # sqrt(v0^2 + omega_n^2 x0^2) (its energy only decays in free motion)
+        speed = abs(s.flow_u) + abs(s.ice_v0) + 2.0 * math.hypot(s.structure_v0,
+                                                                 s.omega_n * s.structure_x0)
         if _drag_rate(s, speed) > DRAG_RATE_MAX:
             limit = DRAG_RATE_MAX * s.ice_M / (2.0 * s.drag_B)
-            raise ParameterError("max(|flow.u|, |ice.v0 - flow.u|)", speed,
-                                 _drag_rate_text(s, limit, "|speed|"))
-    elif s.solver_method == METHOD_ODE and s.drag_model == LINEAR_DRAG:
+            raise ParameterError(_SPEED_BOUND, speed, _drag_rate_text(s, limit, "speed"))
+    if s.solver_method == METHOD_ODE and s.structure_c / s.structure_m > DRAG_RATE_MAX:
+        # an over-damped structure relaxes at up to c / m: the same step bound as a drag rate
+        raise ParameterError("structure.c / structure.m", s.structure_c / s.structure_m,
+                             f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the explicit "
+                             "integration of the structure's damping finishes in bounded time "
+                             "only below this rate; use solver.method = 1 or 2")
+    if s.solver_method == METHOD_ODE and s.drag_model == LINEAR_DRAG:
         if s.drag_b / s.ice_M > DRAG_RATE_MAX:
             raise ParameterError("B * drag.v_lin / ice.M", s.drag_b / s.ice_M,
                                  f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the "
@@ -339,6 +348,9 @@ def _check_work(scene: Scene) -> None:
         _check_structure_drag_rate(s, max(abs(s.flow_u), abs(s.flow_u - s.structure_v0)),
                                    "max(|flow.u|, |flow.u - structure.v0|)")
 
+
+#: The relative speed bound of the quadratic-drag rate rule (_check_work), as a user reads it.
+_SPEED_BOUND = "|flow.u| + |ice.v0| + 2 sqrt(structure.v0^2 + (omega_n structure.x0)^2)"
 
 #: The explicit Euler step of the quadratic drag (eq. 36) maps r = w - u to r (1 - q |r|) with
 #: q = (B/M) dt: |r| grows (and overflows) once q |r| exceeds this (method 2).

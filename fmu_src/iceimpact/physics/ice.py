@@ -91,14 +91,16 @@ class LinearDrag(_DragLaw):
         """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
         x = self.kappa * t
-        return w0 * t + r0 * t * _decay_lag(x), u + r0 * math.exp(-x)
+        # w0 + r0 (e^{-x} - 1): exactly w0 at t = 0 and without drag, even when |w0| << |u|
+        return w0 * t + r0 * t * _decay_lag(x), w0 + r0 * math.expm1(-x)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
         t = np.asarray(t, dtype=float)
         r0 = w0 - u
         x = self.kappa * t
-        return z0 + w0 * t + r0 * t * _decay_lag_array(x), u + r0 * np.exp(-x)
+        # the velocity as displacement_change's: w0 + r0 (e^{-x} - 1)
+        return z0 + w0 * t + r0 * t * _decay_lag_array(x), w0 + r0 * np.expm1(-x)
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:
         """(acceleration, bound on |acceleration|, bound on |jerk|) for all later times.
@@ -139,14 +141,16 @@ class QuadraticDrag(_DragLaw):
         """z(t) - z0 and w(t) of a free flight."""
         r0 = w0 - u
         y = self.beta * abs(r0) * t
-        return w0 * t + r0 * t * _log_lag(y), u + r0 / (1.0 + y)
+        # w0 - r0 y / (1 + y): exactly w0 at t = 0 and without drag, even when |w0| << |u|
+        return w0 * t + r0 * t * _log_lag(y), w0 - r0 * (y / (1.0 + y))
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
         t = np.asarray(t, dtype=float)
         r0 = w0 - u
         y = self.beta * np.abs(r0) * t
-        return z0 + w0 * t + r0 * t * _log_lag_array(y), u + r0 / (1.0 + y)
+        # the velocity as displacement_change's: w0 - r0 y / (1 + y)
+        return z0 + w0 * t + r0 * t * _log_lag_array(y), w0 - r0 * (y / (1.0 + y))
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:
         """(acceleration, bound on |acceleration|, bound on |jerk|) for all later times.
@@ -156,6 +160,13 @@ class QuadraticDrag(_DragLaw):
         r = w - u
         a = -self.beta * abs(r) * r
         return a, abs(a), 2.0 * self.beta * abs(r) * abs(a)
+
+
+def downstream_speed_bound(w: float, u: float) -> float:
+    """Bound on the ice's downstream velocity (m/s, >= 0) for all later times of a free flight
+    from velocity w in a flow u: under either drag law (and with none) the velocity relative to
+    the flow, w - u, only decays without changing sign, so w stays between w and u."""
+    return max(w, u, 0.0)
 
 
 def make_drag(scene) -> LinearDrag | QuadraticDrag:

@@ -74,42 +74,60 @@ class Oscillator:
         slow, fast = math.exp(self._s_slow * t), math.exp(self._s_fast * t)
         return 0.5 * (slow + fast), 0.5 * (slow - fast) / self.omega
 
-    def basis_minus_one(self, t: float) -> tuple[float, float]:
-        """(C(t) - 1, S(t)) without cancellation at small t (for displacement increments)."""
-        decay_m1 = math.expm1(-self.sigma * t)
+    def basis_parts(self, t: float) -> tuple[float, float, float]:
+        """(C(t), C(t) - 1, S(t)), each without cancellation: C - 1 at small t (displacement
+        increments), C once the response has decayed (a velocity recovered as (C - 1) + 1
+        would carry an error of one ulp of 1, i.e. eps |v0|, long after v itself is below it)."""
+        arg = -self.sigma * t
+        if arg < -0.7:  # the decay is below 1/2: e - 1 has no cancellation
+            decay = math.exp(arg)
+            decay_m1 = decay - 1.0
+        else:           # above 1/2: 1 + (e - 1) loses nothing
+            decay_m1 = math.expm1(arg)
+            decay = 1.0 + decay_m1
         if self.regime == UNDER:
             wt = self.omega * t
+            cos_wt = math.cos(wt)
             half = math.sin(0.5 * wt)
-            return (decay_m1 * math.cos(wt) - 2.0 * half * half,
-                    (1.0 + decay_m1) * math.sin(wt) / self.omega)
+            return (decay * cos_wt, decay_m1 * cos_wt - 2.0 * half * half,
+                    decay * math.sin(wt) / self.omega)
         if self.regime == CRITICAL:
-            return decay_m1, t * (1.0 + decay_m1)
+            return decay, decay_m1, t * decay
         wt = self.omega * t
         if wt < 1.0:
+            cosh_wt = math.cosh(wt)
             half = math.sinh(0.5 * wt)
-            return (decay_m1 * math.cosh(wt) + 2.0 * half * half,
-                    (1.0 + decay_m1) * math.sinh(wt) / self.omega)
+            return (decay * cosh_wt, decay_m1 * cosh_wt + 2.0 * half * half,
+                    decay * math.sinh(wt) / self.omega)
         c, s = self.basis(t)
-        return c - 1.0, s
+        return c, c - 1.0, s
 
-    def basis_minus_one_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Vectorised :meth:`basis_minus_one`."""
+    def basis_parts_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Vectorised :meth:`basis_parts`: (C, C - 1, S), each without cancellation."""
         t = np.asarray(t, dtype=float)
-        decay_m1 = np.expm1(-self.sigma * t)
+        arg = -self.sigma * t
+        exp_decay = np.exp(arg)
+        expm1_decay = np.expm1(arg)
+        low = arg < -0.7  # the decay is below 1/2: e - 1 has no cancellation
+        decay = np.where(low, exp_decay, 1.0 + expm1_decay)
+        decay_m1 = np.where(low, exp_decay - 1.0, expm1_decay)
         if self.regime == UNDER:
             wt = self.omega * t
+            cos_wt = np.cos(wt)
             half = np.sin(0.5 * wt)
-            return (decay_m1 * np.cos(wt) - 2.0 * half * half,
-                    (1.0 + decay_m1) * np.sin(wt) / self.omega)
+            return (decay * cos_wt, decay_m1 * cos_wt - 2.0 * half * half,
+                    decay * np.sin(wt) / self.omega)
         if self.regime == CRITICAL:
-            return decay_m1, t * (1.0 + decay_m1)
+            return decay, decay_m1, t * decay
         wt = self.omega * t
         small = wt < 1.0
         ws = np.where(small, wt, 0.0)
+        cosh_ws = np.cosh(ws)
         half = np.sinh(0.5 * ws)
         c, s = self.basis_array(t)
-        return (np.where(small, decay_m1 * np.cosh(ws) + 2.0 * half * half, c - 1.0),
-                np.where(small, (1.0 + decay_m1) * np.sinh(ws) / self.omega, s))
+        return (np.where(small, decay * cosh_ws, c),
+                np.where(small, decay_m1 * cosh_ws + 2.0 * half * half, c - 1.0),
+                np.where(small, decay * np.sinh(ws) / self.omega, s))
 
     def basis_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(C(t), S(t)) for an array of t >= 0."""
@@ -139,18 +157,38 @@ class Oscillator:
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
-        """x(t) - x0 (free of the rounding of x0) and v(t): gaps near contact need it."""
+        """x(t) - x0 (free of the rounding of x0) and v(t): gaps near contact need it.
+
+        Well over-damped (wo > sigma / 2), on the two exponents s1 (slow), s2 (fast):
+        ``y = A e^{s1 t} + B e^{s2 t}``, so ``x(t) - x0 = A (e^{s1 t} - 1) + B (e^{s2 t} - 1)``.
+        With the basis functions, y0 (C - 1) and (v0 + sigma y0) S cancel each other when y0 is
+        far larger than the motion (a sticking phase whose equilibrium b u / k is 1e9 m away
+        moves 1e-4 m in a step); the exponent form has no such cancellation."""
         y0 = x0 - self.offset
-        cm1, s = self.basis_minus_one(t)
-        c = cm1 + 1.0
+        if self.regime == OVER and self.omega > 0.5 * self.sigma:
+            slow, fast = self._s_slow, self._s_fast
+            gap = slow - fast  # 2 wo
+            a = (v0 - fast * y0) / gap
+            b = (slow * y0 - v0) / gap
+            return (a * math.expm1(slow * t) + b * math.expm1(fast * t),
+                    a * slow * math.exp(slow * t) + b * fast * math.exp(fast * t))
+        c, cm1, s = self.basis_parts(t)
         return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
     def displacement_change_array(self, x0, v0, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Vectorised :meth:`displacement_change` (x0, v0 floats or arrays like t)."""
+        """Vectorised :meth:`displacement_change` (x0, v0 floats or arrays like t), with its
+        exponent form when well over-damped."""
         y0 = x0 - self.offset
-        cm1, s = self.basis_minus_one_array(t)
-        c = cm1 + 1.0
+        if self.regime == OVER and self.omega > 0.5 * self.sigma:
+            t = np.asarray(t, dtype=float)
+            slow, fast = self._s_slow, self._s_fast
+            gap = slow - fast  # 2 wo
+            a = (v0 - fast * y0) / gap
+            b = (slow * y0 - v0) / gap
+            return (a * np.expm1(slow * t) + b * np.expm1(fast * t),
+                    a * slow * np.exp(slow * t) + b * fast * np.exp(fast * t))
+        c, cm1, s = self.basis_parts_array(t)
         return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
@@ -184,9 +222,18 @@ class Oscillator:
 
         Every derivative of a free response is itself a free response, and its energy
         ``mass ydot^2/2 + stiffness y^2/2`` never grows (damping >= 0), so
-        ``|y(t')| <= sqrt(y^2 + (mass/stiffness) ydot^2)``.
+        ``|y(t')| <= sqrt(y^2 + (mass/stiffness) ydot^2)``. Over-damped, the response is
+        ``A e^{s1 t} + B e^{s2 t}`` with both exponents negative, so also ``|y| <= |A| + |B|``:
+        far tighter when sigma >> omega_n (the energy bound exceeds it by about sigma / omega_n,
+        3e8 for a light floe sticking under a strong linear drag, and a root search on it
+        crawled at 1e-13 s steps).
         """
-        return math.sqrt(y * y + ydot * ydot / self.omega2)
+        energy = math.sqrt(y * y + ydot * ydot / self.omega2)
+        if self.regime != OVER:
+            return energy
+        slow, fast = self._s_slow, self._s_fast
+        modes = (abs(ydot - fast * y) + abs(slow * y - ydot)) / (slow - fast)
+        return min(energy, modes * (1.0 + 1e-15))  # a few ulps above the rounding of |A| + |B|
 
 
 def morison_oscillator(mass: float, damping: float, stiffness: float, drag_b: float,

@@ -91,9 +91,11 @@ class ContactPolicy:
       the common velocity of both bodies (momentum kept) before the decision (exact method: its
       velocities carry rounding only). Otherwise any positive closing speed is an impact.
     - ``stick_slow_parting``: bodies pressed together (lam >= 0) that part too slowly for a
-      resolvable bounce (shorter than the chatter time) stick (ODE method: its velocities carry
-      integration error, which would leave an endless chatter). Otherwise only bodies with no
-      relative velocity stick.
+      resolvable bounce (shorter than the chatter time), at a speed within the velocities'
+      error (``ContactRules.parting_noise``), stick (ODE method: its velocities carry
+      integration error, which would leave an endless chatter). A faster parting is real: the
+      plastic entry would pull the ice back (a tensile impulse); the bodies fly apart and meet
+      again at an impact. Otherwise only bodies with no relative velocity stick.
     - ``plastic_entry``: the sticking phase starts with the common velocity of a plastic impact
       (eq. 16-17 with e = 0), its impulse counted; otherwise with the structure's velocity (which
       then equals the ice's).
@@ -283,17 +285,19 @@ class ContactRules:
 
     ``free_accels(x, v, w, u) -> (a_x, a_z)`` gives the free accelerations of structure and ice
     (each method evaluates the ice's drag acceleration its own way, to the last bit);
-    ``policy`` is the method's :class:`ContactPolicy`.
+    ``policy`` is the method's :class:`ContactPolicy`; ``parting_noise`` = (relative, absolute
+    in m/s) the error of the method's velocities (its integration tolerance).
     """
 
     def __init__(self, m: float, M: float, omega_n: float, free_accels: FreeAccels,
-                 policy: ContactPolicy):
+                 policy: ContactPolicy, parting_noise: tuple[float, float] = (0.0, 0.0)):
         self.m, self.M = m, M
         self.mu = m * M / (m + M)   # reduced mass, kg
         self.omega_n = omega_n
         self.chatter_time = chatter_time(omega_n)
         self.free_accels = free_accels
         self.policy = policy
+        self.parting_noise = parting_noise
         self.degenerate = DegenerateContacts(self.chatter_time)
         self._last_force: tuple[tuple[float, ...], float] = ((), 0.0)
 
@@ -395,7 +399,10 @@ class ContactRules:
         if policy.stick_slow_parting:
             # pressed together and parting too slowly for a resolvable bounce (rounding of a
             # separation, the tail of a chatter): stick
-            stick = lam >= 0.0 and -2.0 * closing * self.mu <= lam * self.chatter_time
+            relative, absolute = self.parting_noise
+            noise = relative * (abs(v) + abs(w) + abs(u)) + absolute
+            stick = (lam >= 0.0 and -closing <= noise
+                     and -2.0 * closing * self.mu <= lam * self.chatter_time)
         else:
             stick = closing == 0.0 and lam >= 0.0
         if stick:

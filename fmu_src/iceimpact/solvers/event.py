@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..physics.ice import make_drag
+from ..physics.ice import downstream_speed_bound, make_drag
 from ..physics.structure import DraggedStructure, Oscillator, morison_oscillator
 from ..scene import Scene
 from .base import Solver, SolverError, State
@@ -51,6 +51,9 @@ from .taylor import StepEnd, StickingTaylor, TaylorStep
 _NO_STATE = (math.nan, math.nan, math.nan)
 #: Taylor steps in a row that do not advance the time before a sticking phase is given up.
 _MAX_STALLED_STEPS = 4
+
+#: Rounding of a gap evaluated from positions of magnitude X is below GAP_ULPS * X (m).
+GAP_ULPS = 16.0 * 2.0 ** -52
 
 #: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
 #: (those the future can ask for: one, or two at a step boundary).
@@ -177,8 +180,31 @@ class Flight(_SearchedSegment):
                 self.osc.amplitude_bound(a_x, j_x) + a_z_max,
                 self.osc.amplitude_bound(j_x, s_x) + j_z_max)
 
+    def clearance(self, tau: float) -> float:
+        """Time from tau (s) during which the gap provably stays open, from the structure's
+        envelope: the free structure never goes below ``offset - R``, R its amplitude bound
+        (its energy never grows, eq. 8-10), and the ice moves downstream no faster than
+        :func:`~iceimpact.physics.ice.downstream_speed_bound`. So the gap stays above
+        ``offset - R - z(tau) - speed s`` (beyond the rounding of the positions).
+
+        A stiff structure ringing with a large amplitude while the ice is still outside its
+        reach costs the Taylor steps of the root search a few evaluations per period (its bound
+        on the gap's curvature is omega_n^2 R); this spans those periods at once."""
+        offset = getattr(self.osc, "offset", None)
+        if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
+            return 0.0
+        _, dx, v, dz, w = self._motion(tau)
+        x, z = self.x0 + dx, self.z0 + dz
+        reach = self.osc.amplitude_bound(x - offset, v)
+        margin = (offset - reach - z) - GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
+        if margin <= 0.0:
+            return 0.0
+        speed = downstream_speed_bound(w, self.u)
+        return math.inf if speed == 0.0 else margin / speed
+
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate)
+        return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate,
+                                            self.clearance)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
@@ -214,6 +240,7 @@ class DraggedFlight(Flight):
 
     FRONTIER_ONLY = False  # its integration chunks change while marching
     state_array = None     # no closed form: sampled point by point
+    clearance = None       # no closed-form envelope of the structure's motion
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
@@ -384,18 +411,21 @@ class LinearStick(_SearchedSegment):
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
         if tau_b <= tau_a:
             return 0.0
-        xa, va = self.osc.response(self.x0, self.v0, tau_a)
-        xb, vb = self.osc.response(self.x0, self.v0, tau_b)
-        return self._impulse(xa, va, xb, vb, tau_b - tau_a)
+        # displacement increments from the anchor: positions about an equilibrium b u / k far
+        # away carry its rounding, which b (xb - xa) would multiply
+        dxa, va = self.osc.displacement_change(self.x0, self.v0, tau_a)
+        dxb, vb = self.osc.displacement_change(self.x0, self.v0, tau_b)
+        return self._impulse(dxa, va, dxb, vb, tau_b - tau_a)
 
     def impulse_array(self, anchor, tau_a, tau_b):
-        xa, va = self.osc.response_array(*anchor, tau_a)
-        xb, vb = self.osc.response_array(*anchor, tau_b)
-        return np.where(tau_b > tau_a, self._impulse(xa, va, xb, vb, tau_b - tau_a), 0.0)
+        dxa, va = self.osc.displacement_change_array(*anchor, tau_a)
+        dxb, vb = self.osc.displacement_change_array(*anchor, tau_b)
+        return np.where(tau_b > tau_a, self._impulse(dxa, va, dxb, vb, tau_b - tau_a), 0.0)
 
-    def _impulse(self, xa, va, xb, vb, duration):
-        """Drag impulse on the ice, -b (dx - u dt), minus its momentum change M dv."""
-        return -self.b * ((xb - xa) - self.u * duration) - self.M * (vb - va)
+    def _impulse(self, dxa, va, dxb, vb, duration):
+        """Drag impulse on the ice, -b (dx - u dt), minus its momentum change M dv (dxa, dxb:
+        displacements from the anchor)."""
+        return -self.b * ((dxb - dxa) - self.u * duration) - self.M * (vb - va)
 
 
 class QuadraticStick:

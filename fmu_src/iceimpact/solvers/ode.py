@@ -29,9 +29,12 @@ Each ``solve_ivp`` call covers at most a chunk of :data:`CHUNK_PERIODS` structur
 :data:`CHUNK_MAX` seconds) from the
 start of the segment, and its dense output answers the communication steps inside it, so the
 result does not depend on the communication step (unless the flow speed changes, which restarts
-the integration at the change). Work is bounded: every impact either lasts a resolvable bounce or
-ends the bouncing, and repeated events at one instant (a degenerate contact, or integration noise
-at a loose tolerance) make the bodies stick.
+the integration at the change). A segment's first call spans one period of the structure (after
+a flow change: the step being taken, if shorter), and each next one twice the previous, up to
+the chunk: a segment that an impact ends early, or a flow changing at every step, costs work in
+proportion to its own length, not a whole chunk. Work is bounded: every impact either
+lasts a resolvable bounce or ends the bouncing, and repeated events at one instant (a degenerate
+contact, or integration noise at a loose tolerance) make the bodies stick.
 """
 
 from __future__ import annotations
@@ -63,6 +66,10 @@ MAX_EVENTS_AT_ONE_INSTANT = 8
 
 #: solve_ivp methods by ``solver.ode_method``.
 ODE_METHODS = {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}
+
+#: A parting speed below PARTING_NOISE times the velocities' tolerance (rtol |v| + atol) is
+#: integration noise (contact_rules.ContactPolicy.stick_slow_parting).
+PARTING_NOISE = 10.0
 
 #: atol = rtol * ATOL_SCALE for every component (m, m/s, and N.s for the integrated drag impulse).
 ATOL_SCALE = 1e-3
@@ -108,18 +115,19 @@ class _DraggedFlight(_Flight):
 
 
 class _Gap:
-    """Terminal event: the gap x - z closes (eq. 25)."""
+    """Terminal event: the gap x - z closes (eq. 25), or, with a ``slack`` (m), falls below
+    -slack (a flight that starts from contact under integration noise, see ``OdeSolver._begin``)."""
 
     terminal = True
     direction = -1
 
-    def __init__(self, start: float):
-        self.start = start
+    def __init__(self, start: float, slack: float = 0.0):
+        self.start, self.slack = start, slack
 
     def __call__(self, t: float, y: np.ndarray) -> float:
         # at the start the bodies may touch (g = 0): count that as open, so that only a crossing
         # after the start is an event (and the root bracket stays valid)
-        gap = y[0] - y[2]
+        gap = y[0] - y[2] + self.slack
         return gap if t > self.start else max(gap, _TINY)
 
 
@@ -165,16 +173,22 @@ class OdeSolver(Solver):
         self.atol = self.rtol * ATOL_SCALE
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
+        # a parting within 10 times the velocities' tolerance is integration noise
         self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels,
-                                  INTEGRATED_POLICY)
+                                  INTEGRATED_POLICY, (PARTING_NOISE * self.rtol,
+                                                      PARTING_NOISE * self.atol))
         period = 2.0 * math.pi / scene.omega_n
         self.chunk = min(max(1.0, CHUNK_PERIODS * period), CHUNK_MAX)
+        # a segment's first call spans one period, then each next one twice the previous, up to
+        # the chunk: a segment that an impact ends early costs about its own length, not a chunk
+        self.first_chunk = min(period, self.chunk)
         self.u = scene.flow_u
         self.pending_impulse = 0.0
         self.nfev = 0                   # right-hand-side evaluations, for the benchmarks
         self._events_here = 0
         self._last_event_t = -math.inf
         s = self.state
+        self.first_span = self.first_chunk  # length of a segment's first solve_ivp call, s
         self._begin(0.0, s.x, s.v, s.z, s.w)
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
@@ -184,34 +198,45 @@ class OdeSolver(Solver):
         return a_x, self.drag.force(w, u) / self.M
 
     # segments ------------------------------------------------------------------------------------
-    def _equations(self, phase: Phase, start: float) -> None:
-        """Right-hand side and terminal event of a segment of ``phase`` starting at ``start``."""
-        self.phase, self.segment_start = phase, start
+    def _equations(self, phase: Phase, start: float, gap_slack: float = 0.0) -> None:
+        """Right-hand side and terminal event of a segment of ``phase`` starting at ``start``
+        (a flight's gap event at -``gap_slack``)."""
+        self.phase, self.segment_start, self.gap_slack = phase, start, gap_slack
         if phase is Phase.FLIGHT:
             flight = _Flight if self.structure_drag is None else _DraggedFlight
-            self.rhs, self.event_fn = flight(self), _Gap(start)
+            self.rhs, self.event_fn = flight(self), _Gap(start, gap_slack)
         else:
             self.rhs = make_together(self.m, self.c, self.k, self.M, self.drag, self.u,
                                      inertia_from_net=True, structure_drag=self.structure_drag)
             self.event_fn = _ContactForce(self.rhs, start)
 
-    def _segment(self, phase: Phase, t: float, y: list[float], hold: float = 0.0) -> None:
+    def _segment(self, phase: Phase, t: float, y: list[float], hold: float = 0.0,
+                 gap_slack: float = 0.0) -> None:
         """Start a flight ``[x, v, z, w]`` or a sticking phase ``[x, v, drag impulse]`` at t;
-        a sticking phase ignores separation for ``hold`` seconds."""
-        self._equations(phase, t)
+        a sticking phase ignores separation for ``hold`` seconds; a flight's gap event is at
+        -``gap_slack``."""
+        self._equations(phase, t, gap_slack)
         self.t_lo = self.t_hi = t
         self.y_hi = np.array(y, dtype=float)
         self.y_now = self.y_hi.copy()
         self.y_lo: np.ndarray | None = None   # start of the integrated chunk (none yet)
+        self.chunk_hi = t                     # where its solve_ivp call was asked to end
+        self.first_span = self.first_chunk    # (advance_to shortens it after a flow change)
         self.sol = None                       # its dense output
         self.event: tuple[float, np.ndarray] | None = None
         # a forced hold ignores the separation event for a while
         self.hold_until = t + hold if hold > 0.0 else -math.inf
         self._set_sticking(phase is Phase.STICK, t)
 
-    def _integrate(self, lo: float, y_lo: np.ndarray):
-        """One solve_ivp call from (lo, y_lo): a chunk, or up to the end of a forced hold."""
-        hi = lo + self.chunk
+    def _next_span(self) -> float:
+        """Length of the next solve_ivp call of the segment (s): the first span, then twice
+        the previous call's, up to the chunk."""
+        if self.y_lo is None:
+            return self.first_span
+        return min(2.0 * (self.chunk_hi - self.t_lo), self.chunk)
+
+    def _integrate(self, lo: float, y_lo: np.ndarray, hi: float):
+        """One solve_ivp call from (lo, y_lo) to hi, or up to the end of a forced hold."""
         events = self.event_fn
         if lo < self.hold_until:
             hi, events = self.hold_until, None
@@ -225,9 +250,9 @@ class OdeSolver(Solver):
     def _extend(self) -> None:
         """Integrate one more chunk of the current segment (stops at its event)."""
         lo = self.t_hi
-        res, hi, events = self._integrate(lo, self.y_hi)
+        res, hi, events = self._integrate(lo, self.y_hi, lo + self._next_span())
         self.nfev += res.nfev
-        self.sol, self.t_lo, self.y_lo = res.sol, lo, self.y_hi
+        self.sol, self.t_lo, self.y_lo, self.chunk_hi = res.sol, lo, self.y_hi, hi
         if events is None:  # end of a forced hold: the contact logic decides again
             self.event = (hi, res.y[:, -1])
             self.t_hi, self.y_hi = hi, res.y[:, -1]
@@ -242,7 +267,7 @@ class OdeSolver(Solver):
         if t >= self.t_hi or self.y_lo is None:
             return self.y_hi
         if self.sol is None:  # restored from a snapshot: the same call gives the same output
-            self.sol = self._integrate(self.t_lo, self.y_lo)[0].sol
+            self.sol = self._integrate(self.t_lo, self.y_lo, self.chunk_hi)[0].sol
         return self.sol(t)
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float,
@@ -260,11 +285,19 @@ class OdeSolver(Solver):
             return
         if self._events_here > MAX_EVENTS_AT_ONE_INSTANT and not reanchor:
             # degenerate contact or integration noise (events repeating at one instant): plastic
-            # contact, held for a moment, so that the work stays bounded (a flight from here
-            # would meet the same noise event again)
+            # contact, so that the work stays bounded (the next segment would meet the same
+            # noise event again). While the contact force pushes, the bodies are held together
+            # for a moment; while it pulls they fly apart (a contact only pushes), the gap event
+            # set below the noise of the positions (10 times their tolerance): a real contact
+            # is met there, within the method's penetration tolerance
             v_common, impulse = self.rules.plastic_merge(v, w)
             self.pending_impulse += impulse
-            self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
+            lam = self.rules.free_contact_force(x, v_common, v_common, self.u)
+            if self.rules.tensile(lam, x, v_common, v_common, self.u):
+                slack = PARTING_NOISE * (self.atol + self.rtol * abs(x))
+                self._segment(Phase.FLIGHT, t, [x, v_common, x, v_common], gap_slack=slack)
+            else:
+                self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
             return
         decision = self.rules.at_contact(t, x, v, w, self.u, reanchor)
         if decision.outcome is Outcome.IMPACT:
@@ -285,10 +318,17 @@ class OdeSolver(Solver):
     # marching ------------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
         if u != self.u:  # zero-order hold: restart the integration at the change
-            s = self.state
+            # from the current segment's state (y_now), which follows any event at this time:
+            # self.state is the last reported one, before an impact at t = 0
+            t = self.state.t
+            y = [float(c) for c in self.y_now]
+            sticking = self.phase is Phase.STICK
             self.u = u
-            x, v, z, w = reanchor_on_flow_change(s.x, s.v, s.z, s.w, self.phase is Phase.STICK)
-            self._begin(s.t, x, v, z, w, reanchor=True)
+            x, v, z, w = reanchor_on_flow_change(*(y[:2] * 2 if sticking else y), sticking)
+            self._begin(t, x, v, z, w, reanchor=True)
+            # the flow may change again at the next step: integrate ahead by this step only
+            # (doubling from there), not a whole chunk
+            self.first_span = min(self.first_chunk, t_end - t)
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         while True:
@@ -324,7 +364,7 @@ class OdeSolver(Solver):
     # snapshots ----------------------------------------------------------------------------------
     _KEYS = ("u", "pending_impulse", "nfev", "events_here", "last_event_t", "degenerate",
              "phase", "segment_start", "hold_until", "t_lo", "t_hi", "y_lo", "y_hi", "y_now",
-             "event")
+             "event", "first_span", "chunk_hi", "gap_slack")
 
     def _snapshot(self) -> dict[str, Any]:
         return {"u": self.u, "pending_impulse": self.pending_impulse, "nfev": self.nfev,
@@ -335,7 +375,9 @@ class OdeSolver(Solver):
                 "y_lo": None if self.y_lo is None else _floats(self.y_lo),
                 "y_hi": _floats(self.y_hi), "y_now": _floats(self.y_now),
                 "event": None if self.event is None else [self.event[0],
-                                                          _floats(self.event[1])]}
+                                                          _floats(self.event[1])],
+                "first_span": self.first_span, "chunk_hi": self.chunk_hi,
+                "gap_slack": self.gap_slack}
 
     def _read(self, rec: Record, t: float) -> Callable[[], None]:
         u = rec.real("u")
@@ -353,6 +395,11 @@ class OdeSolver(Solver):
         hold_until = rec.real("hold_until", finite=False, high=math.inf)
         t_lo = rec.real("t_lo", low=start)
         t_hi = rec.real("t_hi", low=t_lo)
+        first_span = rec.real("first_span", low=0.0, high=self.chunk)
+        if first_span == 0.0:
+            raise StateError(rec.field("first_span"), first_span, f"in (0, {self.chunk!r}] s")
+        chunk_hi = rec.real("chunk_hi", low=t_lo)
+        gap_slack = rec.real("gap_slack", low=0.0)
         y_lo = rec.reals("y_lo", size, allow_none=True)
         y_hi = rec.reals("y_hi", size)
         y_now = rec.reals("y_now", size)
@@ -364,11 +411,12 @@ class OdeSolver(Solver):
 
         def apply() -> None:
             self.u = u
-            self._equations(phase, start)
+            self._equations(phase, start, gap_slack)
             self.pending_impulse, self.nfev = pending, nfev
             self._events_here, self._last_event_t = events_here, last_event_t
             self.rules.degenerate.set(degenerate)
             self.hold_until, self.t_lo, self.t_hi = hold_until, t_lo, t_hi
+            self.first_span, self.chunk_hi = first_span, chunk_hi
             self.y_lo = None if y_lo is None else np.array(y_lo)
             self.sol = None
             self.y_hi, self.y_now = np.array(y_hi), np.array(y_now)

@@ -14,6 +14,10 @@ times. From a point a with f(a) >= 0:
   ``f'(a) + f''(a) s + J s^2 / 2``); on [a, a + h_mono] f has at most one root, found by
   ``scipy.optimize.brentq`` if f changes sign, and none if f(a + h_mono) > 0.
 
+- Clearance (optional): the caller may prove a root-free span by another argument, e.g. the
+  envelope of an oscillator, which the Taylor bound cannot see past: ``clearance(a)`` returns
+  its length (0 when it proves nothing).
+
 Each iteration advances by the longest of these stretches, at most ``max_step`` (unbounded for
 closed forms; a signal integrated numerically sets it so that a step never asks for the solution
 far beyond the horizon). Near a simple root the monotone stretch
@@ -71,11 +75,12 @@ class RootSearch:
     do not depend on how the caller chops time.
     """
 
-    __slots__ = ("probe", "value", "value_and_rate", "a", "root", "time_eps", "iterations",
-                 "xtol", "creep", "max_step")
+    __slots__ = ("probe", "value", "value_and_rate", "clearance", "a", "root", "time_eps",
+                 "iterations", "xtol", "creep", "max_step")
 
     def __init__(self, start: float, time_eps: float, max_step: float = math.inf):
-        self.probe = self.value = self.value_and_rate = None  # the signal, during a call
+        # the signal, during a call
+        self.probe = self.value = self.value_and_rate = self.clearance = None
         self.a = start          # f(a) >= 0 and [start, a) is root-free
         self.root: float | None = None
         self.time_eps = time_eps  # smallest meaningful time increment
@@ -105,8 +110,8 @@ class RootSearch:
     def next_root_before(self, horizon: float,
                          probe: Callable[[float], tuple[float, float, float, float, float]],
                          value: Callable[[float], float],
-                         value_and_rate: Callable[[float], tuple[float, float]] | None = None
-                         ) -> float | None:
+                         value_and_rate: Callable[[float], tuple[float, float]] | None = None,
+                         clearance: Callable[[float], float] | None = None) -> float | None:
         """The first root of the signal (see the class) if it is at or before ``horizon``, else
         None (frontier moved past)."""
         root = self.root
@@ -115,6 +120,7 @@ class RootSearch:
         if self.a > horizon:
             return None
         self.probe, self.value, self.value_and_rate = probe, value, value_and_rate
+        self.clearance = clearance
         try:
             while self.a <= horizon:
                 self._step()
@@ -122,7 +128,7 @@ class RootSearch:
                     return self.root if self.root <= horizon else None
             return None
         finally:
-            self.probe = self.value = self.value_and_rate = None
+            self.probe = self.value = self.value_and_rate = self.clearance = None
 
     def _step(self) -> None:
         a = self.a
@@ -139,6 +145,8 @@ class RootSearch:
             return
         disc = math.sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
+        if self.clearance is not None:
+            h_free = max(h_free, self.clearance(a))
         if df >= 0.0:
             # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
             if jerk > 0.0:
