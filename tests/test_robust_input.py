@@ -582,3 +582,26 @@ def test_a_structure_damped_too_stiffly_to_integrate_is_refused_for_method_3():
         Scene(structure_c=2e6 * 1600.0, solver_method=3)
     Scene(structure_c=2e6 * 1600.0, solver_method=1)
     Scene(structure_c=0.9e6 * 1600.0, solver_method=3)
+
+
+def test_a_structure_too_stiff_for_the_quadratic_sticking_steps_is_refused_for_method_1():
+    """The random search's stiff, over-damped scene (omega of the bodies together 1.1e7 rad/s,
+    c / (m + M) = 3.9e8 1/s) under quadratic drag ran without end in method 1's sticking phase
+    (explicit Taylor steps of about 1 / rate): refused up front, naming the combination, its
+    value and the limit; the same scene with linear drag (closed-form sticking) is accepted, and
+    a rate just below the limit is accepted too."""
+    stiff = dict(structure_m=232755831.8212012, structure_c=1.7993742487458515e+17,
+                 structure_k=5.559221199183276e+22, ice_M=232755831.8212012, ice_A=1.0,
+                 ice_Cd=0.3426254990962821, drag_v_lin=1.0, impact_e=0.5,
+                 structure_x0=0.0, ice_z0=-0.01, flow_u=0.1)
+    with pytest.raises(ParameterError) as err:
+        Scene(drag_model=2, **stiff)
+    message = str(err.value)
+    assert "max(sqrt(structure.k / (m + M)), structure.c / (m + M))" in message
+    assert f"{DRAG_RATE_MAX:g} 1/s" in message and "drag.model = 1" in message
+    Scene(drag_model=1, **stiff)
+    Scene(drag_model=2, solver_method=2, **stiff)
+    total = Scene().structure_m + Scene().ice_M
+    Scene(drag_model=2, structure_c=0.0, structure_k=total * (0.99 * DRAG_RATE_MAX) ** 2)
+    with pytest.raises(ParameterError):
+        Scene(drag_model=2, structure_c=0.0, structure_k=total * (1.01 * DRAG_RATE_MAX) ** 2)

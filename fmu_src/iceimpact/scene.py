@@ -332,6 +332,18 @@ def _check_work(scene: Scene) -> None:
         if _drag_rate(s, speed) > DRAG_RATE_MAX:
             limit = DRAG_RATE_MAX * s.ice_M / (2.0 * s.drag_B)
             raise ParameterError(_SPEED_BOUND, speed, _drag_rate_text(s, limit, "speed"))
+    if s.solver_method == METHOD_EXACT and s.drag_model == QUADRATIC_DRAG and not s.external:
+        # method 1's quadratic-drag sticking phase is integrated by explicit Taylor steps of
+        # about one period of the bodies together, or 1 / (c / (m + M)) when over-damped
+        total = s.structure_mass + s.ice_M
+        rate = max(math.sqrt(s.structure_k / total), s.structure_c / total)
+        if rate > DRAG_RATE_MAX:
+            raise ParameterError(
+                "max(sqrt(structure.k / (m + M)), structure.c / (m + M))", rate,
+                f"<= {DRAG_RATE_MAX:g} 1/s with quadratic drag and solver.method = 1: the "
+                "sticking phase is integrated by explicit Taylor steps of about 1 / rate, "
+                "~3e-5 s of CPU x rate per simulated second; use drag.model = 1, whose "
+                "sticking phase is closed form")
     if s.solver_method == METHOD_ODE and s.structure_c / s.structure_m > DRAG_RATE_MAX:
         # an over-damped structure relaxes at up to c / m: the same step bound as a drag rate
         raise ParameterError("structure.c / structure.m", s.structure_c / s.structure_m,
