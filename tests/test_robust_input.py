@@ -605,3 +605,22 @@ def test_a_structure_too_stiff_for_the_quadratic_sticking_steps_is_refused_for_m
     Scene(drag_model=2, structure_c=0.0, structure_k=total * (0.99 * DRAG_RATE_MAX) ** 2)
     with pytest.raises(ParameterError):
         Scene(drag_model=2, structure_c=0.0, structure_k=total * (1.01 * DRAG_RATE_MAX) ** 2)
+
+
+def test_a_sticking_separation_at_denormal_scales_is_located():
+    """A light, stiff pair sticking at positions of 1e-178 m with no drag (a random search
+    scene): the separation's root lies at a normalised time so close to 0 that brentq's default
+    100 iterations did not reach it (RuntimeError). The Taylor step's root search now allows the
+    bisection depth those scales need, and the run is sound."""
+    scene = Scene(structure_m=1.2811449567924302e-06, structure_c=0.8540966378616202,
+                  structure_k=1281144.9567924303, structure_x0=3.457191159007816e-178,
+                  structure_v0=1.1857442825908975e-249, ice_M=0.0003156398940550749,
+                  ice_A=0.005081541681607078, ice_Cd=0.0, ice_z0=3.457191159007816e-178,
+                  ice_v0=0.0, impact_e=1.0, drag_model=2, drag_v_lin=0.00491631729782529,
+                  flow_u=0.0)
+    sim = Simulator(scene)
+    for _ in range(3):
+        report = sim.advance(10.0)
+        values = [report.x, report.v, report.z, report.w, report.gap, report.impulse]
+        assert all(math.isfinite(value) for value in values)
+        assert report.gap >= 0.0 and report.impulse >= 0.0

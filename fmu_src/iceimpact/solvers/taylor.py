@@ -108,8 +108,13 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
                 b = theta_end
                 pb = horner(poly, b)
             if pb < 0.0:
-                return brentq(lambda theta: horner(poly, theta), a, b, xtol=1e-300,
-                              rtol=4.0 * 2.0 ** -52)
+                # a root near theta = 0 may need bisection down to denormal scales (over 1,000
+                # halvings): brentq's default of 100 iterations raised there; its best bracket
+                # end is within the tolerance it reached
+                root, _ = brentq(lambda theta: horner(poly, theta), a, b, xtol=1e-300,
+                                 rtol=4.0 * 2.0 ** -52, maxiter=1100, full_output=True,
+                                 disp=False)
+                return root
             if min(pa, pb) >= curvature * (b - a) ** 2 / 8.0 or budget <= 0:
                 continue  # proven >= 0 on [a, b] (or a touch)
             budget -= 1
