@@ -111,6 +111,12 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
                 # a root near theta = 0 may need bisection down to denormal scales (over 1,000
                 # halvings): brentq's default of 100 iterations raised there; its best bracket
                 # end is within the tolerance it reached
+                # the grid's values (a matrix product) and Horner's differ by rounding: where
+                # they disagree on a sign, the crossing is at that end
+                if horner(poly, a) <= 0.0:
+                    return a
+                if horner(poly, b) >= 0.0:
+                    return b
                 root, _ = brentq(lambda theta: horner(poly, theta), a, b, xtol=1e-300,
                                  rtol=4.0 * 2.0 ** -52, maxiter=1100, full_output=True,
                                  disp=False)
