@@ -294,3 +294,33 @@ def test_a_flow_too_fast_for_the_structure_drag_is_refused_during_the_run():
         sim.advance(1e-3, 1e5)  # within the ice's limit (1.6e6 m/s), not the structure's
     assert info.value.name == "flow.u" and "Morison drag rate" in str(info.value)
     assert sim.t == 0.0
+
+
+def test_quadratic_sticking_with_structure_drag_follows_scipy():
+    """Bodies together under quadratic drag on both (method 1's Taylor steps with B + B_s):
+    ``(m + m_a + M) x'' + c x' + k x = (B + B_s) |u - x'| (u - x')``, against solve_ivp at rtol
+    1e-12 written out here; the contact force stays the ice's drag minus its inertia (>= 0)."""
+    from scipy.integrate import solve_ivp
+    u = 0.8
+    scene = Scene(**PILE, impact_e=0.0, flow_u=u, drag_model=2, structure_x0=0.0,
+                  structure_v0=0.0, ice_z0=0.0, ice_v0=0.0)
+    total = scene.structure_m + RHO * PILE["structure_Ca"] * PILE["structure_V"] + scene.ice_M
+    B = 0.5 * RHO * scene.ice_Cd * scene.ice_A
+    B_s = 0.5 * RHO * PILE["structure_Cd"] * PILE["structure_A"]
+    c, k = scene.structure_c, scene.structure_k
+
+    def rhs(t, y):
+        r = u - y[1]
+        return [y[1], ((B + B_s) * abs(r) * r - c * y[1] - k * y[0]) / total]
+
+    times = np.linspace(0.1, 2.0, 20)
+    ref = solve_ivp(rhs, (0.0, 2.0), [0.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-15,
+                    t_eval=times)
+    sim = Simulator(scene)
+    scale = np.max(np.abs(ref.y[0]))
+    for i, t in enumerate(times):
+        report = sim.advance_to(float(t))
+        assert report.sticking
+        assert report.x == pytest.approx(ref.y[0, i], abs=1e-9 * scale)
+        assert report.z == report.x
+        assert report.impulse >= 0.0
