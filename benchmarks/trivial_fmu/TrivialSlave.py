@@ -17,7 +17,7 @@ OUTPUTS = (
     ("structure.x", Real), ("structure.v", Real), ("ice.z", Real), ("ice.v", Real),
     ("contact.gap", Real), ("contact.impulse", Real), ("contact.force", Real),
     ("contact.count", Integer), ("contact.active", Boolean), ("contact.t_last", Real),
-    ("contact.penetration", Real), ("structure.force", Real),
+    ("contact.penetration", Real), ("structure.force", Real), ("coupling.force", Real),
 )
 
 
