@@ -87,8 +87,10 @@ class FmuModel(FmuLifecycle):
     def publish(self, report: StepReport) -> None:
         """Make ``report`` the outputs' values."""
         self.report = report
-        self.outputs.update(report.__dict__)
-        self.outputs["t_last_master"] = self.t_last()
+        outputs = self.outputs
+        outputs.update(report.__dict__)
+        t = report.t_last  # as t_last(), inline: this runs at every step
+        outputs["t_last_master"] = t + self.start_time if t >= 0.0 else -1.0
 
     def getter(self, name: str) -> Callable[[], Any]:
         if name == "contact.t_last":
@@ -136,8 +138,9 @@ class FmuModel(FmuLifecycle):
                 sim.restore(before)  # the tunables applied before the refusal are undone
             self._log(ERROR, f"doStep at t = {current_time!r} s: {exc}")
             return False
-        self.values.update(self.pending)
-        self.pending.clear()
+        if self.pending:
+            self.values.update(self.pending)
+            self.pending.clear()
         self.publish(report)
         if report.penetration > 0.0 and not self.penetration_logged:
             self.penetration_logged = True

@@ -157,8 +157,9 @@ class FmuLifecycle:
             self._log(ERROR, f"doStep: communication step size = {step_size!r} s is not "
                       "allowed: finite and > 0")
             return False
-        if not (math.isfinite(current_time) and abs(current_time - self.time)
-                <= TIME_RTOL * max(1.0, abs(self.time))):
+        now = self.time
+        scale = now if now >= 1.0 else (-now if now <= -1.0 else 1.0)  # max(1, |now|)
+        if not (math.isfinite(current_time) and abs(current_time - now) <= TIME_RTOL * scale):
             self._log(ERROR, f"doStep: current communication point = {current_time!r} s does "
                       f"not match the time of the FMU, {self.time!r} s (the end of the last step)")
             return False
