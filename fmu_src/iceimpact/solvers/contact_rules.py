@@ -200,6 +200,11 @@ class Together:
         f = self.drag.force(y[1], self.u)
         return [y[1], (f - self.c * y[1] - self.k * y[0]) / self.total, f]
 
+    @property
+    def structure_drag_B(self) -> float:
+        """Quadratic Morison drag constant on the structure, kg/m (0: none)."""
+        return 0.0
+
     def contact_force(self, y) -> float:
         """Force on the structure from the ice at state ``[x, v, ...]``, N."""
         x, v = y[0], y[1]
@@ -232,6 +237,10 @@ class TogetherWithStructureDrag(Together):
                  inertia_from_net: bool, structure_drag):
         super().__init__(m, c, k, M, drag, u, inertia_from_net)
         self.structure_drag = structure_drag
+
+    @property
+    def structure_drag_B(self) -> float:
+        return self.structure_drag.B if self.structure_drag.quadratic else 0.0
 
     def __call__(self, t: float, y) -> list[float]:
         f = self.drag.force(y[1], self.u)

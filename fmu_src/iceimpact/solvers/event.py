@@ -190,7 +190,7 @@ class Flight(_SearchedSegment):
         A stiff structure ringing with a large amplitude while the ice is still outside its
         reach costs the Taylor steps of the root search a few evaluations per period (its bound
         on the gap's curvature is omega_n^2 R); this spans those periods at once."""
-        offset = getattr(self.osc, "offset", None)
+        offset = self.osc.offset
         if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
             return 0.0
         _, dx, v, dz, w = self._motion(tau)
@@ -584,10 +584,8 @@ def _sticking_taylor(together: Together) -> StickingTaylor:
     stiffness, drag constants on the ice and, with the Morison terms, on the structure, and flow
     speed); steps at most one period of the bodies together."""
     period = 2.0 * math.pi / math.sqrt(together.k / together.total)
-    structure_drag = getattr(together, "structure_drag", None)  # Morison drag on the structure
     return StickingTaylor(together.total, together.c, together.k, together.drag.B, together.u,
-                          together.M, max_step=period,
-                          structure_B=0.0 if structure_drag is None else structure_drag.B)
+                          together.M, max_step=period, structure_B=together.structure_drag_B)
 
 
 def _floats(y) -> list[float]:
