@@ -20,7 +20,7 @@ import numpy as np
 
 from .contract import STRUCTURE_INPUTS
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, ParameterError, Scene, validate_flow
-from .solvers.base import Impact, Solver, SolverError
+from .solvers.base import GAP_ROUNDING, Impact, Solver, SolverError
 from .solvers.event import EventSolver
 from .solvers.external import ExternalSolver
 from .solvers.fixed_step import FixedStepSolver
@@ -29,9 +29,6 @@ from .solvers.state import STATE_VERSION, Record, StateError, check_version
 
 _SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STEP: FixedStepSolver,
                                      METHOD_ODE: OdeSolver}
-
-#: Gaps between -GAP_ROUNDING and 0 are rounding of x - z at contact and reported as 0.
-GAP_ROUNDING = 1e-12
 
 
 def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:

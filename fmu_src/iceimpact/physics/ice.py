@@ -78,6 +78,11 @@ class LinearDrag(_DragLaw):
         """Drag force on the ice, N."""
         return -self.b * (w - u)
 
+    @property
+    def drags(self) -> bool:
+        """The drag acts in the closed forms (kappa > 0); without it the ice coasts."""
+        return self.kappa > 0.0
+
     def force_rate(self, w: float, u: float) -> float:
         """dF/dw, kg/s (used for the sticking phase's contact-force rate)."""
         return -self.b
@@ -128,6 +133,11 @@ class QuadraticDrag(_DragLaw):
         r = w - u
         return -self.B * abs(r) * r
 
+    @property
+    def drags(self) -> bool:
+        """The drag acts in the closed forms (beta > 0); without it the ice coasts."""
+        return self.beta > 0.0
+
     def force_rate(self, w: float, u: float) -> float:
         """dF/dw, kg/s."""
         return -2.0 * self.B * abs(w - u)
@@ -162,11 +172,12 @@ class QuadraticDrag(_DragLaw):
         return a, abs(a), 2.0 * self.beta * abs(r) * abs(a)
 
 
-def downstream_speed_bound(w: float, u: float) -> float:
+def downstream_speed_bound(w: float, u: float, drags: bool = True) -> float:
     """Bound on the ice's downstream velocity (m/s, >= 0) for all later times of a free flight
-    from velocity w in a flow u: under either drag law (and with none) the velocity relative to
-    the flow, w - u, only decays without changing sign, so w stays between w and u."""
-    return max(w, u, 0.0)
+    from velocity w in a flow u: under either drag law the velocity relative to the flow, w - u,
+    only decays without changing sign (eq. 5, 32), so w stays between w and u. Without drag
+    (``drags`` False: Cd = 0) the ice coasts at w whatever the flow."""
+    return max(w, u, 0.0) if drags else max(w, 0.0)
 
 
 def make_drag(scene) -> LinearDrag | QuadraticDrag:

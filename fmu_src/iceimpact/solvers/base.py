@@ -20,7 +20,11 @@ from ..scene import Scene
 from .contact_rules import sticking_start
 from .state import STATE_VERSION, Record, StateError, check_version
 
-__all__ = ["Impact", "Solver", "SolverError", "State", "StateError"]
+__all__ = ["GAP_ROUNDING", "Impact", "Solver", "SolverError", "State", "StateError"]
+
+#: Gaps between -GAP_ROUNDING and 0 (m) are rounding of x - z at contact: the simulator reports
+#: them as 0, and the exact method never accepts a graze deeper than this as a touch.
+GAP_ROUNDING = 1e-12
 
 
 class SolverError(RuntimeError):

@@ -32,7 +32,7 @@ from scipy.integrate import solve_ivp
 from ..physics.ice import downstream_speed_bound, make_drag
 from ..physics.structure import DraggedStructure, Oscillator, morison_oscillator
 from ..scene import Scene
-from .base import Solver, SolverError, State
+from .base import GAP_ROUNDING, Solver, SolverError, State
 from .contact_rules import (
     EXACT_POLICY,
     ContactRules,
@@ -189,18 +189,28 @@ class Flight(_SearchedSegment):
 
         A stiff structure ringing with a large amplitude while the ice is still outside its
         reach costs the Taylor steps of the root search a few evaluations per period (its bound
-        on the gap's curvature is omega_n^2 R); this spans those periods at once."""
+        on the gap's curvature is omega_n^2 R); this spans those periods at once.
+
+        A tangent ringing: the ice holding still (no downstream speed) exactly at the lowest
+        point of the envelope, ``offset - R - z`` zero to within the rounding of the positions.
+        The structure then grazes the ice once a period with no closing speed, and the gap can
+        dip below zero by at most twice that rounding, and never by more than GAP_ROUNDING
+        (1e-12 m): no impact, and nothing a root search could resolve (it located a touch at
+        each period, to its time resolution, and took the structure's speed there, curvature x
+        resolution, for a closing speed). The whole future is proven free of impacts."""
         offset = self.osc.offset
         if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
             return 0.0
         _, dx, v, dz, w = self._motion(tau)
         x, z = self.x0 + dx, self.z0 + dz
         reach = self.osc.amplitude_bound(x - offset, v)
-        margin = (offset - reach - z) - GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
-        if margin <= 0.0:
-            return 0.0
-        speed = downstream_speed_bound(w, self.u)
-        return math.inf if speed == 0.0 else margin / speed
+        lowest = offset - reach - z  # the envelope's lowest gap, now
+        rounding = GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
+        speed = downstream_speed_bound(w, self.u, self.drag.drags)
+        if lowest - rounding <= 0.0:
+            touch = lowest >= -rounding and lowest - rounding >= -GAP_ROUNDING
+            return math.inf if speed == 0.0 and touch else 0.0
+        return math.inf if speed == 0.0 else (lowest - rounding) / speed
 
     def next_event(self, tau_end: float) -> float | None:
         return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate,
@@ -404,8 +414,30 @@ class LinearStick(_SearchedSegment):
                 + self.M * self.osc.amplitude_bound(s1, s2))
         return lam, rate, curvature, bound, jerk
 
+    def clearance(self, tau: float) -> float:
+        """Time from tau (s) during which the contact force provably stays compressive: all of
+        it (inf) or nothing (0).
+
+        ``lam = b (u - v) - M a = b u + q`` with ``q = -b y' - M y''`` (y = x - offset): a
+        combination of derivatives of the free response is a free response of the same
+        oscillator, so |q| never exceeds its amplitude bound from (q, q'), and lam stays above
+        ``b u - R_q`` from here on (beyond the rounding of the terms it is made of). The
+        bodies ringing stiffly in contact with an amplitude too small to part them (omega
+        3.9e7 rad/s, 3e-13 m under a drag force b u of 5.7e6 N) cost the Taylor steps of the
+        search two evaluations per period; this spans the whole phase at once."""
+        osc = self.osc
+        x, v = osc.response(self.x0, self.v0, tau)
+        a, j, _ = osc.derivatives(x, v)
+        push = self.b * self.u
+        q, q_rate = -self.b * v - self.M * a, -self.b * a - self.M * j
+        reach = osc.amplitude_bound(q, q_rate)
+        rounding = GAP_ULPS * (abs(push) + abs(q) + reach + self.M * osc.omega2
+                               * (abs(x) + abs(osc.offset)) + abs(self.b * v))
+        return math.inf if push - reach - rounding > 0.0 else 0.0
+
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end, self.probe, self.force, self.force_and_rate)
+        return self.search.next_root_before(tau_end, self.probe, self.force, self.force_and_rate,
+                                            self.clearance)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
