@@ -21,7 +21,9 @@ from iceimpact.fmi.adapter import FmuModel
 from iceimpact.physics.ice import LinearDrag, QuadraticDrag
 from iceimpact.physics.structure import Oscillator
 from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE, TIME_RESOLUTION
+from iceimpact.solvers.base import GAP_ROUNDING
 from iceimpact.solvers.contact_rules import CHATTER_FRACTION
+from iceimpact.solvers.event import LinearStick
 
 # --- a contact that pulls ---------------------------------------------------------------------
 
@@ -624,3 +626,138 @@ def test_a_sticking_separation_at_denormal_scales_is_located():
         values = [report.x, report.v, report.z, report.w, report.gap, report.impulse]
         assert all(math.isfinite(value) for value in values)
         assert report.gap >= 0.0 and report.impulse >= 0.0
+
+
+# --- exact tangent ringing (method 1) -----------------------------------------------------------
+
+#: omega_n = 4.1e7 rad/s, released from rest at -0.16 m, the ice at rest exactly at the lowest
+#: point of the swing, no drag
+TANGENT_OMEGA, TANGENT_X0 = 4.1e7, -0.16
+
+
+def _tangent_ringing(u: float, v0: float = 0.0) -> Simulator:
+    return Simulator(Scene(structure_m=1600.0, structure_k=1600.0 * TANGENT_OMEGA ** 2,
+                           structure_c=0.0, structure_x0=TANGENT_X0, structure_v0=v0,
+                           ice_M=1600.0, ice_Cd=0.0, ice_z0=TANGENT_X0, ice_v0=0.0, flow_u=u,
+                           impact_e=1.0, solver_method=1))
+
+
+@pytest.mark.parametrize("u", [0.0, 0.1])
+def test_an_exact_tangent_ringing_is_no_impact(u):
+    """The structure grazes the ice once a period (6.5e6 times a second) with no closing speed:
+    the exact motion is x = x0 cos(omega_n t) with the ice at rest at x0 and never struck. The
+    root search located a touch at the first graze to its time resolution and took the
+    structure's speed there (0.33 m/s, curvature x resolution) for a closing speed, kicking the
+    ice; each graze it met cost root-search work. The envelope now proves the whole future free
+    of impacts at once: one search iteration for the run, whatever the number of grazes. Without
+    drag the flow does not move the ice (u = 0.1: its speed bound is its own velocity, 0)."""
+    sim = _tangent_ringing(u)
+    k, m = sim.scene.structure_k, sim.scene.structure_m
+    energy = 0.5 * k * TANGENT_X0 ** 2
+    for _ in range(100):
+        r = sim.advance(0.01)
+        s = sim.solver.state
+        assert s.x - s.z >= -GAP_ROUNDING and r.impulse == 0.0
+        assert (s.z, s.w) == (TANGENT_X0, 0.0)
+        # the closed form, written out (1 ulp of omega_n t = 4.1e7 rad is 7e-9 rad)
+        assert abs(s.x - TANGENT_X0 * math.cos(TANGENT_OMEGA * sim.t)) <= 1e-8
+        assert 0.5 * (k * s.x ** 2 + m * s.v ** 2) == pytest.approx(energy, rel=1e-9)
+    assert sim.impact_count == 0
+    assert sim.solver.seg.search.iterations <= 2
+    # at the grazes themselves (t = 2 pi j / omega_n), to the rounding of the gap
+    period = 2.0 * math.pi / TANGENT_OMEGA
+    graze = _tangent_ringing(u)
+    for _ in range(50):
+        graze.advance(period)
+        assert graze.solver.state.x - graze.solver.state.z >= -GAP_ROUNDING
+    assert graze.impact_count == 0
+
+
+@pytest.mark.parametrize("v0", [10.0, 100.0])
+def test_a_graze_deeper_than_rounding_is_still_an_impact(v0):
+    """The structure released upwards at v0 from the ice's position: its envelope reaches
+    (v0 / omega_n)^2 / (2 |x0|) below the ice (1.9e-13 m and 1.9e-11 m), a real impact at the
+    end of the first period with closing speed v0 (energy: the structure is back at x0), to the
+    speed the search's time resolution gives (curvature omega_n^2 |x0| x 8.9e-16 s)."""
+    sim = _tangent_ringing(0.0, v0)
+    sim.advance(1e-6)
+    assert sim.impact_count == 1
+    hit = sim.impacts[0]
+    # x0 cos(omega t) + (v0 / omega) sin(omega t) = x0 again at omega t = 2 pi - 2 atan(...)
+    back = (2.0 * math.pi - 2.0 * math.atan(v0 / TANGENT_OMEGA / abs(TANGENT_X0))) / TANGENT_OMEGA
+    assert abs(hit.t - back) <= 2.0 * TIME_RESOLUTION
+    resolution = TANGENT_OMEGA ** 2 * abs(TANGENT_X0) * 2.0 * TIME_RESOLUTION
+    assert abs(hit.w_minus - hit.v_minus - v0) <= resolution
+
+
+#: the random search's scene (tests/random_search.py --method 1 --seed 12 --scales --flows): the
+#: bodies together at -0.57 m/s, omega of the bodies together 3.9e7 rad/s, a linear drag b u of
+#: 5.7e6 N (flow 6478 m/s); run at 0.37 s steps with the flow reversing at every step
+RINGING_IN_CONTACT = dict(
+    structure_m=3537.1073490753306, structure_c=0.0, structure_k=1.0599269884926448e+19,
+    structure_x0=0.0, structure_v0=-0.5706191297623756, ice_M=3619.4971632535407,
+    ice_A=1.282686929497336, ice_Cd=1.0689804569440564, ice_z0=0.0,
+    ice_v0=-0.5706191297623756, impact_e=0.0, drag_model=1, drag_v_lin=1.282686929497336,
+    flow_u=6478.176589776202, solver_method=1)
+
+
+def test_bodies_ringing_stiffly_in_contact_stick_without_work_per_period():
+    """After a chatter the bodies stick ringing with 3e-13 m (their contact force between 4.2e6
+    and 7.2e6 N): the search for a separation took two Taylor steps per period (1.6e-7 s), over
+    10 s of CPU for the first 0.37 s step. The oscillating part of the contact force is a free
+    response, so its envelope proves the force compressive for the whole phase at once. The run
+    with the flow reversing every step stays sound."""
+    scene = Scene(**RINGING_IN_CONTACT)
+    sim = Simulator(scene)
+    sim.advance(0.01)
+    seg = sim.solver.seg
+    assert isinstance(seg, LinearStick) and seg.search.iterations <= 2
+    sim.advance(0.36)
+    u = scene.flow_u
+    for i in range(1, 9):
+        r = sim.advance(0.37, u if i % 2 == 0 else -u)
+        s = sim.solver.state
+        assert all(map(math.isfinite, (r.x, r.v, r.z, r.w, r.impulse)))
+        assert s.x - s.z >= -GAP_ROUNDING
+        momentum = (scene.structure_m + scene.ice_M) * (abs(s.v) + abs(s.w) + u)
+        assert r.impulse >= -1e-9 * momentum
+    assert sim.solver.seg.search.iterations < 100
+
+
+@pytest.mark.parametrize("fraction", [0.5, 0.99, 1.01, 2.0])
+def test_the_sticking_clearance_agrees_with_the_written_out_contact_force(fraction):
+    """The random search's sticking pair ringing about its equilibrium b u / k with an amplitude
+    of ``fraction`` times the one at which its contact force lam = b (u - v) - M x'' first
+    touches zero: below it the clearance proves the force compressive for ever (checked on 50
+    periods of the damped closed form written out here), above it proves nothing and the
+    search finds the separation where the written-out force crosses zero."""
+    scene = Scene(**RINGING_IN_CONTACT)
+    solver = Simulator(scene).solver
+    b, u, M, k = scene.drag_b, scene.flow_u, scene.ice_M, scene.structure_k
+    total, damping = scene.structure_m + M, scene.structure_c + b
+    sigma, omega2 = damping / (2.0 * total), k / total
+    wd = math.sqrt(omega2 - sigma ** 2)
+    # lam = b u - b v - M a, with a = -omega2 y - 2 sigma v: its oscillating part has the
+    # amplitude A sqrt((M omega2)^2 + (b omega)^2) for y = A sin(omega t) (sigma ~ 0.06 1/s)
+    touching = b * u / math.hypot(M * omega2, b * math.sqrt(omega2))
+    v0 = -fraction * touching * math.sqrt(omega2)
+
+    def lam(t):
+        decay, cos, sin = np.exp(-sigma * t), np.cos(wd * t), np.sin(wd * t)
+        y = decay * v0 / wd * sin
+        v = decay * (v0 * cos - sigma * v0 / wd * sin)
+        return b * (u - v) - M * (-(damping * v + k * y) / total)
+
+    period = 2.0 * math.pi / wd
+    t = np.linspace(0.0, 50.0 * period, 200_001)
+    values = lam(t)
+    seg = LinearStick(solver, 0.0, b * u / k, v0, u)
+    root = seg.next_event(50.0 * period)
+    if fraction < 1.0:
+        assert seg.clearance(0.0) == math.inf and root is None
+        assert values.min() > 0.0 and seg.search.iterations == 1
+    else:
+        assert seg.clearance(0.0) == 0.0
+        i = int(np.argmax(values < 0.0))
+        exact = brentq(lam, t[i - 1], t[i], xtol=1e-30, rtol=1e-15)
+        assert abs(root - exact) <= 2.0 * TIME_RESOLUTION
