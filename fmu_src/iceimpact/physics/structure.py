@@ -227,8 +227,14 @@ class Oscillator:
         far tighter when sigma >> omega_n (the energy bound exceeds it by about sigma / omega_n,
         3e8 for a light floe sticking under a strong linear drag, and a root search on it
         crawled at 1e-13 s steps).
+
+        At scales whose squares underflow (|y| below ~1e-154: a pair at rest 1e-288 m from its
+        equilibrium) or overflow, the sum of squares gave 0 or inf, and a bound of 0 told the
+        root search its signal was linear; there the same bound comes from ``math.hypot``.
         """
         energy = math.sqrt(y * y + ydot * ydot / self.omega2)
+        if not 1e-140 < energy < 1e140:
+            energy = math.hypot(y, ydot / math.sqrt(self.omega2))
         if self.regime != OVER:
             return energy
         slow, fast = self._s_slow, self._s_fast

@@ -57,6 +57,12 @@ BRACKET_STEPS = 1100
 #: Relative tolerance on a located root, as brentq's ``rtol`` (4 ulps).
 ROOT_RTOL = 8.9e-16
 
+#: A probe whose largest value (of f, f', f'', K, J) is below this, or above its inverse, is
+#: scaled to about 1 before the step lengths are computed: their squares (f'^2, 2 K f, ...)
+#: underflowed at contact forces of 1e-286 N, and a discriminant of 0 gave a Taylor stretch of
+#: 1e14 s that stepped over the separation.
+SCALED_BELOW = 1e-100
+
 
 class RootSearch:
     """Incremental search for the first time after a start point where f goes below zero.
@@ -137,6 +143,12 @@ class RootSearch:
         if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
             return
+        size = max(abs(f), abs(df), abs(d2), bound, jerk)
+        if 0.0 < size < SCALED_BELOW or 1.0 / SCALED_BELOW < size < math.inf:
+            # the squares below would underflow (or overflow): every step length is
+            # homogeneous of degree 0 in (f, f', f'', K, J), so scale them by a power of 2 (exact)
+            scale = math.ldexp(1.0, -math.frexp(size)[1])
+            f, df, d2, bound, jerk = f * scale, df * scale, d2 * scale, bound * scale, jerk * scale
         if bound <= 0.0:  # f is linear from here on
             if df < 0.0:
                 self.root = a + f / -df
