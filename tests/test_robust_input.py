@@ -23,7 +23,8 @@ from iceimpact.physics.structure import Oscillator
 from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE, TIME_RESOLUTION
 from iceimpact.solvers.base import GAP_ROUNDING
 from iceimpact.solvers.contact_rules import CHATTER_FRACTION
-from iceimpact.solvers.event import LinearStick
+from iceimpact.solvers.event import Flight, LinearStick
+from iceimpact.solvers.rootfind import RootSearch
 
 # --- a contact that pulls ---------------------------------------------------------------------
 
@@ -761,3 +762,72 @@ def test_the_sticking_clearance_agrees_with_the_written_out_contact_force(fracti
         i = int(np.argmax(values < 0.0))
         exact = brentq(lam, t[i - 1], t[i], xtol=1e-30, rtol=1e-15)
         assert abs(root - exact) <= 2.0 * TIME_RESOLUTION
+
+
+# --- the root search at scales whose squares underflow ------------------------------------------
+
+@pytest.mark.parametrize("speed", [2.5818798841184776e-288, 2.5818798841184776e-8])
+def test_a_sticking_separation_at_scales_whose_squares_underflow_is_found(speed):
+    """The random search's pair together at x = 0 moving at 2.6e-288 m/s, no drag, no flow: they
+    ring together, x = (v0 / W) sin(W t) with W^2 = k / (m + M), and the contact force
+    M k x / (m + M) turns tensile at t = pi / W, where the bodies part. The bounds on the force's
+    derivatives (sums of squares of 1e-284) underflowed to 0, which told the search the force
+    was linear, and then its Taylor stretch (a discriminant underflowing) spanned 1e14 s: the
+    bodies stayed stuck through the tensile half-period (impulses of -0.1 of the momentum). The
+    separation is now found at pi / W at any scale."""
+    scene = Scene(structure_m=0.005189569780122153, structure_c=0.0,
+                  structure_k=108.73418605233162, structure_x0=0.0, structure_v0=speed,
+                  ice_M=0.005189569780122153, ice_A=1.0, ice_Cd=0.0, ice_z0=0.0, ice_v0=speed,
+                  impact_e=0.0, drag_model=1, flow_u=0.0, solver_method=1)
+    sim = Simulator(scene)
+    for _ in range(5):
+        r = sim.advance(0.01, 0.0)
+        assert r.impulse >= 0.0 and r.gap >= 0.0
+    apart = math.pi / math.sqrt(scene.structure_k / (scene.structure_m + scene.ice_M))
+    assert not sim.sticking and isinstance(sim.solver.seg, Flight)
+    assert abs(sim.solver.seg.t0 - apart) <= 1e-12
+
+
+def test_a_pair_1e_240_m_from_equilibrium_parts_after_a_quarter_period():
+    """The random search's stiff pair (W = sqrt(k / (m + M)) = 6.5e6 rad/s) resting together
+    4.7e-240 m from the spring's rest point under a linear drag and a flow of +-2.2e-308 m/s:
+    the contact force M k x / (m + M) (drag terms of relative size 1e-3 over the 2.4e-7 s)
+    turns tensile at a quarter period, pi / (2 W). Its probes underflowed as above and the
+    bodies stayed stuck with tensile impulses of -3.3e-230 N.s per 0.1 ms step."""
+    scene = Scene(structure_m=245311.84342942314, structure_c=0.0,
+                  structure_k=1.1008881654443012e+19, structure_x0=4.663560638713423e-240,
+                  structure_v0=0.0, ice_M=12576.335271001795, ice_A=35.963144812094825,
+                  ice_Cd=1.5558576617826123, ice_z0=4.663560638713423e-240, ice_v0=0.0,
+                  impact_e=0.0, drag_model=1, drag_v_lin=0.2423178017375031,
+                  flow_u=-2.2250738585072014e-308, solver_method=1)
+    sim = Simulator(scene)
+    u = scene.flow_u
+    quarter = 0.5 * math.pi / math.sqrt(scene.structure_k / (scene.structure_m + scene.ice_M))
+    for i in range(50):
+        r = sim.advance(1e-4, u if i % 2 == 0 else -u)
+        assert r.impulse >= 0.0 and r.gap >= 0.0
+        assert math.isfinite(r.x) and math.isfinite(r.z)
+        if i == 0:  # the flight that follows starts at the separation
+            assert isinstance(sim.solver.seg, Flight)
+            assert abs(sim.solver.seg.t0 - quarter) <= 1e-6 * quarter
+    assert sim.impact_count == 0 and not sim.sticking
+
+
+@pytest.mark.parametrize("exponent", [-1000, -960, 900])
+def test_the_root_search_does_not_depend_on_the_scale_of_its_signal(exponent):
+    """f = s cos t (|f''|, |f'''| <= s), first root pi / 2: the same root, to the bit, for s = 1
+    and for scales whose squares underflow (2^-960, 2^-1000, subnormal) or overflow (2^900); and
+    the amplitude bound of a free response at such scales is the scaled one."""
+    def root_for(s):
+        def probe(t):
+            return s * math.cos(t), -s * math.sin(t), -s * math.cos(t), s, s
+        search = RootSearch(0.0, TIME_RESOLUTION)
+        return search.next_root_before(10.0, probe, lambda t: s * math.cos(t),
+                                       lambda t: (s * math.cos(t), -s * math.sin(t)))
+    scale = math.ldexp(1.0, exponent)
+    assert root_for(scale) == root_for(1.0)
+    assert abs(root_for(1.0) - 0.5 * math.pi) <= 1e-15 + 2e-15 * 0.5 * math.pi  # its tolerance
+    osc = Oscillator(2.0, 0.0, 8.0)  # omega_n = 2
+    if exponent > -1000:  # (a subnormal scale keeps fewer bits)
+        assert osc.amplitude_bound(3.0 * scale, 8.0 * scale) == pytest.approx(5.0 * scale,
+                                                                               rel=1e-15)
