@@ -57,6 +57,11 @@ BRACKET_STEPS = 1100
 #: Relative tolerance on a located root, as brentq's ``rtol`` (4 ulps).
 ROOT_RTOL = 8.9e-16
 
+#: A root-free stretch longer than this (s) is the whole future: no run reaches its end, and the
+#: closed forms overflow there (a clearance of 6e306 s, a margin over an ice speed of 1e-308
+#: m/s, had the search evaluate the gap at omega_n t = inf).
+FOREVER = 1e300
+
 #: A probe whose largest value (of f, f', f'', K, J) is below this, or above its inverse, is
 #: scaled to about 1 before the step lengths are computed: their squares (f'^2, 2 K f, ...)
 #: underflowed at contact forces of 1e-286 N, and a discriminant of 0 gave a Taylor stretch of
@@ -147,7 +152,7 @@ class RootSearch:
         if 0.0 < size < SCALED_BELOW or 1.0 / SCALED_BELOW < size < math.inf:
             # the squares below would underflow (or overflow): every step length is
             # homogeneous of degree 0 in (f, f', f'', K, J), so scale them by a power of 2 (exact)
-            scale = math.ldexp(1.0, -math.frexp(size)[1])
+            scale = math.ldexp(1.0, max(-1000, min(1000, -math.frexp(size)[1])))
             f, df, d2, bound, jerk = f * scale, df * scale, d2 * scale, bound * scale, jerk * scale
         if bound <= 0.0:  # f is linear from here on
             if df < 0.0:
@@ -171,11 +176,14 @@ class RootSearch:
             h_mono = -df / bound
             if jerk > 0.0:
                 root = math.sqrt(d2 * d2 - 2.0 * jerk * df)
-                h_mono = max(h_mono, (root - d2) / jerk if d2 < 0.0 else -2.0 * df / (d2 + root))
+                if d2 < 0.0:
+                    h_mono = max(h_mono, (root - d2) / jerk)
+                elif d2 + root > 0.0:  # (both 0: d2^2 and jerk df underflowed; K's stretch holds)
+                    h_mono = max(h_mono, -2.0 * df / (d2 + root))
             elif d2 <= 0.0:
                 h_mono = math.inf
             if h_mono > h_free:
-                b = a + min(h_mono, 1e300, self.max_step)
+                b = a + min(h_mono, FOREVER, self.max_step)
                 if b > a:
                     if self.value_and_rate is not None:
                         self._descend(a, f, df, d2, b)
@@ -185,7 +193,7 @@ class RootSearch:
                         return
                     self.a = b
                     return
-        if h_free == math.inf and self.max_step == math.inf:
+        if h_free > FOREVER and self.max_step == math.inf:
             self.a = math.inf
             return
         step = min(h_free, self.max_step)
