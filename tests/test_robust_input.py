@@ -831,3 +831,49 @@ def test_the_root_search_does_not_depend_on_the_scale_of_its_signal(exponent):
     if exponent > -1000:  # (a subnormal scale keeps fewer bits)
         assert osc.amplitude_bound(3.0 * scale, 8.0 * scale) == pytest.approx(5.0 * scale,
                                                                                rel=1e-15)
+
+
+#: random-search scenes at the ends of double precision where nothing can happen (the ice out of
+#: reach or at rest, no drag or no flow): (scene, communication step, flow of steps 0-3 in turn)
+FROZEN_EXTREMES = {
+    # the ice 0.067 m beyond the reach of a stiff structure, crawling at 1e-308 m/s: the
+    # clearance (margin / speed) was 6e306 s, and the gap was evaluated at omega_n t = inf
+    # (ValueError from math.cos)
+    "ice crawling at 1e-308 m/s": (dict(
+        structure_m=0.00043926462461252146, structure_c=0.0, structure_k=376711726064.4603,
+        structure_x0=-0.41809125917960344, structure_v0=1.1125369292536007e-308,
+        ice_M=3.306966185946854, ice_A=0.004425684103770009, ice_Cd=1e-15,
+        ice_z0=-0.48545371398205006, ice_v0=1.1125369292536007e-308,
+        impact_e=0.21608311446586376, drag_model=2, drag_v_lin=0.0016833848398599407,
+        flow_u=0.0), 1e-4, (0.0,) * 4),
+    # a structure ringing with 2e-196 m, the ice 0.022 m away: d2^2 and jerk * df both
+    # underflow in the root search (a division by their sum, 0)
+    "structure ringing with 2e-196 m": (dict(
+        structure_m=5.047249916897516e-05, structure_c=0.0, structure_k=117694843.24735996,
+        structure_x0=0.0, structure_v0=-3.042972614185134e-190, ice_M=5.047249916897518e-05,
+        ice_A=0.004359259021143864, ice_Cd=0.0, ice_z0=-0.02210596527455649, ice_v0=0.0,
+        impact_e=1.0, drag_model=1, drag_v_lin=0.0037798570126214757, flow_u=0.0), 0.37,
+        (0.1, 0.1, 0.1, -0.1)),
+    # the ice 2.2e-309 m (subnormal) upstream of a structure at rest: a probe of subnormal size
+    # (its scale 2^1073 overflows; at most 2^1000 is used)
+    "gap of 2.2e-309 m": (dict(
+        structure_m=1.0, structure_c=197.9384957220146, structure_k=9794.9120221735,
+        structure_x0=0.0, structure_v0=0.0, ice_M=1.0, ice_A=1.0, ice_Cd=0.0,
+        ice_z0=-2.225073858507203e-309, ice_v0=0.0, impact_e=1.0, drag_model=2,
+        drag_v_lin=1.1650348848649137, flow_u=0.0), 1e-3, (0.1,) * 4),
+}
+
+
+@pytest.mark.parametrize("name", list(FROZEN_EXTREMES))
+def test_scenes_at_the_ends_of_double_precision_run_soundly(name):
+    kw, h, flows = FROZEN_EXTREMES[name]
+    scene = Scene(**kw, solver_method=1)
+    sim = Simulator(scene)
+    # the structure's envelope: |x| <= sqrt(x0^2 + (v0 / omega_n)^2) (its energy), the ice still
+    lowest = -math.hypot(scene.structure_x0, scene.structure_v0 / scene.omega_n) - scene.ice_z0
+    for i in range(8):
+        r = sim.advance(h, flows[i % 4])
+        values = (r.x, r.v, r.z, r.w, r.gap, r.impulse)
+        assert all(map(math.isfinite, values)) and r.impulse == 0.0
+        assert r.gap >= lowest - GAP_ROUNDING  # out of reach
+    assert sim.impact_count == 0
