@@ -1,0 +1,148 @@
+"""Cost of method 1's stiff ringing scenes (docs/robustness.md, "exact tangent ringing"): this
+tree against a base commit, side by side in one run.
+
+The base commit's ``fmu_src`` is extracted with ``git archive`` into a temporary directory; each
+case runs in a subprocess (this script with ``--worker SRC``) importing ``iceimpact`` from either
+tree. Times are the CPU time of the measuring process (``time.process_time``; the machine may be
+shared), each run stopped after ``--limit`` s of CPU (a SIGPROF timer), so a run that does not
+finish reports how far it got. Cases, each a 1 s run:
+
+- ``tangent ringing, u = 0``: an undamped structure (omega_n 4.1e7 rad/s, m = M = 1600 kg)
+  released from rest at -0.16 m, the ice at rest exactly at the lowest point of its swing, no
+  drag, e = 1, 10 ms steps. The exact motion has no impact (x = x0 cos(omega_n t));
+- ``tangent ringing, no drag, u = 0.1``: the same with a flow, which without drag does not move
+  the ice;
+- ``stiff pair ringing in contact``: the random search's scene (m = 3537 kg, k = 1.06e19 N/m,
+  c = 0, M = 3619 kg, linear drag, u = 6478 m/s, bodies together at -0.57 m/s), 0.37 s steps
+  with the flow reversing at every step.
+
+Reported per case and tree: the simulated time reached, the CPU time, impacts, root-search
+iterations of the last segment, the smallest gap at the communication points and the smallest
+contact impulse of a step.
+
+    python benchmarks/ringing.py                    # base 29ed3b0, limit 10 s
+    python benchmarks/ringing.py --base HEAD~4 --limit 5
+
+Prints a table and writes ``benchmarks/results/ringing.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+BASE = "29ed3b0"
+T_END = 1.0
+
+OMEGA, X0 = 4.1e7, -0.16
+TANGENT = dict(structure_m=1600.0, structure_k=1600.0 * OMEGA ** 2, structure_c=0.0,
+               structure_x0=X0, structure_v0=0.0, ice_M=1600.0, ice_Cd=0.0, ice_z0=X0,
+               ice_v0=0.0, impact_e=1.0, solver_method=1)
+PAIR = dict(structure_m=3537.1073490753306, structure_c=0.0,
+            structure_k=1.0599269884926448e+19, structure_x0=0.0,
+            structure_v0=-0.5706191297623756, ice_M=3619.4971632535407,
+            ice_A=1.282686929497336, ice_Cd=1.0689804569440564, ice_z0=0.0,
+            ice_v0=-0.5706191297623756, impact_e=0.0, drag_model=1,
+            drag_v_lin=1.282686929497336, flow_u=6478.176589776202, solver_method=1)
+#: name: (scene, communication step (s), flow reverses at every step)
+CASES = {
+    "tangent ringing, u = 0": ({**TANGENT, "flow_u": 0.0}, 0.01, False),
+    "tangent ringing, no drag, u = 0.1": ({**TANGENT, "flow_u": 0.1}, 0.01, False),
+    "stiff pair ringing in contact": (PAIR, 0.37, True),
+}
+
+
+class _Stop(Exception):
+    pass
+
+
+def _stop(signum, frame):
+    raise _Stop
+
+
+def _worker(limit: float) -> dict:
+    """The cases, with ``iceimpact`` from the tree on ``sys.path`` (a subprocess)."""
+    import signal
+
+    from iceimpact import Scene, Simulator
+
+    signal.signal(signal.SIGPROF, _stop)
+    out = {}
+    for name, (kw, h, reversing) in CASES.items():
+        scene = Scene(**kw)
+        sim = Simulator(scene)
+        u = scene.flow_u
+        min_gap = min_impulse = float("inf")
+        start = time.process_time()
+        signal.setitimer(signal.ITIMER_PROF, limit)
+        i = 0
+        try:
+            while sim.t < T_END - 1e-12:
+                r = sim.advance(min(h, T_END - sim.t), -u if reversing and i % 2 else u)
+                i += 1
+                state = sim.solver.state
+                min_gap = min(min_gap, state.x - state.z)
+                min_impulse = min(min_impulse, r.impulse)
+        except _Stop:
+            pass
+        finally:
+            signal.setitimer(signal.ITIMER_PROF, 0.0)
+        cpu = time.process_time() - start
+        search = getattr(sim.solver.seg, "search", None)
+        out[name] = {"t": sim.t, "cpu_s": cpu, "finished": sim.t >= T_END - 1e-12,
+                     "impacts": sim.impact_count,
+                     "iterations": search.iterations if search is not None else None,
+                     "min_gap_m": min_gap, "min_impulse_Ns": min_impulse}
+    return out
+
+
+def _run(src: Path, limit: float) -> dict:
+    env_path = f"{src}"
+    res = subprocess.run([sys.executable, __file__, "--worker", env_path, "--limit", str(limit)],
+                         capture_output=True, text=True, check=True)
+    return json.loads(res.stdout)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--base", default=BASE, help="commit to compare with")
+    parser.add_argument("--limit", type=float, default=10.0, help="CPU s per run")
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        sys.path.insert(0, args.worker)
+        print(json.dumps(_worker(args.limit)))
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.base, "fmu_src"],
+                                 capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
+        base = _run(Path(tmp) / "fmu_src", args.limit)
+    current = _run(ROOT / "fmu_src", args.limit)
+    print("| case | tree | simulated (s) | CPU (s) | impacts | search iterations | "
+          "min gap (m) | min impulse (N.s) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name in CASES:
+        for label, res in ((args.base, base[name]), ("this tree", current[name])):
+            reached = f"{res['t']:.3g}" + ("" if res["finished"] else " (stopped)")
+            print(f"| {name} | {label} | {reached} | {res['cpu_s']:.2f} | {res['impacts']} | "
+                  f"{res['iterations']} | {res['min_gap_m']:.3g} | "
+                  f"{res['min_impulse_Ns']:.3g} |")
+    result = {"base": args.base, "limit_cpu_s": args.limit, "t_end_s": T_END,
+              "python": platform.python_version(), "machine": platform.machine(),
+              "cases": {name: {"base": base[name], "current": current[name]}
+                        for name in CASES}}
+    out = ROOT / "benchmarks" / "results" / "ringing.json"
+    out.write_text(json.dumps(result, indent=1) + "\n")
+    print(f"wrote {out.relative_to(ROOT)}")
+
+
+if __name__ == "__main__":
+    main()
