@@ -33,8 +33,8 @@ exceeds 2 % of its mean, no code can keep the counts within 2 % of the reference
 and the ensembles are the comparison that can fail (docs/accuracy.md, Impact counts and
 rounding).
 
-    python benchmarks/core_speed.py --scenes quadratic_A2 heavy_floe --spread --members 16 \
-        --rounds 1 --out benchmarks/results/core_speed_spread.json
+    python benchmarks/core_speed.py --spread --members 24 --rounds 1 \
+        --out benchmarks/results/core_speed_spread.json     # ~10 min of CPU
 """
 
 from __future__ import annotations
