@@ -22,16 +22,16 @@ and ``core_speed.md``.
 ``core_speed_steps.json`` and ``.md``.
 
 ``--spread`` runs both the reference and this tree again, for every scene and run length, with
-the ice's start position moved by 0 to 5e-15 m (``--members`` runs, evenly spaced; 6 by
-default, 1e-15 m apart): the motion of these scenes is sensitive, and the spread of the impact
-counts it gives is what rounding alone does to them (a changed root finder moves the impact
-times by rounding, and these moves grow by a factor of about 3 per impact). The table then gives,
-next to the counts, each ensemble's mean, standard deviation and range, and whether "after" lies
-within the reference's own spread: its count within the reference ensemble's range, and the two
-ensembles' means within 2 standard errors of each other. Where the reference's own range
-exceeds 2 % of its mean, no code can keep the counts within 2 % of the reference's single run,
-and the ensembles are the comparison that can fail (docs/accuracy.md, Impact counts and
-rounding).
+the ice's start position moved by 0 to 5e-15 m (``--move``; ``--members`` runs, evenly spaced;
+6 by default, 1e-15 m apart): the motion of these scenes is sensitive, and the spread of the
+impact counts it gives is what rounding alone does to them (a changed root finder moves the
+impact times by rounding, and these moves grow by a factor of 2-5 per impact). The table then
+gives, next to the counts, each ensemble's mean, standard deviation and range, and whether
+"after" lies within the reference's own spread: its count within the reference ensemble's
+range, and the two ensembles' means within 2 standard errors of each other. Where the
+reference's own range exceeds 2 % of its mean, no code can keep the counts within 2 % of the
+reference's single run, and the ensembles are the comparison that can fail
+(docs/accuracy.md, Impact counts and rounding).
 
     python benchmarks/core_speed.py --spread --members 24 --rounds 1 \
         --out benchmarks/results/core_speed_spread.json     # ~10 min of CPU
@@ -187,19 +187,21 @@ print(json.dumps([len(run(Scene(**{**fields, "ice_z0": z0 - d}), t_end, dt=dt).i
                   for d in json.loads(sys.argv[4])]))
 """
 
-#: --spread: the largest move of the ice's start, m (about 500 units in the last place of 0.01 m)
+#: --spread: the largest move of the ice's start by default, m (about 3000 units in the last
+#: place of 0.01 m)
 SPREAD_MOVE = 5e-15
 
 
-def offsets(members: int) -> list[float]:
-    """The moves of the ice's start of a --spread ensemble: 0 to SPREAD_MOVE, evenly spaced."""
-    return [SPREAD_MOVE * k / (members - 1) for k in range(members)]
+def offsets(members: int, move: float = SPREAD_MOVE) -> list[float]:
+    """The moves of the ice's start of a --spread ensemble: 0 to ``move`` (m), evenly spaced."""
+    return [move * k / (members - 1) for k in range(members)]
 
 
-def spread(core: Path, fields: dict, t_end: float, members: int) -> dict:
+def spread(core: Path, fields: dict, t_end: float, members: int,
+           move: float = SPREAD_MOVE) -> dict:
     """Impact counts of ``core`` with the ice's start moved by each of :func:`offsets` (m)."""
     done = subprocess.run([sys.executable, "-c", _SPREAD_WORKER, json.dumps(fields), repr(t_end),
-                           repr(DT), json.dumps(offsets(members))], capture_output=True,
+                           repr(DT), json.dumps(offsets(members, move))], capture_output=True,
                           text=True, env={"PYTHONPATH": str(core), "PATH": "/usr/bin:/bin"},
                           check=False)
     if done.returncode != 0:
@@ -232,7 +234,7 @@ def _ensemble(e: dict) -> str:
     return f"{e['mean']:.0f} ± {e['std']:.0f} [{e['min']}, {e['max']}]"
 
 
-def markdown(rows: list[dict], base: str, members: int = 0) -> str:
+def markdown(rows: list[dict], base: str, members: int = 0, move: float = SPREAD_MOVE) -> str:
     spreads = any("spread" in r for r in rows)
     lines = [f"Before: commit {base}; after: this tree. `run(scene, t_end, dt=1e-2)`, CPU time, "
              "best of the interleaved rounds, each in a fresh process.", ""]
@@ -240,7 +242,7 @@ def markdown(rows: list[dict], base: str, members: int = 0) -> str:
             "per simulated s before / after | speed-up | first 10 impacts moved |")
     if spreads:
         lines += [f"Ensembles: the same run with the ice's start moved by 0 to "
-                  f"{SPREAD_MOVE:g} m ({members} runs each), impact counts as mean ± standard "
+                  f"{move:g} m ({members} runs each), impact counts as mean ± standard "
                   "deviation [range]; \"within\": after's count in the reference's range and "
                   "the means within 2 standard errors (z).", ""]
         head += (" before's ensemble | after's ensemble | before's own range | "
@@ -274,6 +276,8 @@ def main(argv=None) -> int:
                              "ice's start by 0 to 5e-15 m")
     parser.add_argument("--members", type=int, default=6,
                         help="--spread: runs per ensemble (>= 2)")
+    parser.add_argument("--move", type=float, default=SPREAD_MOVE,
+                        help="--spread: the largest move of the ice's start, m (> 0)")
     parser.add_argument("--vs-ode", action="store_true",
                         help="also the exact solver against solve_ivp with events")
     parser.add_argument("--steps", action="store_true",
@@ -307,6 +311,8 @@ def main(argv=None) -> int:
 
     if args.spread and args.members < 2:
         parser.error(f"--members = {args.members}: an ensemble needs at least 2 runs")
+    if args.spread and not args.move > 0.0:
+        parser.error(f"--move = {args.move}: the largest move must be > 0 m")
     rows = []
     with tempfile.TemporaryDirectory(prefix="core_speed_") as tmp:
         cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
@@ -326,7 +332,7 @@ def main(argv=None) -> int:
                       f"{b['ms_per_simulated_s']:6.2f}/{a['ms_per_simulated_s']:<6.2f} "
                       f"{row['ratio']:7.2f}x {row['first10_max_shift_s']:13.1e}", flush=True)
                 if args.spread:
-                    ens = {side: spread(cores[side], fields, t_end, args.members)
+                    ens = {side: spread(cores[side], fields, t_end, args.members, args.move)
                            for side in ("before", "after")}
                     ens["verdict"] = within(ens["before"], ens["after"])
                     row["spread"] = ens
@@ -341,12 +347,13 @@ def main(argv=None) -> int:
               "scenes": {name: SCENES[name][1] for name in args.scenes},
               "rows": rows}
     if args.spread:
-        report["spread"] = {"members": args.members, "ice_z0_moves_m": offsets(args.members)}
+        report["spread"] = {"members": args.members,
+                            "ice_z0_moves_m": offsets(args.members, args.move)}
     if args.vs_ode:
         report["vs_ode"] = vs_ode(min(max(lengths), 150.0))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(report, indent=2) + "\n")
-    args.out.with_suffix(".md").write_text(markdown(rows, args.base, args.members))
+    args.out.with_suffix(".md").write_text(markdown(rows, args.base, args.members, args.move))
     print(f"wrote {args.out} and {args.out.with_suffix('.md')}")
     return 0
 
