@@ -21,9 +21,20 @@ and ``core_speed.md``.
 ``Simulator.advance`` step at h = 1e-4 and 1e-1 s over 10 s of Figure 2; it writes
 ``core_speed_steps.json`` and ``.md``.
 
-``--spread`` runs the reference again with the ice's start position moved by 1e-15 m to
-5e-15 m: the motion of these scenes is sensitive, and the spread of the impact counts it gives
-is what rounding alone does to them (a changed root finder moves the impact times by rounding).
+``--spread`` runs both the reference and this tree again, for every scene and run length, with
+the ice's start position moved by 0 to 5e-15 m (``--move``; ``--members`` runs, evenly spaced;
+6 by default, 1e-15 m apart): the motion of these scenes is sensitive, and the spread of the
+impact counts it gives is what rounding alone does to them (a changed root finder moves the
+impact times by rounding, and these moves grow by a factor of 2-5 per impact). The table then
+gives, next to the counts, each ensemble's mean, standard deviation and range, and whether
+"after" lies within the reference's own spread: its count within the reference ensemble's
+range, and the two ensembles' means within 2 standard errors of each other. Where the
+reference's own range exceeds 2 % of its mean, no code can keep the counts within 2 % of the
+reference's single run, and the ensembles are the comparison that can fail
+(docs/accuracy.md, Impact counts and rounding).
+
+    python benchmarks/core_speed.py --spread --members 24 --rounds 1 \
+        --out benchmarks/results/core_speed_spread.json     # ~10 min of CPU
 """
 
 from __future__ import annotations
@@ -165,40 +176,91 @@ def compare(cores: dict[str, Path], fields: dict, t_end: float, rounds: int) -> 
     return row
 
 
-def spread(core: Path, fields: dict, t_end: float) -> dict:
-    """Impact counts of the reference with the ice's start moved by k 1e-15 m, k = 0..5."""
-    z0 = fields.get("ice_z0", -0.01)
-    counts = [measure(core, {**fields, "ice_z0": z0 - k * 1e-15}, t_end)["impacts"]
-              for k in range(6)]
-    return {"t_end_s": t_end, "counts": counts,
-            "relative_range": (max(counts) - min(counts)) / counts[0] if counts[0] else 0.0}
+#: --spread: the impact counts of one scene over t_end with the ice's start moved away from the
+#: structure by each offset (m), in one process; JSON on stdout.
+_SPREAD_WORKER = """
+import json, sys
+from iceimpact import Scene, run
+fields, t_end, dt = json.loads(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
+z0 = Scene(**fields).ice_z0
+print(json.dumps([len(run(Scene(**{**fields, "ice_z0": z0 - d}), t_end, dt=dt).impacts)
+                  for d in json.loads(sys.argv[4])]))
+"""
+
+#: --spread: the largest move of the ice's start by default, m (about 3000 units in the last
+#: place of 0.01 m)
+SPREAD_MOVE = 5e-15
+
+
+def offsets(members: int, move: float = SPREAD_MOVE) -> list[float]:
+    """The moves of the ice's start of a --spread ensemble: 0 to ``move`` (m), evenly spaced."""
+    return [move * k / (members - 1) for k in range(members)]
+
+
+def spread(core: Path, fields: dict, t_end: float, members: int,
+           move: float = SPREAD_MOVE) -> dict:
+    """Impact counts of ``core`` with the ice's start moved by each of :func:`offsets` (m)."""
+    done = subprocess.run([sys.executable, "-c", _SPREAD_WORKER, json.dumps(fields), repr(t_end),
+                           repr(DT), json.dumps(offsets(members, move))], capture_output=True,
+                          text=True, env={"PYTHONPATH": str(core), "PATH": "/usr/bin:/bin"},
+                          check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"{core}: {done.stderr}")
+    counts = json.loads(done.stdout.strip().splitlines()[-1])
+    mean = sum(counts) / len(counts)
+    std = (sum((c - mean) ** 2 for c in counts) / (len(counts) - 1)) ** 0.5
+    return {"counts": counts, "mean": mean, "std": std, "min": min(counts), "max": max(counts),
+            "relative_range": (max(counts) - min(counts)) / mean if mean else 0.0}
+
+
+def within(before: dict, after: dict) -> dict:
+    """Whether the after ensemble lies within the reference's own spread: after's unmoved count
+    in the reference's range, and the means within 2 standard errors of their difference."""
+    n_b, n_a = len(before["counts"]), len(after["counts"])
+    se = (before["std"] ** 2 / n_b + after["std"] ** 2 / n_a) ** 0.5
+    diff = after["mean"] - before["mean"]
+    z = diff / se if se else (0.0 if diff == 0 else float("inf"))
+    in_range = before["min"] <= after["counts"][0] <= before["max"]
+    return {"after_count_in_before_range": in_range, "means_z": z,
+            "within": in_range and abs(z) <= 2.0,
+            "two_percent_possible": before["relative_range"] <= 0.02}
 
 
 def _cost(value: float | None, unit: str) -> str:
     return "-" if value is None else f"{value:.1f} {unit}"
 
 
-def markdown(rows: list[dict], spreads: dict, base: str) -> str:
+def _ensemble(e: dict) -> str:
+    return f"{e['mean']:.0f} ± {e['std']:.0f} [{e['min']}, {e['max']}]"
+
+
+def markdown(rows: list[dict], base: str, members: int = 0, move: float = SPREAD_MOVE) -> str:
+    spreads = any("spread" in r for r in rows)
     lines = [f"Before: commit {base}; after: this tree. `run(scene, t_end, dt=1e-2)`, CPU time, "
-             "best of the interleaved rounds, each in a fresh process.", "",
-             "| scene | t_end | impacts before / after | per impact before / after | "
-             "per simulated s before / after | speed-up | first 10 impacts moved |",
-             "|---|---:|---:|---:|---:|---:|---:|"]
+             "best of the interleaved rounds, each in a fresh process.", ""]
+    head = ("| scene | t_end | impacts before / after | per impact before / after | "
+            "per simulated s before / after | speed-up | first 10 impacts moved |")
+    if spreads:
+        lines += [f"Ensembles: the same run with the ice's start moved by 0 to "
+                  f"{move:g} m ({members} runs each), impact counts as mean ± standard "
+                  "deviation [range]; \"within\": after's count in the reference's range and "
+                  "the means within 2 standard errors (z).", ""]
+        head += (" before's ensemble | after's ensemble | before's own range | "
+                 "after within (z) |")
+    lines += [head, "|---|---:|---:|---:|---:|---:|---:|" + ("---:|---:|---:|---|" if spreads
+                                                               else "")]
     for r in rows:
         b, a = r["before"], r["after"]
-        lines.append(
-            f"| {r['scene']} | {r['t_end_s']:g} s | {b['impacts']} / {a['impacts']} "
-            f"({100 * r['impact_count_change']:+.1f} %) | {_cost(b['us_per_impact'], 'us')} / "
-            f"{_cost(a['us_per_impact'], 'us')} | {b['ms_per_simulated_s']:.2f} / "
-            f"{a['ms_per_simulated_s']:.2f} ms | {r['ratio']:.2f}x | "
-            f"{r['first10_max_shift_s']:.1e} s |")
-    if spreads:
-        lines += ["", "Impact counts of the reference itself with the ice's start moved by "
-                  "0 to 5e-15 m (what rounding alone does to these sensitive motions):", "",
-                  "| scene | t_end | counts | range |", "|---|---:|---|---:|"]
-        for name, s in spreads.items():
-            lines.append(f"| {name} | {s['t_end_s']:g} s | {', '.join(map(str, s['counts']))} "
-                         f"| {100 * s['relative_range']:.1f} % |")
+        line = (f"| {r['scene']} | {r['t_end_s']:g} s | {b['impacts']} / {a['impacts']} "
+                f"({100 * r['impact_count_change']:+.1f} %) | {_cost(b['us_per_impact'], 'us')} / "
+                f"{_cost(a['us_per_impact'], 'us')} | {b['ms_per_simulated_s']:.2f} / "
+                f"{a['ms_per_simulated_s']:.2f} ms | {r['ratio']:.2f}x | "
+                f"{r['first10_max_shift_s']:.1e} s |")
+        if "spread" in r:
+            sb, sa, w = r["spread"]["before"], r["spread"]["after"], r["spread"]["verdict"]
+            line += (f" {_ensemble(sb)} | {_ensemble(sa)} | {100 * sb['relative_range']:.1f} % | "
+                     f"{'yes' if w['within'] else 'no'} ({w['means_z']:+.1f}) |")
+        lines.append(line)
     return "\n".join(lines) + "\n"
 
 
@@ -210,7 +272,12 @@ def main(argv=None) -> int:
     parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
     parser.add_argument("--rounds", type=int, default=2, help="interleaved rounds, best kept")
     parser.add_argument("--spread", action="store_true",
-                        help="the reference's impact-count spread under 1e-15 m moves")
+                        help="the impact counts' spread, before and after, under moves of the "
+                             "ice's start by 0 to 5e-15 m")
+    parser.add_argument("--members", type=int, default=6,
+                        help="--spread: runs per ensemble (>= 2)")
+    parser.add_argument("--move", type=float, default=SPREAD_MOVE,
+                        help="--spread: the largest move of the ice's start, m (> 0)")
     parser.add_argument("--vs-ode", action="store_true",
                         help="also the exact solver against solve_ivp with events")
     parser.add_argument("--steps", action="store_true",
@@ -242,7 +309,11 @@ def main(argv=None) -> int:
     lengths = args.lengths or ([10.0, 100.0] if args.quick else [10.0, 100.0, 1000.0])
     rounds = 1 if args.quick else args.rounds
 
-    rows, spreads = [], {}
+    if args.spread and args.members < 2:
+        parser.error(f"--members = {args.members}: an ensemble needs at least 2 runs")
+    if args.spread and not args.move > 0.0:
+        parser.error(f"--move = {args.move}: the largest move must be > 0 m")
+    rows = []
     with tempfile.TemporaryDirectory(prefix="core_speed_") as tmp:
         cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
         head = (f"{'scene':22} {'t_end':>6} {'impacts':>13} {'us/impact':>15} "
@@ -260,21 +331,29 @@ def main(argv=None) -> int:
                       f"{b['us_per_impact'] or 0:7.1f}/{a['us_per_impact'] or 0:<7.1f} "
                       f"{b['ms_per_simulated_s']:6.2f}/{a['ms_per_simulated_s']:<6.2f} "
                       f"{row['ratio']:7.2f}x {row['first10_max_shift_s']:13.1e}", flush=True)
-            if args.spread:
-                spreads[name] = spread(cores["before"], fields, max(lengths))
-                print(f"{'':22} reference counts under 1e-15 m moves: {spreads[name]['counts']}")
+                if args.spread:
+                    ens = {side: spread(cores[side], fields, t_end, args.members, args.move)
+                           for side in ("before", "after")}
+                    ens["verdict"] = within(ens["before"], ens["after"])
+                    row["spread"] = ens
+                    print(f"{'':22} ensembles: before {_ensemble(ens['before'])}, after "
+                          f"{_ensemble(ens['after'])}, within: {ens['verdict']['within']} "
+                          f"(z {ens['verdict']['means_z']:+.1f})", flush=True)
 
     report = {"benchmark": "core_speed", "date": datetime.now(UTC).isoformat(timespec="seconds"),
               "command": "python benchmarks/core_speed.py " + " ".join(argv or sys.argv[1:]),
               "machine": platform.platform(), "python": platform.python_version(),
               "base": args.base, "dt_s": DT, "rounds": rounds,
               "scenes": {name: SCENES[name][1] for name in args.scenes},
-              "rows": rows, "reference_spread": spreads}
+              "rows": rows}
+    if args.spread:
+        report["spread"] = {"members": args.members,
+                            "ice_z0_moves_m": offsets(args.members, args.move)}
     if args.vs_ode:
         report["vs_ode"] = vs_ode(min(max(lengths), 150.0))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(report, indent=2) + "\n")
-    args.out.with_suffix(".md").write_text(markdown(rows, spreads, args.base))
+    args.out.with_suffix(".md").write_text(markdown(rows, args.base, args.members, args.move))
     print(f"wrote {args.out} and {args.out.with_suffix('.md')}")
     return 0
 
