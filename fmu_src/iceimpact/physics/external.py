@@ -63,9 +63,7 @@ class ExtrapolatedStructure:
 
     def increment(self, x0: float, v0: float) -> Callable[[float], tuple[float, float]]:
         """``t -> (x(t) - x0, v(t))`` from the anchor (x0, v0)."""
-        a = self.a
-
-        def constant_acceleration(t: float) -> tuple[float, float]:
+        def constant_acceleration(t: float, a=self.a, v0=v0) -> tuple[float, float]:
             return (v0 + 0.5 * a * t) * t, v0 + a * t
         return constant_acceleration
 

@@ -82,11 +82,10 @@ class LinearDrag(_DragLaw):
         The drift is ``w0 t + r0 t L(kappa t)`` with the lag ``L(x) = (1 - e^{-x}) / x - 1``
         behind coasting at w0, free of cancellation at small x (its series), so it is exact to
         rounding even when far below the rounding of u t. The velocity is
-        ``w0 + r0 (e^{-x} - 1)``: exactly w0 at t = 0 and without drag, even when |w0| << |u|."""
-        r0 = w0 - u
-        kappa = self.kappa
+        ``w0 + r0 (e^{-x} - 1)``: exactly w0 at t = 0 and without drag, even when |w0| << |u|.
+        (The returned function takes t alone; its constants are bound as its default values.)"""
 
-        def linear(t: float) -> tuple[float, float]:
+        def linear(t: float, kappa=self.kappa, w0=w0, r0=w0 - u) -> tuple[float, float]:
             x = kappa * t
             if x < 1e-2:  # series, truncation ~ x^6 / 5040
                 lag = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
@@ -150,11 +149,12 @@ class QuadraticDrag(_DragLaw):
         The drift is ``w0 t + r0 t L(y)``, y = beta |r0| t, with the lag
         ``L(y) = ln(1 + y) / y - 1`` free of cancellation at small y (its series). The velocity
         is ``w0 - r0 y / (1 + y)``: exactly w0 at t = 0 and without drag, even when
-        |w0| << |u|."""
+        |w0| << |u|. (The returned function takes t alone; its constants are bound as its
+        default values.)"""
         r0 = w0 - u
         rate = self.beta * abs(r0)
 
-        def quadratic(t: float) -> tuple[float, float]:
+        def quadratic(t: float, rate=rate, w0=w0, r0=r0) -> tuple[float, float]:
             y = rate * t
             if y < 1e-3:  # series, truncation ~ y^6 / 7
                 lag = -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))

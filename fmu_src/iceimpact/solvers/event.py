@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_left
 from collections.abc import Callable
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -49,6 +50,10 @@ from .state import Record, StateError
 from .taylor import StepEnd, StickingTaylor, TaylorStep
 
 _NO_STATE = (math.nan, math.nan, math.nan)
+#: Enum members as module constants (an enum class's attribute is looked up through its
+#: metaclass, about 20 times the cost of a global; these are asked at every event).
+_FLIGHT = Phase.FLIGHT
+_IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
 _NO_MOTION = (math.nan,) * 5
 #: Taylor steps in a row that do not advance the time before a sticking phase is given up.
 _MAX_STALLED_STEPS = 4
@@ -62,7 +67,8 @@ _MAX_STEPS = 8
 
 
 def _time_eps(t: float) -> float:
-    return 8.9e-16 * max(1.0, abs(t))
+    scale = abs(t)
+    return 8.9e-16 * (scale if scale > 1.0 else 1.0)  # max(1.0, |t|)
 
 
 class _SearchedSegment:
@@ -607,15 +613,42 @@ def _entry(item: Any, field: str, names: tuple[str, ...]) -> Record:
 
 def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
     """The first index j >= i with ``times[j] - t0 >= tau_event``: the first sample a march
-    reaches after the event (the test advance_to makes), by bisection on the absolute times
-    and a check of the exact test around it."""
+    reaches after the event (the test advance_to makes; it holds from its first j on, since
+    times increase and rounding is monotone). Most events are a few samples apart: the first
+    ones are tested in turn, then a bisection on the absolute times and a check of the exact
+    test around it."""
     n = len(times)
-    j = bisect_left(times, t0 + tau_event, i, n)
+    j = i
+    stop = i + 8
+    if stop > n:
+        stop = n
+    while j < stop:
+        if times[j] - t0 >= tau_event:
+            return j
+        j += 1
+    if j == n:
+        return n
+    j = bisect_left(times, t0 + tau_event, j, n)
     while j > i and times[j - 1] - t0 >= tau_event:
         j -= 1
     while j < n and times[j] - t0 < tau_event:
         j += 1
     return j
+
+
+#: How :meth:`EventSolver.sample` evaluates a kind of segment (or by a _SampleGroup).
+_STEPPED, _MARCHED = "stepped", "marched"
+
+
+def _sampling_kind(seg: Any) -> Any:
+    """_STEPPED for segments of Taylor steps (dense output per segment), a new _SampleGroup
+    for those with array closed forms (all their samples at once), else _MARCHED (stepped to
+    each sample)."""
+    if hasattr(seg, "states_at"):
+        return _STEPPED
+    if getattr(seg, "state_array", None) is not None:
+        return _SampleGroup(seg)
+    return _MARCHED
 
 
 class Samples:
@@ -675,7 +708,9 @@ class _SampleGroup:
         rows = np.repeat(np.arange(len(counts)), counts)
         # sample indices: each segment's run first..stop-1, concatenated
         index = np.arange(len(rows)) + np.repeat(first - (np.cumsum(counts) - counts), counts)
-        anchors = np.array(self.anchors, dtype=float).reshape(len(self.anchors), -1)
+        width = len(self.rep.ANCHOR)
+        anchors = np.fromiter(chain.from_iterable(self.anchors), dtype=float,
+                              count=width * len(self.anchors)).reshape(len(self.anchors), width)
         t0 = np.array(self.t0)
         tau = times[index] - t0[rows]
         x, v, z, w = self.rep.state_array(tuple(anchors[rows].T), tau)
@@ -766,9 +801,10 @@ class EventSolver(Solver):
             self._fly(t, x, v, z, w, u)
             return
         decision = self.rules.at_contact(t, x, v, w, u, reanchor)
-        if decision.outcome is Outcome.IMPACT:
+        outcome = decision.outcome
+        if outcome is _IMPACT:
             self._impact(t, x, decision.v, decision.w, u)
-        elif decision.outcome is Outcome.STICK:
+        elif outcome is _STICK_OUTCOME:
             self._stick(t, x, decision.v, u, hold=decision.hold)
         else:
             self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
@@ -844,7 +880,7 @@ class EventSolver(Solver):
         its impacts."""
         x, v, z, w = seg.state(tau_event)
         t_event = seg.t0 + tau_event
-        if seg.phase is Phase.FLIGHT:
+        if seg.phase is _FLIGHT:
             self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
         else:  # contact force turns tensile: separate with equal velocities
             self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
@@ -873,13 +909,16 @@ class EventSolver(Solver):
         targets: list[int] = [0]
         values: list[float] = [self.pending_impulse]
         self.pending_impulse = 0.0
-        groups: dict[type, _SampleGroup] = {}
+        # per kind of segment: _STEPPED, _MARCHED or the _SampleGroup of its samples
+        kinds: dict[type, Any] = {}
         i = 0
         horizon = t_list[-1]
         while i < n:
             seg = self.seg
-            stepped = hasattr(seg, "states_at")  # dense output of steps, per segment
-            if not (stepped or getattr(seg, "state_array", None) is not None):  # march to it
+            kind = kinds.get(type(seg))
+            if kind is None:
+                kind = kinds[type(seg)] = _sampling_kind(seg)
+            if kind is _MARCHED:  # march to the sample
                 targets.append(i)
                 values.append(self._march(t_list[i], u))
                 out.set(i, self.state, self.sticking)
@@ -888,13 +927,10 @@ class EventSolver(Solver):
             t0 = seg.t0
             tau_event = seg.next_event(horizon - t0)
             j = n if tau_event is None else _first_sample_after(t_list, i, t0, tau_event)
-            if stepped:
+            if kind is _STEPPED:
                 self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
             else:
-                group = groups.get(type(seg))
-                if group is None:
-                    group = groups[type(seg)] = _SampleGroup(seg)
-                group.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
+                kind.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
             if tau_event is None:
                 self.tau = horizon - t0
                 x, v, z, w = seg.state(self.tau)
@@ -905,8 +941,9 @@ class EventSolver(Solver):
             i = j
         impulse = np.zeros(n)
         values_array = np.array(values)
-        for group in groups.values():
-            group.evaluate(times, out, values_array)
+        for group in kinds.values():
+            if isinstance(group, _SampleGroup):
+                group.evaluate(times, out, values_array)
         np.add.at(impulse, targets, values_array)
         out.impulse = impulse
         return out
