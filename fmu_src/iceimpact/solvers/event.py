@@ -54,7 +54,6 @@ _NO_STATE = (math.nan, math.nan, math.nan)
 #: metaclass, about 20 times the cost of a global; these are asked at every event).
 _FLIGHT = Phase.FLIGHT
 _IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
-_NO_MOTION = (math.nan,) * 5
 #: Taylor steps in a row that do not advance the time before a sticking phase is given up.
 _MAX_STALLED_STEPS = 4
 
@@ -140,7 +139,8 @@ class Flight(_SearchedSegment):
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
         self.gap0 = x0 - z0
-        self._last: tuple[float, float, float, float, float] = _NO_MOTION
+        # the anchor itself: no increments, the anchor's velocities (the search starts there)
+        self._last: tuple[float, float, float, float, float] = (0.0, 0.0, v0, 0.0, w0)
         # each body's closed form from the anchor, its constants computed once
         self._x_motion = osc.increment(x0, v0)
         self._z_motion = drag.increment(w0, u)
