@@ -113,7 +113,8 @@ class LinearDrag(_DragLaw):
         """
         r = w - u
         a = -self.kappa * r
-        return a, abs(a), self.kappa * abs(a)
+        size = abs(a)
+        return a, size, self.kappa * size
 
 
 class QuadraticDrag(_DragLaw):
@@ -181,8 +182,10 @@ class QuadraticDrag(_DragLaw):
         |r| only decays: |w'| = beta r^2 and |w''| = 2 beta^2 |r|^3 never exceed today's values.
         """
         r = w - u
-        a = -self.beta * abs(r) * r
-        return a, abs(a), 2.0 * self.beta * abs(r) * abs(a)
+        speed = abs(r)
+        a = -self.beta * speed * r
+        size = abs(a)
+        return a, size, 2.0 * self.beta * speed * size
 
 
 def downstream_speed_bound(w: float, u: float) -> float:
