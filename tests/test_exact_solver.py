@@ -182,6 +182,35 @@ def test_near_miss_is_not_a_touch():
     assert res.gap.min() > 0.0
 
 
+@pytest.mark.parametrize("drag_model", [1, 2])
+def test_flight_clearance_proves_the_gap_open(drag_model):
+    """A flight's envelope clearance: with the ice upstream of the structure's reach, a span
+    over which the gap stays open (checked on a dense grid of the closed forms, and against the
+    envelope margin computed here: offset - amplitude - z over the bound max(w, u, 0) on the
+    ice's speed); with the ice at or past the structure's equilibrium, nothing (0)."""
+    from iceimpact.solvers.event import EventSolver, Flight
+
+    solver = EventSolver(Scene(structure_k=1e9, drag_model=drag_model))
+    omega = math.sqrt(1e9 / 1600.0)
+    x0, v0, z0, w0, u = 1e-3, 0.3, -6e-3, 0.05, 0.1
+    flight = Flight(solver, 0.0, x0, v0, z0, w0, u)
+    span = flight.clearance(0.0)
+    reach = math.sqrt(x0 * x0 + v0 * v0 / omega ** 2)  # energy bound of the free structure
+    assert span == pytest.approx((0.0 - reach - z0) / max(w0, u), rel=1e-9)
+    tau = np.linspace(0.0, span, 200001)
+    x, _, z, _ = flight.state_array(flight.anchor(), tau)
+    assert np.all(x - z > 0.0)
+    assert np.min(x - z) < 0.5 * (x0 - z0)  # the span is not trivially short
+    # later in the flight, from its state there
+    x1, v1, z1, w1 = flight.state(0.5 * span)
+    later = flight.clearance(0.5 * span)
+    assert later == pytest.approx((-math.sqrt(x1 * x1 + v1 * v1 / omega ** 2) - z1)
+                                  / max(w1, u), rel=1e-9)
+    # the ice at or past the equilibrium (x = 0): the envelope proves nothing
+    for z_at in (0.0, 5e-4):
+        assert Flight(solver, 0.0, 2e-3, v0, z_at, w0, u).clearance(0.0) == 0.0
+
+
 # --- stepping ------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("name", ["fig2", "quadratic", "e0.5", "quad_e0.5"])

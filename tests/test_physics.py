@@ -89,6 +89,42 @@ def test_overdamped_long_times_do_not_overflow():
 
 
 @pytest.mark.parametrize("params", OSCILLATORS)
+def test_bounds_are_the_derivatives_and_their_amplitude_bounds(params):
+    """Oscillator.bounds (one call per root-search step) writes the energy bound out: the same
+    numbers, to the bit, as derivatives() and amplitude_bound(), in every regime; and the
+    bounds hold over the later response (acceleration and jerk from the equation of motion)."""
+    osc = Oscillator(*params)
+    rng = np.random.default_rng(7)
+    for x, v in [(1e-3, -0.02), (0.0, 0.0), (-3.7e-9, 1e-12), *rng.normal(size=(20, 2))]:
+        a, j, s = osc.derivatives(x, v)
+        assert osc.bounds(x, v) == (a, osc.amplitude_bound(a, j), osc.amplitude_bound(j, s))
+    x0, v0 = 1e-3, -0.02
+    a0, a_max, j_max = osc.bounds(x0, v0)
+    t = np.linspace(0, 50, 20001)
+    x, v = osc.response_array(x0, v0, t)
+    acc = -(osc.damping * v + osc.stiffness * (x - osc.offset)) / osc.mass
+    jerk = -(osc.damping * acc + osc.stiffness * v) / osc.mass
+    assert acc[0] == pytest.approx(a0, rel=1e-12)
+    assert np.all(np.abs(acc) <= a_max * (1 + 1e-12))
+    assert np.all(np.abs(jerk) <= j_max * (1 + 1e-12))
+
+
+def test_extrapolated_structure_bounds_and_increment():
+    """The external structure within a step: constant acceleration, zero jerk; its increment
+    from an anchor is the polynomial x - x0 = v0 t + a t^2 / 2."""
+    from iceimpact.physics.external import ExtrapolatedStructure
+
+    ext = ExtrapolatedStructure(-2.5)
+    a, j, s = ext.derivatives(0.3, 0.1)
+    assert ext.bounds(0.3, 0.1) == (a, ext.amplitude_bound(a, j), ext.amplitude_bound(j, s))
+    assert ext.bounds(0.3, 0.1) == (-2.5, 2.5, 0.0)
+    motion = ext.increment(0.3, 0.1)
+    for t in (0.0, 0.01, 1.7):
+        assert motion(t) == pytest.approx((0.1 * t - 1.25 * t * t, 0.1 - 2.5 * t), abs=1e-15)
+        assert motion(t) == ext.displacement_change(0.3, 0.1, t)
+
+
+@pytest.mark.parametrize("params", OSCILLATORS)
 def test_amplitude_bound_holds_for_acceleration(params):
     osc = Oscillator(*params)
     x0, v0 = 1e-3, -0.02

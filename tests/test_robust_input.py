@@ -368,6 +368,28 @@ def test_method_3_follows_a_flow_changing_at_every_step(drag):
     assert [twin.advance(h, u) for h, u in inputs] == [ode.advance(h, u) for h, u in inputs]
 
 
+def test_the_rounding_closing_speed_rule_at_its_edges():
+    """ContactRules.is_rounding writes its magnitudes without abs(): the same answer as
+    |closing| <= 1e-12 (|v| + |w| + |u| + wn |x|) + 1e-300 for zeros of either sign, speeds at
+    and just beyond the limit, infinities and NaN."""
+    from itertools import product
+
+    from iceimpact.solvers.contact_rules import EXACT_POLICY, ROUNDING_SPEED, ContactRules
+
+    omega_n = 3.0
+    rules = ContactRules(1.0, 2.0, omega_n, lambda *state: (0.0, 0.0), EXACT_POLICY)
+    values = [0.0, -0.0, 2e-300, -2e-300, 0.5, -0.7, 3.0, math.inf, -math.inf, math.nan]
+    checked = 0
+    for x, v, w, u in product(values, repeat=4):
+        limit = ROUNDING_SPEED * (abs(v) + abs(w) + abs(u) + omega_n * abs(x)) + 1e-300
+        edges = [limit, math.nextafter(limit, math.inf)] if math.isfinite(limit) else [1.0]
+        for closing in [0.0, -0.0, 1e-300, 1.0, math.inf, math.nan] + edges:
+            for c in (closing, -closing):
+                assert rules.is_rounding(c, x, v, w, u) == (abs(c) <= limit), (c, x, v, w, u)
+                checked += 1
+    assert checked > 100_000
+
+
 @pytest.mark.parametrize("drag", [LinearDrag(1.0, 0.0), QuadraticDrag(1.0, 0.0),
                                   LinearDrag(1.0, 3.0), QuadraticDrag(1.0, 3.0)])
 def test_the_ice_velocity_is_exact_at_the_anchor(drag):

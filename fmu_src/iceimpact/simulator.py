@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -366,8 +367,12 @@ IMPACT_DTYPE = np.dtype([(name, float) for name in Impact._fields])
 
 
 def impacts_array(impacts: list[Impact]) -> np.ndarray:
-    """The impact list as a structured numpy array (fields t, x, v_minus, ..., restitution)."""
-    return np.array([tuple(i) for i in impacts], dtype=IMPACT_DTYPE)
+    """The impact list as a structured numpy array (fields t, x, v_minus, ..., restitution):
+    every field is a float, so the flat sequence of all fields is read at once and viewed as
+    records."""
+    flat = np.fromiter(chain.from_iterable(impacts), dtype=float,
+                       count=len(impacts) * len(IMPACT_DTYPE.names))
+    return flat.view(IMPACT_DTYPE)
 
 
 def _sample_times(t_end: float, dt: float, sample_times: Any) -> np.ndarray:

@@ -21,14 +21,18 @@ meets a structure that felt the impact. The displacement is a polynomial: ``x_s'
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol
 
 
 class StructureMotion(Protocol):
     """What a flight asks of the structure (the built-in Oscillator and ExtrapolatedStructure)."""
 
+    def increment(self, x0: float, v0: float) -> Callable[[float], tuple[float, float]]:
+        """The motion from the anchor (x0, v0): a function ``t -> (x(t) - x0, v(t))``."""
+
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
-        """x(t) - x0 and v(t) from the anchor (x0, v0)."""
+        """x(t) - x0 and v(t) from the anchor (x0, v0): ``increment(x0, v0)(t)``."""
 
     def acceleration(self, x: float, v: float) -> float:
         """x'' at the state (x, v), free of contact forces."""
@@ -39,6 +43,10 @@ class StructureMotion(Protocol):
     def amplitude_bound(self, y: float, ydot: float) -> float:
         """Bound on |y| for all later times, for the derivative pairs (x'', x''') and
         (x''', x'''') of a flight."""
+
+    def bounds(self, x: float, v: float) -> tuple[float, float, float]:
+        """(x'', bound on |x''|, bound on |x'''|) for all later times from the state (x, v):
+        ``derivatives`` and their ``amplitude_bound``."""
 
 
 class ExtrapolatedStructure:
@@ -53,8 +61,14 @@ class ExtrapolatedStructure:
     def __init__(self, a: float):
         self.a = a
 
+    def increment(self, x0: float, v0: float) -> Callable[[float], tuple[float, float]]:
+        """``t -> (x(t) - x0, v(t))`` from the anchor (x0, v0)."""
+        def constant_acceleration(t: float, a=self.a, v0=v0) -> tuple[float, float]:
+            return (v0 + 0.5 * a * t) * t, v0 + a * t
+        return constant_acceleration
+
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
-        return (v0 + 0.5 * self.a * t) * t, v0 + self.a * t
+        return self.increment(x0, v0)(t)
 
     def response(self, x0: float, v0: float, t: float) -> tuple[float, float]:
         dx, v = self.displacement_change(x0, v0, t)
@@ -69,3 +83,6 @@ class ExtrapolatedStructure:
     def amplitude_bound(self, y: float, ydot: float) -> float:
         # x'' is constant and x''' = 0: a derivative of order >= 2 keeps its value
         return abs(y)
+
+    def bounds(self, x: float, v: float) -> tuple[float, float, float]:
+        return self.a, abs(self.a), 0.0

@@ -16,29 +16,15 @@ scene asks for it; docs/morison.md).
 
 from __future__ import annotations
 
-import math
+from collections.abc import Callable
+from math import expm1, log1p
 
 import numpy as np
 
 
-def _decay_lag(x: float) -> float:
-    """(1 - e^{-x}) / x - 1 for x >= 0, without cancellation at small x.
-
-    The ice's drift is ``w0 t + r0 t * _decay_lag(kappa t)``: the lag behind coasting at w0,
-    exact to rounding even when that lag is far below the rounding of u t."""
-    if x < 1e-2:  # series, truncation ~ x^6 / 5040
-        return -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
-    return -math.expm1(-x) / x - 1.0
-
-
-def _log_lag(y: float) -> float:
-    """ln(1 + y) / y - 1 for y >= 0, without cancellation at small y (quadratic drag)."""
-    if y < 1e-3:  # series, truncation ~ y^6 / 7
-        return -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
-    return math.log1p(y) / y - 1.0
-
-
 def _decay_lag_array(x: np.ndarray) -> np.ndarray:
+    """(1 - e^{-x}) / x - 1 for x >= 0, element by element, as :meth:`LinearDrag.increment`
+    evaluates it for one x (series below 1e-2)."""
     small = x < 1e-2
     safe = np.where(small, 1.0, x)
     series = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
@@ -46,6 +32,8 @@ def _decay_lag_array(x: np.ndarray) -> np.ndarray:
 
 
 def _log_lag_array(y: np.ndarray) -> np.ndarray:
+    """ln(1 + y) / y - 1 for y >= 0, element by element, as :meth:`QuadraticDrag.increment`
+    evaluates it for one y (series below 1e-3)."""
     small = y < 1e-3
     safe = np.where(small, 1.0, y)
     series = -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
@@ -92,12 +80,28 @@ class LinearDrag(_DragLaw):
         dz, w = self.displacement_change(w0, u, t)
         return z0 + dz, w
 
+    def increment(self, w0: float, u: float) -> Callable[[float], tuple[float, float]]:
+        """The free flight from velocity w0 as a function ``t -> (z(t) - z0, w(t))`` (eq. 6-7),
+        its constants computed once (the scalar form; :meth:`motion_array` the vectorised one).
+
+        The drift is ``w0 t + r0 t L(kappa t)`` with the lag ``L(x) = (1 - e^{-x}) / x - 1``
+        behind coasting at w0, free of cancellation at small x (its series), so it is exact to
+        rounding even when far below the rounding of u t. The velocity is
+        ``w0 + r0 (e^{-x} - 1)``: exactly w0 at t = 0 and without drag, even when |w0| << |u|.
+        (The returned function takes t alone; its constants are bound as its default values.)"""
+
+        def linear(t: float, kappa=self.kappa, w0=w0, r0=w0 - u) -> tuple[float, float]:
+            x = kappa * t
+            if x < 1e-2:  # series, truncation ~ x^6 / 5040
+                lag = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
+            else:
+                lag = -expm1(-x) / x - 1.0
+            return w0 * t + r0 * t * lag, w0 + r0 * expm1(-x)
+        return linear
+
     def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
-        """z(t) - z0 and w(t) of a free flight."""
-        r0 = w0 - u
-        x = self.kappa * t
-        # w0 + r0 (e^{-x} - 1): exactly w0 at t = 0 and without drag, even when |w0| << |u|
-        return w0 * t + r0 * t * _decay_lag(x), w0 + r0 * math.expm1(-x)
+        """z(t) - z0 and w(t) of a free flight: :meth:`increment` at one time."""
+        return self.increment(w0, u)(t)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
@@ -114,7 +118,8 @@ class LinearDrag(_DragLaw):
         """
         r = w - u
         a = -self.kappa * r
-        return a, abs(a), self.kappa * abs(a)
+        size = abs(a)
+        return a, size, self.kappa * size
 
 
 class QuadraticDrag(_DragLaw):
@@ -147,12 +152,31 @@ class QuadraticDrag(_DragLaw):
         dz, w = self.displacement_change(w0, u, t)
         return z0 + dz, w
 
-    def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
-        """z(t) - z0 and w(t) of a free flight."""
+    def increment(self, w0: float, u: float) -> Callable[[float], tuple[float, float]]:
+        """The free flight from velocity w0 as a function ``t -> (z(t) - z0, w(t))`` (exact
+        solution of eq. 32), its constants computed once (the scalar form; :meth:`motion_array`
+        the vectorised one).
+
+        The drift is ``w0 t + r0 t L(y)``, y = beta |r0| t, with the lag
+        ``L(y) = ln(1 + y) / y - 1`` free of cancellation at small y (its series). The velocity
+        is ``w0 - r0 y / (1 + y)``: exactly w0 at t = 0 and without drag, even when
+        |w0| << |u|. (The returned function takes t alone; its constants are bound as its
+        default values.)"""
         r0 = w0 - u
-        y = self.beta * abs(r0) * t
-        # w0 - r0 y / (1 + y): exactly w0 at t = 0 and without drag, even when |w0| << |u|
-        return w0 * t + r0 * t * _log_lag(y), w0 - r0 * (y / (1.0 + y))
+        rate = self.beta * abs(r0)
+
+        def quadratic(t: float, rate=rate, w0=w0, r0=r0) -> tuple[float, float]:
+            y = rate * t
+            if y < 1e-3:  # series, truncation ~ y^6 / 7
+                lag = -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
+            else:
+                lag = log1p(y) / y - 1.0
+            return w0 * t + r0 * t * lag, w0 - r0 * (y / (1.0 + y))
+        return quadratic
+
+    def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
+        """z(t) - z0 and w(t) of a free flight: :meth:`increment` at one time."""
+        return self.increment(w0, u)(t)
 
     def motion_array(self, z0: float, w0: float, u: float, t: np.ndarray):
         """Vectorised :meth:`motion`."""
@@ -168,8 +192,10 @@ class QuadraticDrag(_DragLaw):
         |r| only decays: |w'| = beta r^2 and |w''| = 2 beta^2 |r|^3 never exceed today's values.
         """
         r = w - u
-        a = -self.beta * abs(r) * r
-        return a, abs(a), 2.0 * self.beta * abs(r) * abs(a)
+        speed = abs(r)
+        a = -self.beta * speed * r
+        size = abs(a)
+        return a, size, 2.0 * self.beta * speed * size
 
 
 def downstream_speed_bound(w: float, u: float, drags: bool = True) -> float:

@@ -24,6 +24,8 @@ force b_s u, i.e. an offset b_s u / k (:func:`morison_oscillator`): the closed f
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from math import cos, cosh, exp, expm1, sin, sinh, sqrt
 
 import numpy as np
 
@@ -74,36 +76,9 @@ class Oscillator:
         slow, fast = math.exp(self._s_slow * t), math.exp(self._s_fast * t)
         return 0.5 * (slow + fast), 0.5 * (slow - fast) / self.omega
 
-    def basis_parts(self, t: float) -> tuple[float, float, float]:
-        """(C(t), C(t) - 1, S(t)), each without cancellation: C - 1 at small t (displacement
-        increments), C once the response has decayed (a velocity recovered as (C - 1) + 1
-        would carry an error of one ulp of 1, i.e. eps |v0|, long after v itself is below it)."""
-        arg = -self.sigma * t
-        if arg < -0.7:  # the decay is below 1/2: e - 1 has no cancellation
-            decay = math.exp(arg)
-            decay_m1 = decay - 1.0
-        else:           # above 1/2: 1 + (e - 1) loses nothing
-            decay_m1 = math.expm1(arg)
-            decay = 1.0 + decay_m1
-        if self.regime == UNDER:
-            wt = self.omega * t
-            cos_wt = math.cos(wt)
-            half = math.sin(0.5 * wt)
-            return (decay * cos_wt, decay_m1 * cos_wt - 2.0 * half * half,
-                    decay * math.sin(wt) / self.omega)
-        if self.regime == CRITICAL:
-            return decay, decay_m1, t * decay
-        wt = self.omega * t
-        if wt < 1.0:
-            cosh_wt = math.cosh(wt)
-            half = math.sinh(0.5 * wt)
-            return (decay * cosh_wt, decay_m1 * cosh_wt + 2.0 * half * half,
-                    decay * math.sinh(wt) / self.omega)
-        c, s = self.basis(t)
-        return c, c - 1.0, s
-
     def basis_parts_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Vectorised :meth:`basis_parts`: (C, C - 1, S), each without cancellation."""
+        """(C, C - 1, S) for an array of t >= 0, each without cancellation, as :meth:`increment`
+        evaluates them for one t (see there)."""
         t = np.asarray(t, dtype=float)
         arg = -self.sigma * t
         exp_decay = np.exp(arg)
@@ -156,25 +131,104 @@ class Oscillator:
         return (self.offset + y0 * c + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
 
-    def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
-        """x(t) - x0 (free of the rounding of x0) and v(t): gaps near contact need it.
+    def increment(self, x0: float, v0: float) -> Callable[[float], tuple[float, float]]:
+        """The free response from the anchor (x0, v0) as a function ``t -> (x(t) - x0, v(t))``
+        (eq. 9-10 and the other regimes), its constants computed once: the event solver's flights
+        evaluate it several times per impact. x(t) - x0 is free of the rounding of x0 (gaps near
+        contact need it). The scalar form of the closed form (:meth:`displacement_change` is one
+        call of it; :meth:`displacement_change_array` its vectorised form).
+
+        On the basis functions, ``y = y0 C + (v0 + sigma y0) S`` gives
+        ``x - x0 = y0 (C - 1) + (v0 + sigma y0) S``, with (C, C - 1, S) each without
+        cancellation: C - 1 at small t (displacement increments), C once the response has decayed
+        (a velocity recovered as (C - 1) + 1 would carry an error of one ulp of 1, i.e.
+        eps |v0|, long after v itself is below it).
 
         Well over-damped (wo > sigma / 2), on the two exponents s1 (slow), s2 (fast):
         ``y = A e^{s1 t} + B e^{s2 t}``, so ``x(t) - x0 = A (e^{s1 t} - 1) + B (e^{s2 t} - 1)``.
         With the basis functions, y0 (C - 1) and (v0 + sigma y0) S cancel each other when y0 is
         far larger than the motion (a sticking phase whose equilibrium b u / k is 1e9 m away
-        moves 1e-4 m in a step); the exponent form has no such cancellation."""
+        moves 1e-4 m in a step); the exponent form has no such cancellation.
+
+        The returned function takes t alone; its constants are bound as its default values (fast
+        local variables, and no closure cells to make per anchor)."""
         y0 = x0 - self.offset
-        if self.regime == OVER and self.omega > 0.5 * self.sigma:
+        regime, omega = self.regime, self.omega
+        if regime == OVER and omega > 0.5 * self.sigma:
             slow, fast = self._s_slow, self._s_fast
             gap = slow - fast  # 2 wo
             a = (v0 - fast * y0) / gap
             b = (slow * y0 - v0) / gap
-            return (a * math.expm1(slow * t) + b * math.expm1(fast * t),
-                    a * slow * math.exp(slow * t) + b * fast * math.exp(fast * t))
-        c, cm1, s = self.basis_parts(t)
-        return (y0 * cm1 + (v0 + self.sigma * y0) * s,
-                v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)
+            a_rate, b_rate = a * slow, b * fast
+
+            def over_modes(t: float, a=a, b=b, slow=slow, fast=fast, a_rate=a_rate,
+                           b_rate=b_rate) -> tuple[float, float]:
+                return (a * expm1(slow * t) + b * expm1(fast * t),
+                        a_rate * exp(slow * t) + b_rate * exp(fast * t))
+            return over_modes
+
+        neg_sigma = -self.sigma
+        p = v0 + self.sigma * y0                   # y = y0 C + p S
+        q = self.omega2 * y0 + self.sigma * v0     # v = v0 C - q S
+        if regime == UNDER:
+            def under(t: float, neg_sigma=neg_sigma, omega=omega, y0=y0, p=p, q=q,
+                      v0=v0) -> tuple[float, float]:
+                arg = neg_sigma * t
+                if arg < -0.7:  # the decay is below 1/2: e - 1 has no cancellation
+                    decay = exp(arg)
+                    decay_m1 = decay - 1.0
+                else:           # above 1/2: 1 + (e - 1) loses nothing
+                    decay_m1 = expm1(arg)
+                    decay = 1.0 + decay_m1
+                wt = omega * t
+                cos_wt = cos(wt)
+                half = sin(0.5 * wt)
+                s = decay * sin(wt) / omega
+                return (y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s,
+                        v0 * (decay * cos_wt) - q * s)
+            return under
+
+        if regime == CRITICAL:
+            def critical(t: float, neg_sigma=neg_sigma, y0=y0, p=p, q=q,
+                         v0=v0) -> tuple[float, float]:
+                arg = neg_sigma * t
+                if arg < -0.7:
+                    decay = exp(arg)
+                    decay_m1 = decay - 1.0
+                else:
+                    decay_m1 = expm1(arg)
+                    decay = 1.0 + decay_m1
+                s = t * decay
+                return y0 * decay_m1 + p * s, v0 * decay - q * s
+            return critical
+
+        def over(t: float, neg_sigma=neg_sigma, omega=omega, s_slow=self._s_slow,
+                 s_fast=self._s_fast, y0=y0, p=p, q=q, v0=v0) -> tuple[float, float]:
+            wt = omega * t
+            if wt < 1.0:  # small wo t: sinh/wo without cancellation
+                arg = neg_sigma * t
+                if arg < -0.7:
+                    decay = exp(arg)
+                    decay_m1 = decay - 1.0
+                else:
+                    decay_m1 = expm1(arg)
+                    decay = 1.0 + decay_m1
+                cosh_wt = cosh(wt)
+                half = sinh(0.5 * wt)
+                c = decay * cosh_wt
+                cm1 = decay_m1 * cosh_wt + 2.0 * half * half
+                s = decay * sinh(wt) / omega
+            else:
+                slow, fast = exp(s_slow * t), exp(s_fast * t)
+                c = 0.5 * (slow + fast)
+                cm1 = c - 1.0
+                s = 0.5 * (slow - fast) / omega
+            return y0 * cm1 + p * s, v0 * c - q * s
+        return over
+
+    def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
+        """x(t) - x0 (free of the rounding of x0) and v(t): :meth:`increment` at one time."""
+        return self.increment(x0, v0)(t)
 
     def displacement_change_array(self, x0, v0, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Vectorised :meth:`displacement_change` (x0, v0 floats or arrays like t), with its
@@ -209,6 +263,20 @@ class Oscillator:
         j = -(self.damping * a + self.stiffness * v) / self.mass
         s = -(self.damping * j + self.stiffness * a) / self.mass
         return a, j, s
+
+    def bounds(self, x: float, v: float) -> tuple[float, float, float]:
+        """(x'', bound on |x''|, bound on |x'''|) for all later times from the state (x, v): the
+        :meth:`derivatives` and their :meth:`amplitude_bound`, in one call (a flight's root search
+        asks at every step). Outside the over-damped regime the energy bound is written out here,
+        equal to :meth:`amplitude_bound`'s to the bit (a test checks)."""
+        mass, damping, stiffness = self.mass, self.damping, self.stiffness
+        a = -(damping * v + stiffness * (x - self.offset)) / mass
+        j = -(damping * a + stiffness * v) / mass
+        s = -(damping * j + stiffness * a) / mass
+        if self.regime != OVER:
+            omega2 = self.omega2
+            return a, sqrt(a * a + j * j / omega2), sqrt(j * j + s * s / omega2)
+        return a, self.amplitude_bound(a, j), self.amplitude_bound(j, s)
 
     def derivative_chain(self, x: float, v: float, order: int) -> list[float]:
         """[y, y', y'', ..., y^(order)] at state (x, v), from the equation of motion."""

@@ -72,6 +72,11 @@ class Outcome(enum.Enum):
     FLIGHT = "flight"   # part (or stay apart) from here
 
 
+#: The members as module constants: an attribute of an enum class is looked up through its
+#: metaclass (about 20 times the cost of a global), and the decisions are made at every contact.
+_IMPACT, _STICK, _FLIGHT = Outcome.IMPACT, Outcome.STICK, Outcome.FLIGHT
+
+
 class ContactDecision(NamedTuple):
     """The decision at a contact: the outcome and the velocities to continue with."""
 
@@ -81,6 +86,11 @@ class ContactDecision(NamedTuple):
     hold: float = 0.0     # STICK: separation is not looked for during this time, s
     impulse: float = 0.0  # STICK: impulse on the structure of the plastic entry, N.s
     lam: float = math.nan  # FLIGHT: contact force of the free accelerations, N (eq. 12-17 aside)
+
+
+#: ``_new(cls, values)``: a named tuple from all its values, without the keyword handling of its
+#: generated ``__new__`` (twice the cost); used for the records made at every contact.
+_new = tuple.__new__
 
 
 @dataclass(frozen=True)
@@ -323,9 +333,14 @@ class ContactRules:
         return lam
 
     def is_rounding(self, closing: float, x: float, v: float, w: float, u: float) -> bool:
-        """|closing| (m/s) is at rounding level of the speeds of the scene."""
-        speed_scale = abs(v) + abs(w) + abs(u) + self.omega_n * abs(x)
-        return abs(closing) <= ROUNDING_SPEED * speed_scale + 1e-300
+        """|closing| (m/s) is at rounding level of the speeds of the scene.
+
+        (Asked twice per impact: the magnitudes are written as comparisons, a call of abs()
+        costing more than the rest; the sign of a zero term cannot change the outcome.)"""
+        speed_scale = ((v if v >= 0.0 else -v) + (w if w >= 0.0 else -w)
+                       + (u if u >= 0.0 else -u) + self.omega_n * (x if x >= 0.0 else -x))
+        limit = ROUNDING_SPEED * speed_scale + 1e-300
+        return -limit <= closing <= limit
 
     def impact(self, t: float, x: float, v_minus: float, w_minus: float, e: float,
                u: float) -> Impact:
@@ -348,8 +363,8 @@ class ContactRules:
                     v_plus, w_plus = impact(v_minus, w_minus, m, M, 0.0)
         if e == 0.0:
             w_plus = v_plus  # exactly together
-        return Impact(t, x, v_minus, w_minus, v_plus, w_plus,
-                      impact_impulse(v_minus, v_plus, m), e)
+        return _new(Impact, (t, x, v_minus, w_minus, v_plus, w_plus,
+                             impact_impulse(v_minus, v_plus, m), e))
 
     def plastic_merge(self, v: float, w: float) -> tuple[float, float]:
         """Common velocity of a plastic impact (eq. 16-17, e = 0), m/s, and its impulse on the
@@ -360,8 +375,8 @@ class ContactRules:
     def _stick(self, v: float, w: float, hold: float = 0.0) -> ContactDecision:
         if self.policy.plastic_entry:
             v_common, impulse = self.plastic_merge(v, w)
-            return ContactDecision(Outcome.STICK, v_common, v_common, hold, impulse)
-        return ContactDecision(Outcome.STICK, v, v, hold)
+            return _new(ContactDecision, (_STICK, v_common, v_common, hold, impulse, math.nan))
+        return _new(ContactDecision, (_STICK, v, v, hold, 0.0, math.nan))
 
     def tensile(self, lam: float, x: float, v: float, w: float, u: float) -> bool:
         """The contact force lam (N) at state (x, v, w) pulls beyond its rounding: the bodies
@@ -396,7 +411,7 @@ class ContactRules:
             v = w = (self.m * v + self.M * w) / (self.m + self.M)
             closing = 0.0
         if closing > 0.0:  # approaching at contact: impact now
-            return ContactDecision(Outcome.IMPACT, v, w)
+            return _new(ContactDecision, (_IMPACT, v, w, 0.0, 0.0, math.nan))
         lam = self.free_contact_force(x, v, w, u)
         if rounding and not reanchor and not self.tensile(lam, x, v, w, u):
             # contact that keeps re-forming with no speed (contact force zero to rounding, e.g.
@@ -416,4 +431,4 @@ class ContactRules:
             stick = closing == 0.0 and lam >= 0.0
         if stick:
             return self._stick(v, w)
-        return ContactDecision(Outcome.FLIGHT, v, w, lam=lam)
+        return _new(ContactDecision, (_FLIGHT, v, w, 0.0, 0.0, lam))

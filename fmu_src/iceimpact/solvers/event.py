@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_left
 from collections.abc import Callable
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -49,6 +50,10 @@ from .state import Record, StateError
 from .taylor import StepEnd, StickingTaylor, TaylorStep
 
 _NO_STATE = (math.nan, math.nan, math.nan)
+#: Enum members as module constants (an enum class's attribute is looked up through its
+#: metaclass, about 20 times the cost of a global; these are asked at every event).
+_FLIGHT = Phase.FLIGHT
+_IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
 #: Taylor steps in a row that do not advance the time before a sticking phase is given up.
 _MAX_STALLED_STEPS = 4
 
@@ -61,7 +66,8 @@ _MAX_STEPS = 8
 
 
 def _time_eps(t: float) -> float:
-    return 8.9e-16 * max(1.0, abs(t))
+    scale = abs(t)
+    return 8.9e-16 * (scale if scale > 1.0 else 1.0)  # max(1.0, |t|)
 
 
 class _SearchedSegment:
@@ -122,18 +128,22 @@ class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
     __slots__ = ("osc", "drag", "t0", "x0", "v0", "z0", "w0", "u", "start", "gap0", "_last",
-                 "search")
+                 "search", "_x_motion", "_z_motion")
     phase = Phase.FLIGHT
     ANCHOR = ("x0", "v0", "z0", "w0")
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
-        self.osc = solver.structure_osc(u)
-        self.drag = solver.drag
+        self.osc = osc = solver.structure_osc(u)
+        self.drag = drag = solver.drag
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
         self.gap0 = x0 - z0
-        self._last: tuple[float, float, float, float, float] = (math.nan,) * 5
+        # the anchor itself: no increments, the anchor's velocities (the search starts there)
+        self._last: tuple[float, float, float, float, float] = (0.0, 0.0, v0, 0.0, w0)
+        # each body's closed form from the anchor, its constants computed once
+        self._x_motion = osc.increment(x0, v0)
+        self._z_motion = drag.increment(w0, u)
         self.search = RootSearch(start, _time_eps(t0))
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
@@ -147,8 +157,8 @@ class Flight(_SearchedSegment):
         last = self._last
         if last[0] == tau:
             return last
-        dx, v = self.osc.displacement_change(self.x0, self.v0, tau)
-        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        dx, v = self._x_motion(tau)
+        dz, w = self._z_motion(tau)
         self._last = last = (tau, dx, v, dz, w)
         return last
 
@@ -174,11 +184,9 @@ class Flight(_SearchedSegment):
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
         _, dx, v, dz, w = self._motion(tau)
-        a_x, j_x, s_x = self.osc.derivatives(self.x0 + dx, v)
+        a_x, a_x_max, j_x_max = self.osc.bounds(self.x0 + dx, v)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
-        return (self.gap0 + (dx - dz), v - w, a_x - a_z,
-                self.osc.amplitude_bound(a_x, j_x) + a_z_max,
-                self.osc.amplitude_bound(j_x, s_x) + j_z_max)
+        return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
 
     def clearance(self, tau: float) -> float:
         """Time from tau (s) during which the gap provably stays open, from the structure's
@@ -202,7 +210,10 @@ class Flight(_SearchedSegment):
         if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
             return 0.0
         _, dx, v, dz, w = self._motion(tau)
-        x, z = self.x0 + dx, self.z0 + dz
+        z = self.z0 + dz
+        if z >= offset:  # the margin below is <= 0 for any reach >= 0 (most calls: ice at contact)
+            return 0.0
+        x = self.x0 + dx
         reach = self.osc.amplitude_bound(x - offset, v)
         lowest = offset - reach - z  # the envelope's lowest gap, now
         rounding = GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
@@ -301,7 +312,7 @@ class DraggedFlight(Flight):
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         dx, v = self._structure(tau)
-        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        dz, w = self._z_motion(tau)
         # the solver never looks back before its current time: drop chunks that end before it
         while len(self.chunks) > 1 and self.chunks[0].hi < tau:
             self.chunks.pop(0)
@@ -309,17 +320,17 @@ class DraggedFlight(Flight):
 
     def gap(self, tau: float) -> float:
         dx, _ = self._structure(tau)
-        dz, _ = self.drag.displacement_change(self.w0, self.u, tau)
+        dz, _ = self._z_motion(tau)
         return self.gap0 + (dx - dz)
 
     def gap_and_rate(self, tau: float) -> tuple[float, float]:
         dx, v = self._structure(tau)
-        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        dz, w = self._z_motion(tau)
         return self.gap0 + (dx - dz), v - w
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         dx, v = self._structure(tau)
-        dz, w = self.drag.displacement_change(self.w0, self.u, tau)
+        dz, w = self._z_motion(tau)
         a_x, a_x_max, j_x_max = self.structure.bounds(self.x0 + dx, v, self.u)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
         return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
@@ -363,7 +374,7 @@ class LinearStick(_SearchedSegment):
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k;
     with the Morison terms on the structure, m is m + m_a and b_s adds to b: docs/morison.md)."""
 
-    __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search")
+    __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search", "_increment")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
     PUSHES = True
@@ -378,6 +389,7 @@ class LinearStick(_SearchedSegment):
         b_s = solver.structure_b  # linearised drag on the structure (0 when off)
         self.osc = Oscillator(solver.m + solver.M, solver.c + self.b + b_s, solver.k,
                               offset=(self.b + b_s) * u / solver.k)
+        self._increment = self.osc.increment(x0, v0)
         self.search = RootSearch(start, _time_eps(t0))
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
@@ -445,8 +457,8 @@ class LinearStick(_SearchedSegment):
             return 0.0
         # displacement increments from the anchor: positions about an equilibrium b u / k far
         # away carry its rounding, which b (xb - xa) would multiply
-        dxa, va = self.osc.displacement_change(self.x0, self.v0, tau_a)
-        dxb, vb = self.osc.displacement_change(self.x0, self.v0, tau_b)
+        dxa, va = self._increment(tau_a)
+        dxb, vb = self._increment(tau_b)
         return self._impulse(dxa, va, dxb, vb, tau_b - tau_a)
 
     def impulse_array(self, anchor, tau_a, tau_b):
@@ -633,15 +645,42 @@ def _entry(item: Any, field: str, names: tuple[str, ...]) -> Record:
 
 def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
     """The first index j >= i with ``times[j] - t0 >= tau_event``: the first sample a march
-    reaches after the event (the test advance_to makes), by bisection on the absolute times
-    and a check of the exact test around it."""
+    reaches after the event (the test advance_to makes; it holds from its first j on, since
+    times increase and rounding is monotone). Most events are a few samples apart: the first
+    ones are tested in turn, then a bisection on the absolute times and a check of the exact
+    test around it."""
     n = len(times)
-    j = bisect_left(times, t0 + tau_event, i, n)
+    j = i
+    stop = i + 8
+    if stop > n:
+        stop = n
+    while j < stop:
+        if times[j] - t0 >= tau_event:
+            return j
+        j += 1
+    if j == n:
+        return n
+    j = bisect_left(times, t0 + tau_event, j, n)
     while j > i and times[j - 1] - t0 >= tau_event:
         j -= 1
     while j < n and times[j] - t0 < tau_event:
         j += 1
     return j
+
+
+#: How :meth:`EventSolver.sample` evaluates a kind of segment (or by a _SampleGroup).
+_STEPPED, _MARCHED = "stepped", "marched"
+
+
+def _sampling_kind(seg: Any) -> Any:
+    """_STEPPED for segments of Taylor steps (dense output per segment), a new _SampleGroup
+    for those with array closed forms (all their samples at once), else _MARCHED (stepped to
+    each sample)."""
+    if hasattr(seg, "states_at"):
+        return _STEPPED
+    if getattr(seg, "state_array", None) is not None:
+        return _SampleGroup(seg)
+    return _MARCHED
 
 
 class Samples:
@@ -669,12 +708,17 @@ class _SampleGroup:
         self.t0: list[float] = []
         self.first: list[int] = []                  # its samples: first..stop-1
         self.stop: list[int] = []
-        # force-carrying pieces: anchor index, tau_a, tau_b, position in the impulse values
-        self.pieces: list[tuple[int, float, float, int]] = []
+        # force-carrying pieces, one run per segment: anchor index, tau_from, samples i..j-1,
+        # tau_event (nan: none), position of the first piece in the impulse values
+        self.pieces: list[tuple[int, float, int, int, float, int]] = []
 
     def add(self, seg: _SearchedSegment, tau_from: float, times: list[float], i: int, j: int,
             tau_event: float | None, targets: list[int], values: list[float]) -> None:
-        """Samples i..j-1 in ``seg`` (from ``tau_from``); its event, if any, before sample j."""
+        """Samples i..j-1 in ``seg`` (from ``tau_from``); its event, if any, before sample j.
+
+        A segment with a contact force adds one impulse piece per sample (from the previous
+        sample, or ``tau_from``, to it) and one to its event, in the order the scalar march adds
+        them; their values are filled in by :meth:`evaluate`."""
         k = len(self.anchors)
         self.anchors.append(seg.anchor())
         self.t0.append(seg.t0)
@@ -682,16 +726,11 @@ class _SampleGroup:
         self.stop.append(j)
         if not seg.PUSHES:
             return
-        t0 = seg.t0
-        tau_a = tau_from
-        for m in range(i, j):
-            tau_b = times[m] - t0
-            self.pieces.append((k, tau_a, tau_b, len(values)))
-            targets.append(m)
-            values.append(0.0)
-            tau_a = tau_b
+        self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
+                            len(values)))
+        targets.extend(range(i, j))
+        values.extend([0.0] * (j - i))
         if tau_event is not None:
-            self.pieces.append((k, tau_a, tau_event, len(values)))
             targets.append(j)
             values.append(0.0)
 
@@ -701,14 +740,30 @@ class _SampleGroup:
         rows = np.repeat(np.arange(len(counts)), counts)
         # sample indices: each segment's run first..stop-1, concatenated
         index = np.arange(len(rows)) + np.repeat(first - (np.cumsum(counts) - counts), counts)
-        anchors = np.array(self.anchors, dtype=float).reshape(len(self.anchors), -1)
-        tau = times[index] - np.array(self.t0)[rows]
+        width = len(self.rep.ANCHOR)
+        anchors = np.fromiter(chain.from_iterable(self.anchors), dtype=float,
+                              count=width * len(self.anchors)).reshape(len(self.anchors), width)
+        t0 = np.array(self.t0)
+        tau = times[index] - t0[rows]
         x, v, z, w = self.rep.state_array(tuple(anchors[rows].T), tau)
         out.x[index], out.v[index], out.z[index], out.w[index] = x, v, z, w
         out.sticking[index] = self.rep.phase is Phase.STICK
         if self.pieces:
-            k, tau_a, tau_b, position = (np.array(c) for c in zip(*self.pieces, strict=True))
-            values[position] = self.rep.impulse_array(tuple(anchors[k].T), tau_a, tau_b)
+            k, tau_from, i, j, tau_event, position = (np.array(c) for c in
+                                                       zip(*self.pieces, strict=True))
+            n_samples = j - i
+            n_pieces = n_samples + ~np.isnan(tau_event)
+            run = np.repeat(np.arange(len(k)), n_pieces)  # the run of each piece
+            o = np.arange(len(run)) - np.repeat(np.cumsum(n_pieces) - n_pieces, n_pieces)
+            m = i[run] + o  # its sample (its end), or j for the piece to the event
+            seg_t0 = t0[k[run]]
+            # as the march: each piece from the previous sample (or tau_from) to its sample
+            # (or the event), the times from the anchor as times[m] - t0
+            tau_b = np.where(o < n_samples[run], times[np.minimum(m, len(times) - 1)] - seg_t0,
+                             tau_event[run])
+            tau_a = np.where(o == 0, tau_from[run], times[np.maximum(m - 1, 0)] - seg_t0)
+            values[position[run] + o] = self.rep.impulse_array(tuple(anchors[k[run]].T),
+                                                               tau_a, tau_b)
 
 
 class EventSolver(Solver):
@@ -759,9 +814,7 @@ class EventSolver(Solver):
         """The structure's acceleration and bounds on |x''| and |x'''| for all later times."""
         if self.dragged_structure is not None:
             return self.dragged_structure.bounds(x, v, u)
-        osc = self.structure_osc(u)
-        a_x, j_x, s_x = osc.derivatives(x, v)
-        return a_x, osc.amplitude_bound(a_x, j_x), osc.amplitude_bound(j_x, s_x)
+        return self.structure_osc(u).bounds(x, v)
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
         if self.dragged_structure is not None:
@@ -780,9 +833,10 @@ class EventSolver(Solver):
             self._fly(t, x, v, z, w, u)
             return
         decision = self.rules.at_contact(t, x, v, w, u, reanchor)
-        if decision.outcome is Outcome.IMPACT:
+        outcome = decision.outcome
+        if outcome is _IMPACT:
             self._impact(t, x, decision.v, decision.w, u)
-        elif decision.outcome is Outcome.STICK:
+        elif outcome is _STICK_OUTCOME:
             self._stick(t, x, decision.v, u, hold=decision.hold)
         else:
             self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
@@ -858,7 +912,7 @@ class EventSolver(Solver):
         its impacts."""
         x, v, z, w = seg.state(tau_event)
         t_event = seg.t0 + tau_event
-        if seg.phase is Phase.FLIGHT:
+        if seg.phase is _FLIGHT:
             self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
         else:  # contact force turns tensile: separate with equal velocities
             self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
@@ -887,13 +941,16 @@ class EventSolver(Solver):
         targets: list[int] = [0]
         values: list[float] = [self.pending_impulse]
         self.pending_impulse = 0.0
-        groups: dict[type, _SampleGroup] = {}
+        # per kind of segment: _STEPPED, _MARCHED or the _SampleGroup of its samples
+        kinds: dict[type, Any] = {}
         i = 0
         horizon = t_list[-1]
         while i < n:
             seg = self.seg
-            stepped = hasattr(seg, "states_at")  # dense output of steps, per segment
-            if not (stepped or getattr(seg, "state_array", None) is not None):  # march to it
+            kind = kinds.get(type(seg))
+            if kind is None:
+                kind = kinds[type(seg)] = _sampling_kind(seg)
+            if kind is _MARCHED:  # march to the sample
                 targets.append(i)
                 values.append(self._march(t_list[i], u))
                 out.set(i, self.state, self.sticking)
@@ -902,13 +959,10 @@ class EventSolver(Solver):
             t0 = seg.t0
             tau_event = seg.next_event(horizon - t0)
             j = n if tau_event is None else _first_sample_after(t_list, i, t0, tau_event)
-            if stepped:
+            if kind is _STEPPED:
                 self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
             else:
-                group = groups.get(type(seg))
-                if group is None:
-                    group = groups[type(seg)] = _SampleGroup(seg)
-                group.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
+                kind.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
             if tau_event is None:
                 self.tau = horizon - t0
                 x, v, z, w = seg.state(self.tau)
@@ -919,8 +973,9 @@ class EventSolver(Solver):
             i = j
         impulse = np.zeros(n)
         values_array = np.array(values)
-        for group in groups.values():
-            group.evaluate(times, out, values_array)
+        for group in kinds.values():
+            if isinstance(group, _SampleGroup):
+                group.evaluate(times, out, values_array)
         np.add.at(impulse, targets, values_array)
         out.impulse = impulse
         return out

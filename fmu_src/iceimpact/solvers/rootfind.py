@@ -163,27 +163,37 @@ class RootSearch:
         disc = math.sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
         if self.clearance is not None:
-            h_free = max(h_free, self.clearance(a))
+            cleared = self.clearance(a)
+            if cleared > h_free:  # max(), written out (this runs at every step)
+                h_free = cleared
         if df >= 0.0:
             # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
             if jerk > 0.0:
                 h_rise = (d2 + math.sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
             else:
                 h_rise = math.inf if d2 >= 0.0 else df / -d2
-            h_free = max(h_free, h_rise)
+            if h_rise > h_free:
+                h_free = h_rise
         else:
             # f' <= df + d2 s + jerk s^2 / 2 stays < 0 up to h_mono: at most one root there
             h_mono = -df / bound
             if jerk > 0.0:
                 root = math.sqrt(d2 * d2 - 2.0 * jerk * df)
                 if d2 < 0.0:
-                    h_mono = max(h_mono, (root - d2) / jerk)
+                    h_jerk = (root - d2) / jerk
+                    if h_jerk > h_mono:
+                        h_mono = h_jerk
                 elif d2 + root > 0.0:  # (both 0: d2^2 and jerk df underflowed; K's stretch holds)
-                    h_mono = max(h_mono, -2.0 * df / (d2 + root))
+                    h_jerk = -2.0 * df / (d2 + root)
+                    if h_jerk > h_mono:
+                        h_mono = h_jerk
             elif d2 <= 0.0:
                 h_mono = math.inf
             if h_mono > h_free:
-                b = a + min(h_mono, FOREVER, self.max_step)
+                span = FOREVER if FOREVER < h_mono else h_mono  # min(h_mono, FOREVER, max_step)
+                if self.max_step < span:
+                    span = self.max_step
+                b = a + span
                 if b > a:
                     if self.value_and_rate is not None:
                         self._descend(a, f, df, d2, b)
@@ -196,7 +206,7 @@ class RootSearch:
         if h_free > FOREVER and self.max_step == math.inf:
             self.a = math.inf
             return
-        step = min(h_free, self.max_step)
+        step = self.max_step if self.max_step < h_free else h_free  # min(h_free, max_step)
         eps = self.time_eps + 8.9e-16 * a  # a few ulps of the absolute time
         if step < eps:
             if df < 0.0 or self.iterations > MAX_ITERATIONS:
