@@ -43,7 +43,7 @@ from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError
-from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE
+from iceimpact.scene import DRAG_RATE_MAX, ODE_EXPLICIT_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE
 from iceimpact.solvers.ode import ATOL_SCALE
 from test_properties import scenes
 
@@ -58,6 +58,9 @@ ENERGY_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
 STATE_ULPS = 8.0 * 2.0 ** -52
 FLOWS = ("constant", "reversing", "random signs", "zero", "reversed 1 in 4")
 OMEGA_MAX = {1: OMEGA_MAX_EXACT, 2: 1e12, 3: OMEGA_MAX_ODE}
+#: the drag-rate limit of each method's validation (method 3: its explicit integrators, the
+#: default DOP853)
+RATE_MAX = {1: DRAG_RATE_MAX, 2: DRAG_RATE_MAX, 3: ODE_EXPLICIT_RATE_MAX}
 
 
 class _Stalled(Exception):
@@ -80,7 +83,7 @@ def scale_scenes(draw, method: int):
     Cd = draw(st.one_of(st.just(0.0), st.floats(0.0, 2.0)))
     drag = draw(st.sampled_from([1, 2]))
     B = 0.5 * 999.0 * Cd * A
-    u_max = 100.0 if B == 0.0 else min(1e4, 0.4 * DRAG_RATE_MAX * M / (2.0 * B))
+    u_max = 100.0 if B == 0.0 else min(1e4, 0.4 * RATE_MAX[method] * M / (2.0 * B))
     x0 = draw(st.one_of(st.just(0.0), st.floats(-1.0, 1.0)))
     v0 = draw(st.floats(-1.0, 1.0))
     try:
@@ -214,9 +217,14 @@ def case_text(scene: Scene, h: float, flow: str, signs: list[bool],
 
 
 def replay(text: str) -> Outcome:
-    """Re-run one case printed by the search (its ``REPLAY`` line's JSON, or the dict)."""
+    """Re-run one case printed by the search (its ``REPLAY`` line's JSON, or the dict); a
+    scene the validation refuses gives an outcome "REFUSED up front: <message>"."""
     case = json.loads(text) if isinstance(text, str) else text
-    return run_case(Scene(**case["scene"]), case["h"], case["flow"], case["signs"],
+    try:
+        scene = Scene(**case["scene"])
+    except ParameterError as exc:  # a scene the validation now refuses up front
+        return Outcome(f"REFUSED up front: {exc}", True, 0.0, 0.0, math.inf)
+    return run_case(scene, case["h"], case["flow"], case["signs"],
                     case.get("time_limit", TIME_LIMIT))
 
 
