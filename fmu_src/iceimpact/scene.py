@@ -303,19 +303,23 @@ def _implicit_hint(scene: Scene) -> str:
     return ""
 
 
-def integrated_rate(scene: Scene, u: float) -> float:
+def integrated_rate(scene: Scene, u: float, ice_speed: float | None = None,
+                    structure_speed: float | None = None) -> float:
     """The fastest relaxation rate (1/s) method 3 integrates at flow speed u, the largest of
     the rates the validation bounds (_check_work): the structure's damping c / m, the ice's
-    drag (b / M linearised, eq. 4-5; 2 B speed / M quadratic, eq. 2-3, at the speed bound
-    of _SPEED_BOUND with this flow) and the Morison drag on the structure. 0 if none acts."""
+    drag (b / M linearised, eq. 4-5; 2 B ice_speed / M quadratic, eq. 2-3) and the Morison drag
+    on the structure (b_s / (m + m_a); 2 B_s structure_speed / (m + m_a)). The quadratic laws'
+    speeds relative to the flow default to the bounds validation uses (_SPEED_BOUND with this
+    flow; max(|u|, |u - structure.v0|)). 0 if none acts."""
     s = scene
     rates = [s.structure_c / s.structure_m]
     if s.drag_model == QUADRATIC_DRAG:
-        rates.append(_drag_rate(s, _speed_bound(s, u)))
+        rates.append(_drag_rate(s, _speed_bound(s, u) if ice_speed is None else ice_speed))
     else:
         rates.append(s.drag_b / s.ice_M)
     if s.structure_drag_on:
-        speed = max(abs(u), abs(u - s.structure_v0))
+        speed = (max(abs(u), abs(u - s.structure_v0)) if structure_speed is None
+                 else structure_speed)
         rates.append(2.0 * s.structure_drag_B * speed / s.structure_mass
                      if s.drag_model == QUADRATIC_DRAG
                      else s.structure_drag_b / s.structure_mass)
