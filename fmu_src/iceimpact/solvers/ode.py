@@ -90,19 +90,16 @@ CHUNK_MAX = 5.0
 #: rates below CHUNK_RATE / CHUNK_MAX = 400 1/s (the article's: 0.13 1/s) keep their chunks.
 CHUNK_RATE = 2000.0
 
-#: The explicit integrators' (RK45, DOP853) steps are at most STABLE_STEP / rate, rate being
+#: The explicit integrators' steps are at most STABLE_STEP[method] / rate, rate being
 #: the fastest relaxation rate integrated (:func:`~iceimpact.scene.integrated_rate`, the
 #: quadratic drags' at the speeds of the call's start, see ``OdeSolver._max_step``): inside
-#: both methods' stability intervals on the negative real axis (about 3.3 for RK45, 6 for
-#: DOP853). Where the states are far below the
-#: absolute tolerance (a structure at rest to 1e-24 m), the error control alone let DOP853's
-#: steps grow 100-fold past that bound; the unstable steps' dense output rang up to 25 times
-#: the tolerance, the structure 2.5e-10 m past the ice (a critically damped structure,
-#: c / m = 7.9e3 1/s, steps of 1e-2 s).
-STABLE_STEP = 3.0
-
-#: solve_ivp methods whose steps STABLE_STEP bounds (explicit).
-EXPLICIT = ("RK45", "DOP853")
+#: each method's stability interval on the negative real axis (about 3.3 for RK45, 6 for
+#: DOP853). Where the states are far below the absolute tolerance (a structure at rest to
+#: 1e-24 m), the error control alone let DOP853's steps grow 100-fold past that bound; the
+#: unstable steps' dense output rang up to 25 times the tolerance, the structure 2.5e-10 m past
+#: the ice (a critically damped structure, c / m = 7.9e3 1/s, steps of 1e-2 s). Only the
+#: explicit methods (these keys) are bounded.
+STABLE_STEP = {"RK45": 3.0, "DOP853": 5.0}
 
 #: Positive stand-in for a zero event value at the start of a segment.
 _TINY = 1e-300
@@ -229,20 +226,19 @@ class OdeSolver(Solver):
     def _max_step(self, y: np.ndarray) -> float:
         """Largest step of an explicit integrator for a call starting from y (s): STABLE_STEP
         over the fastest relaxation rate. The quadratic drags' rates are taken at the speeds
-        relative to the flow at the call's start: in flight the ice's |w - u| only decays; the
-        structure's (and, sticking, both bodies') 2 |v - u|, a margin for the change of v over
-        a call (a chunk is at most CHUNK_RATE / rate, and DOP853's stability interval is twice
-        STABLE_STEP). (Its amplitude bound sqrt(v^2 + omega_n^2 x^2) about x = 0 was far too
-        loose for bodies pushed to an equilibrium 33 m away: steps of 1.7e-5 s, 10 s of CPU for
-        0.4 s.) A function of the call's start, so that a restored snapshot integrates its
+        relative to the flow at the call's start: in flight the ice's 2 B |w - u| / M (|w - u|
+        only decays) and the structure's |v - u|; sticking, the ice's drag moves both bodies,
+        2 B |v - u| / (m + M). (A bound from the structure's amplitude about x = 0 was far too
+        loose for bodies pushed to an equilibrium 33 m away: steps of 1.7e-5 s, 30 s of CPU for
+        0.55 s.) A function of the call's start, so that a restored snapshot integrates its
         chunk again identically."""
-        if self.method not in EXPLICIT:
+        if self.method not in STABLE_STEP:
             return math.inf
-        v = float(y[1])
-        structure_speed = 2.0 * abs(v - self.u)
-        ice_speed = abs(float(y[3]) - self.u) if self.phase is Phase.FLIGHT else structure_speed
+        structure_speed = abs(float(y[1]) - self.u)
+        ice_speed = (abs(float(y[3]) - self.u) if self.phase is Phase.FLIGHT
+                     else structure_speed * self.M / (self.m + self.M))
         rate = integrated_rate(self.scene, self.u, ice_speed, structure_speed)
-        return STABLE_STEP / rate if rate > 0.0 else math.inf
+        return STABLE_STEP[self.method] / rate if rate > 0.0 else math.inf
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
         a_x = self.osc.acceleration(x, v)
