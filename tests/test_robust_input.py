@@ -686,7 +686,16 @@ def test_method_3_at_rest_below_its_tolerance_does_not_ring_through_the_ice():
                       drag_v_lin=0.010049579393317814, flow_u=8.9e-16, solver_method=3),
                  0.01, "random signs", [True, False, False, True, True, True, False, True,
                                         True, False, True, False, False, False, True, False]),
-], ids=["at-rest-u0-quadratic", "light-floe-random-signs"])
+    # a critically damped structure (omega_n 1e4 rad/s) leaving the ice at rest, no flow: with
+    # stable steps its decay is followed to underflow, positions 0 and speeds 1e-319 m/s, and
+    # every step met a gap of exactly 0 as an event (over 10 s of CPU in the first 0.37 s step)
+    _search_case(dict(structure_m=100.0023026116027, structure_c=2000046.0522320517,
+                      structure_k=10000230261.160248, structure_x0=0.0,
+                      structure_v0=0.990468330088397, ice_M=100.0023026116027,
+                      ice_A=0.049139914759806544, ice_Cd=7.439588730544905e-235, ice_z0=0.0,
+                      ice_v0=0.0, impact_e=0.0, drag_model=1, drag_v_lin=1.0,
+                      flow_u=4509.90874376061, solver_method=3), 0.37, "zero", [True, False]),
+], ids=["at-rest-u0-quadratic", "light-floe-random-signs", "decay-to-underflow"])
 def test_method_3_search_cases_run_soundly(case):
     """Replayed exactly as the random search ran them (its checks are the independent ones:
     finite, gap >= -10 atol, impulse >= -1e-5 of the momentum scale, no energy created at

@@ -150,7 +150,10 @@ class _Gap:
         # at the start the bodies may touch (g = 0): count that as open, so that only a crossing
         # after the start is an event (and the root bracket stays valid)
         gap = y[0] - y[2] + self.slack
-        return gap if t > self.start else max(gap, _TINY)
+        # after the start, only a negative gap is a crossing: bodies touching at exactly zero
+        # gap (positions underflowed to 0 while the speeds, 1e-319 m/s, part them) are not
+        # meeting; each such touch was an event, ~1e5 a second
+        return gap if t > self.start and gap != 0.0 else max(gap, _TINY)
 
 
 class _ContactForce:
