@@ -19,11 +19,22 @@ Printed: every scene that stalls (TIMEOUT), produces a non-finite output, a nega
 its method's tolerance, a tensile (negative) contact impulse beyond rounding, or energy created
 while the flow is zero (FAIL), or is slow (SLOW); then the counts. docs/robustness.md reports
 the searches.
+
+Each flagged scene is followed by a line ``REPLAY {...}``: a JSON object with everything the run
+used (every scene field at full precision, the step, the flow sequence, its sign list and the
+time limit). Re-run that one case with
+
+    python tests/random_search.py --replay '{"scene": {...}, "h": 0.0001, ...}'
+
+or from Python with :func:`replay` (the tests pin faults this way): the same steps, flows and
+checks as the search.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import json
 import math
 import signal
 import time
@@ -32,7 +43,7 @@ from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError
-from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE
+from iceimpact.scene import DRAG_RATE_MAX, ODE_EXPLICIT_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE
 from iceimpact.solvers.ode import ATOL_SCALE
 from test_properties import scenes
 
@@ -47,6 +58,9 @@ ENERGY_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
 STATE_ULPS = 8.0 * 2.0 ** -52
 FLOWS = ("constant", "reversing", "random signs", "zero", "reversed 1 in 4")
 OMEGA_MAX = {1: OMEGA_MAX_EXACT, 2: 1e12, 3: OMEGA_MAX_ODE}
+#: the drag-rate limit of each method's validation (method 3: its explicit integrators, the
+#: default DOP853)
+RATE_MAX = {1: DRAG_RATE_MAX, 2: DRAG_RATE_MAX, 3: ODE_EXPLICIT_RATE_MAX}
 
 
 class _Stalled(Exception):
@@ -69,7 +83,7 @@ def scale_scenes(draw, method: int):
     Cd = draw(st.one_of(st.just(0.0), st.floats(0.0, 2.0)))
     drag = draw(st.sampled_from([1, 2]))
     B = 0.5 * 999.0 * Cd * A
-    u_max = 100.0 if B == 0.0 else min(1e4, 0.4 * DRAG_RATE_MAX * M / (2.0 * B))
+    u_max = 100.0 if B == 0.0 else min(1e4, 0.4 * RATE_MAX[method] * M / (2.0 * B))
     x0 = draw(st.one_of(st.just(0.0), st.floats(-1.0, 1.0)))
     v0 = draw(st.floats(-1.0, 1.0))
     try:
@@ -125,6 +139,95 @@ def energy_floor(scene: Scene, s, u: float, atol: float) -> float:
             + 0.5 * (m * dv * dv + k * dx * dx + M * dv * dv))
 
 
+@dataclasses.dataclass
+class Outcome:
+    """What one case gave: the fault's text (None: sound), whether a step was refused, the CPU
+    time (s), the simulated time reached (s) and the most negative gap seen (m)."""
+    fault: str | None
+    refused: bool
+    cpu: float
+    t: float
+    min_gap: float
+
+
+def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
+             time_limit: float = TIME_LIMIT) -> Outcome:
+    """Run one scene of the search (its method is ``scene.solver_method``) at communication step
+    h under the flow sequence ``flow`` (with ``signs`` for "random signs"), checking every step:
+    finite outputs, gap, contact impulse, energy at u = 0. Stops at the first fault, at a
+    refused step, or after ``time_limit`` s of CPU time (a TIMEOUT fault)."""
+    method = scene.solver_method
+    sim = Simulator(scene)
+    t_end = 3.0 if method != 3 else 1.0
+    if h < 1e-3:
+        t_end = min(t_end, 0.05)
+    u0 = scene.flow_u if scene.flow_u != 0.0 or flow == "zero" else 0.1
+    last = sim.solver.state
+    e_last = energy(scene, last)
+    atol = ATOL_SCALE * scene.solver_rtol if method == 3 else 0.0
+    e_scale = max(e_last, 1e-300)
+    fault, refused, min_gap = None, False, math.inf
+    start = time.process_time()
+    previous = signal.signal(signal.SIGPROF, _alarm)
+    signal.setitimer(signal.ITIMER_PROF, time_limit)
+    i = 0
+    try:
+        while sim.t < t_end - 1e-12:
+            u = flow_at(flow, i, u0, signs)
+            i += 1
+            try:
+                r = sim.advance(min(h, t_end - sim.t), u)
+            except (ParameterError, SolverError):  # a refusal that names the limit
+                refused = True
+                break
+            values = [r.x, r.v, r.z, r.w, r.gap, r.penetration, r.impulse, r.force, r.t_last]
+            if not all(map(math.isfinite, values)):
+                raise AssertionError(f"non-finite output {values}")
+            s = sim.solver.state
+            min_gap = min(min_gap, s.x - s.z)
+            if s.x - s.z < -GAP_TOLERANCE[method]:
+                raise AssertionError(f"gap {s.x - s.z} m at t = {r.t}")
+            momentum = ((scene.structure_m + scene.ice_M) * (abs(s.v) + abs(s.w) + abs(u))
+                        + scene.structure_k * abs(s.x) * h)
+            if r.impulse < -IMPULSE_TOLERANCE[method] * momentum - 1e-300:
+                raise AssertionError(f"tensile contact impulse {r.impulse} N.s at "
+                                     f"t = {r.t} (scale {momentum:.3g})")
+            e_now = energy(scene, s)
+            floor = energy_floor(scene, s, u, atol) + energy_floor(scene, last, u, atol)
+            if flow == "zero" and e_now > (e_last + ENERGY_TOLERANCE[method] * e_scale
+                                           + floor):
+                raise AssertionError(f"energy created at u = 0: {e_last} -> {e_now} J "
+                                     f"at t = {r.t}")
+            e_last, last = e_now, s
+    except _Stalled:
+        fault = f"TIMEOUT at t = {sim.t} s, h = {h} s, flow {flow}: {scene}"
+    except Exception as exc:
+        fault = f"FAIL {exc!r}, h = {h} s, flow {flow}: {scene}"
+    finally:
+        signal.setitimer(signal.ITIMER_PROF, 0.0)
+        signal.signal(signal.SIGPROF, previous)
+    return Outcome(fault, refused, time.process_time() - start, sim.t, min_gap)
+
+
+def case_text(scene: Scene, h: float, flow: str, signs: list[bool],
+              time_limit: float = TIME_LIMIT) -> str:
+    """One case as JSON, every float at repr() precision (what :func:`replay` reads)."""
+    return json.dumps({"scene": dataclasses.asdict(scene), "h": h, "flow": flow,
+                       "signs": list(signs), "time_limit": time_limit})
+
+
+def replay(text: str) -> Outcome:
+    """Re-run one case printed by the search (its ``REPLAY`` line's JSON, or the dict); a
+    scene the validation refuses gives an outcome "REFUSED up front: <message>"."""
+    case = json.loads(text) if isinstance(text, str) else text
+    try:
+        scene = Scene(**case["scene"])
+    except ParameterError as exc:  # a scene the validation now refuses up front
+        return Outcome(f"REFUSED up front: {exc}", True, 0.0, 0.0, math.inf)
+    return run_case(scene, case["h"], case["flow"], case["signs"],
+                    case.get("time_limit", TIME_LIMIT))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--method", type=int, choices=(1, 2, 3), default=1)
@@ -137,8 +240,14 @@ def main() -> None:
     parser.add_argument("--flows", action="store_true", help="random flow sequences")
     parser.add_argument("--time-limit", type=float, default=TIME_LIMIT,
                         help="s of CPU time per scene before it counts as a TIMEOUT")
+    parser.add_argument("--replay", metavar="JSON",
+                        help="re-run one case printed on a REPLAY line, print its outcome")
     args = parser.parse_args()
-    signal.signal(signal.SIGPROF, _alarm)
+    if args.replay is not None:
+        outcome = replay(args.replay)
+        print(outcome.fault or "sound", f"(refused at a step: {outcome.refused}, CPU "
+              f"{outcome.cpu:.2f} s, t = {outcome.t} s, smallest gap {outcome.min_gap!r} m)")
+        return
     found: list[str] = []
     count = refused = 0
     strategy = scale_scenes(args.method) if args.scales else scenes()
@@ -159,56 +268,15 @@ def main() -> None:
         count += 1
         if count % 250 == 0:
             print(f"... {count} scenes, {refused} refused, {len(found)} faults", flush=True)
-        sim = Simulator(scene)
-        t_end = 3.0 if args.method != 3 else 1.0
-        if h < 1e-3:
-            t_end = min(t_end, 0.05)
-        u0 = scene.flow_u if scene.flow_u != 0.0 or flow == "zero" else 0.1
-        last = sim.solver.state
-        e_last = energy(scene, last)
-        atol = ATOL_SCALE * scene.solver_rtol if args.method == 3 else 0.0
-        e_scale = max(e_last, 1e-300)
-        start = time.process_time()
-        signal.setitimer(signal.ITIMER_PROF, args.time_limit)
-        i = 0
-        try:
-            while sim.t < t_end - 1e-12:
-                u = flow_at(flow, i, u0, signs)
-                i += 1
-                try:
-                    r = sim.advance(min(h, t_end - sim.t), u)
-                except (ParameterError, SolverError):  # a refusal that names the limit
-                    refused += 1
-                    break
-                values = [r.x, r.v, r.z, r.w, r.gap, r.penetration, r.impulse, r.force, r.t_last]
-                if not all(map(math.isfinite, values)):
-                    raise AssertionError(f"non-finite output {values}")
-                s = sim.solver.state
-                if s.x - s.z < -GAP_TOLERANCE[args.method]:
-                    raise AssertionError(f"gap {s.x - s.z} m")
-                momentum = ((scene.structure_m + scene.ice_M) * (abs(s.v) + abs(s.w) + abs(u))
-                            + scene.structure_k * abs(s.x) * h)
-                if r.impulse < -IMPULSE_TOLERANCE[args.method] * momentum - 1e-300:
-                    raise AssertionError(f"tensile contact impulse {r.impulse} N.s at "
-                                         f"t = {r.t} (scale {momentum:.3g})")
-                e_now = energy(scene, s)
-                floor = energy_floor(scene, s, u, atol) + energy_floor(scene, last, u, atol)
-                if flow == "zero" and e_now > (e_last + ENERGY_TOLERANCE[args.method] * e_scale
-                                               + floor):
-                    raise AssertionError(f"energy created at u = 0: {e_last} -> {e_now} J "
-                                         f"at t = {r.t}")
-                e_last, last = e_now, s
-        except _Stalled:
-            found.append(f"TIMEOUT at t = {sim.t} s, h = {h} s, flow {flow}: {scene}")
-            print(found[-1], flush=True)
-        except Exception as exc:
-            found.append(f"FAIL {exc!r}, h = {h} s, flow {flow}: {scene}")
-            print(found[-1], flush=True)
-        finally:
-            signal.setitimer(signal.ITIMER_PROF, 0.0)
-        cpu = time.process_time() - start
-        if cpu > 10.0:
-            print(f"SLOW {cpu:.1f} s, h = {h} s, flow {flow}: {scene}", flush=True)
+        outcome = run_case(scene, h, flow, signs, args.time_limit)
+        refused += outcome.refused
+        if outcome.fault is not None:
+            found.append(outcome.fault)
+            print(outcome.fault, flush=True)
+        if outcome.fault is not None or outcome.cpu > 10.0:
+            if outcome.fault is None:
+                print(f"SLOW {outcome.cpu:.1f} s, h = {h} s, flow {flow}: {scene}", flush=True)
+            print("REPLAY " + case_text(scene, h, flow, signs, args.time_limit), flush=True)
 
     check()
     print(f"{count} scenes, {refused} refused at a step, {len(found)} faults")

@@ -246,8 +246,8 @@ def validate_flow(u: Any, scene: Scene | None = None) -> float:
         if not (math.isfinite(drag) and math.isfinite(0.5 * scene.ice_M * u * u)):
             raise ParameterError(FLOW_INPUT.name, u, "a flow speed whose drag force on the ice "
                                  "and kinetic energy of the ice are finite (" + _OVERFLOW + ")")
-        if _integrates_quadratic_drag(scene) and _drag_rate(scene, abs(u)) > DRAG_RATE_MAX:
-            limit = DRAG_RATE_MAX * scene.ice_M / (2.0 * scene.drag_B)
+        if _integrates_quadratic_drag(scene) and _drag_rate(scene, abs(u)) > rate_limit(scene):
+            limit = rate_limit(scene) * scene.ice_M / (2.0 * scene.drag_B)
             raise ParameterError(FLOW_INPUT.name, u, _drag_rate_text(scene, limit, "|flow.u|"))
         if scene.structure_drag_on:
             force = (scene.structure_drag_B * u * u if scene.drag_model == QUADRATIC_DRAG
@@ -272,9 +272,66 @@ def _drag_rate(scene: Scene, speed: float) -> float:
 
 def _drag_rate_text(scene: Scene, limit: float, what: str) -> str:
     return (f"{what} <= {limit:.3g} m/s with quadratic drag and solver.method = "
-            f"{scene.solver_method}: the drag rate 2 B {what} / ice.M must stay <= "
-            f"{DRAG_RATE_MAX:g} 1/s, the stiffest the explicit integration of the drag "
-            f"finishes in bounded time (B = fluid.rho ice.Cd ice.A / 2 = {scene.drag_B:.6g} kg/m)")
+            f"{scene.solver_method}{_integrator_text(scene)}: the drag rate 2 B {what} / ice.M "
+            f"must stay <= {rate_limit(scene):g} 1/s, the stiffest the integration of "
+            f"the drag finishes in bounded time (B = fluid.rho ice.Cd ice.A / 2 = "
+            f"{scene.drag_B:.6g} kg/m){_implicit_hint(scene)}")
+
+
+def rate_limit(scene: Scene) -> float:
+    """Largest relaxation rate (1/s) the scene's method integrates in bounded work: method 3
+    with an explicit integrator (RK45, DOP853), ODE_EXPLICIT_RATE_MAX; method 1 (its Taylor
+    steps) and method 3 with LSODA or Radau, DRAG_RATE_MAX (docs/robustness.md)."""
+    if scene.solver_method == METHOD_ODE and scene.solver_ode_method in EXPLICIT_ODE_METHODS:
+        return ODE_EXPLICIT_RATE_MAX
+    return DRAG_RATE_MAX
+
+
+def _integrator_text(scene: Scene) -> str:
+    """The integrator a method-3 rate limit depends on, for messages ('' for method 1)."""
+    if scene.solver_method != METHOD_ODE:
+        return ""
+    return (f" and solver.ode_method = {scene.solver_ode_method} ("
+            f"{EXPLICIT_ODE_METHODS.get(scene.solver_ode_method, 'implicit')})")
+
+
+def _implicit_hint(scene: Scene) -> str:
+    """What to do instead, when an implicit integrator would accept the rate."""
+    if scene.solver_method == METHOD_ODE and scene.solver_ode_method in EXPLICIT_ODE_METHODS:
+        return (f"; solver.ode_method = 3 (LSODA, which switches to an implicit method when "
+                f"stiff) accepts rates up to {DRAG_RATE_MAX:g} 1/s")
+    return ""
+
+
+def integrated_rate(scene: Scene, u: float, ice_speed: float | None = None,
+                    structure_speed: float | None = None) -> float:
+    """The fastest relaxation rate (1/s) method 3 integrates at flow speed u, the largest of
+    the rates the validation bounds (_check_work): the structure's damping c / m, the ice's
+    drag (b / M linearised, eq. 4-5; 2 B ice_speed / M quadratic, eq. 2-3) and the Morison drag
+    on the structure (b_s / (m + m_a); 2 B_s structure_speed / (m + m_a)). The quadratic laws'
+    speeds relative to the flow default to the bounds validation uses (_SPEED_BOUND with this
+    flow; max(|u|, |u - structure.v0|)). 0 if none acts."""
+    s = scene
+    rates = [s.structure_c / s.structure_m]
+    if s.drag_model == QUADRATIC_DRAG:
+        rates.append(_drag_rate(s, _speed_bound(s, u) if ice_speed is None else ice_speed))
+    else:
+        rates.append(s.drag_b / s.ice_M)
+    if s.structure_drag_on:
+        speed = (max(abs(u), abs(u - s.structure_v0)) if structure_speed is None
+                 else structure_speed)
+        rates.append(2.0 * s.structure_drag_B * speed / s.structure_mass
+                     if s.drag_model == QUADRATIC_DRAG
+                     else s.structure_drag_b / s.structure_mass)
+    return max(rates)
+
+
+def _speed_bound(scene: Scene, u: float) -> float:
+    """The speed relative to a flow u that the integrated quadratic drag can meet (m/s): the
+    ice's own, or what an impact gives it, up to twice the structure's speed, which never
+    exceeds sqrt(v0^2 + omega_n^2 x0^2) (its energy only decays in free motion)."""
+    s = scene
+    return abs(u) + abs(s.ice_v0) + 2.0 * math.hypot(s.structure_v0, s.omega_n * s.structure_x0)
 
 
 def _structure_drag_rate(scene: Scene, speed: float) -> float | None:
@@ -294,17 +351,18 @@ def _check_structure_drag_rate(scene: Scene, speed: float, name: str) -> None:
     DRAG_RATE_MAX as the ice's drag); ``speed`` is the relative speed it acts at (m/s), named
     ``name`` (the quadratic law's rate grows with it; the linearised one's is a constant)."""
     rate = _structure_drag_rate(scene, speed)
-    if rate is not None and rate > DRAG_RATE_MAX:
+    if rate is not None and rate > rate_limit(scene):
         quadratic = scene.drag_model == QUADRATIC_DRAG
         raise ParameterError(name if quadratic else "B_s * drag.v_lin / (structure.m + m_a)",
                              speed if quadratic else rate,
-                             f"a Morison drag rate on the structure <= {DRAG_RATE_MAX:g} 1/s "
-                             f"with drag.model = {scene.drag_model} and solver.method = "
-                             f"{scene.solver_method} (rate {rate:.3g} 1/s: 2 B_s |speed| / "
-                             "(m + m_a) quadratic, b_s / (m + m_a) linearised, B_s = "
-                             f"fluid.rho structure.Cd structure.A / 2 = "
+                             f"a Morison drag rate on the structure <= {rate_limit(scene):g} "
+                             f"1/s with drag.model = {scene.drag_model} and solver.method = "
+                             f"{scene.solver_method}{_integrator_text(scene)} (rate {rate:.3g} "
+                             "1/s: 2 B_s |speed| / (m + m_a) quadratic, b_s / (m + m_a) "
+                             "linearised, B_s = fluid.rho structure.Cd structure.A / 2 = "
                              f"{scene.structure_drag_B:.6g} kg/m): the explicit integration of "
-                             "the drag finishes in bounded time only below it")
+                             f"the drag finishes in bounded time only below it"
+                             f"{_implicit_hint(scene)}")
 
 
 def _check_work(scene: Scene) -> None:
@@ -324,13 +382,9 @@ def _check_work(scene: Scene) -> None:
                              f"omega_n <= {omega_max:.3g} rad/s with solver.method = "
                              f"{s.solver_method}: {why}")
     if _integrates_quadratic_drag(s):
-        # the speed relative to the flow the integrated drag can meet: the ice's own, or what
-        # an impact gives it, up to twice the structure's speed, which never exceeds
-        # sqrt(v0^2 + omega_n^2 x0^2) (its energy only decays in free motion)
-        speed = abs(s.flow_u) + abs(s.ice_v0) + 2.0 * math.hypot(s.structure_v0,
-                                                                 s.omega_n * s.structure_x0)
-        if _drag_rate(s, speed) > DRAG_RATE_MAX:
-            limit = DRAG_RATE_MAX * s.ice_M / (2.0 * s.drag_B)
+        speed = _speed_bound(s, s.flow_u)
+        if _drag_rate(s, speed) > rate_limit(s):
+            limit = rate_limit(s) * s.ice_M / (2.0 * s.drag_B)
             raise ParameterError(_SPEED_BOUND, speed, _drag_rate_text(s, limit, "speed"))
     if s.solver_method == METHOD_EXACT and s.drag_model == QUADRATIC_DRAG and not s.external:
         # method 1's quadratic-drag sticking phase is integrated by explicit Taylor steps of
@@ -344,18 +398,19 @@ def _check_work(scene: Scene) -> None:
                 "sticking phase is integrated by explicit Taylor steps of about 1 / rate, "
                 "~3e-5 s of CPU x rate per simulated second; use drag.model = 1, whose "
                 "sticking phase is closed form")
-    if s.solver_method == METHOD_ODE and s.structure_c / s.structure_m > DRAG_RATE_MAX:
+    if s.solver_method == METHOD_ODE and s.structure_c / s.structure_m > rate_limit(s):
         # an over-damped structure relaxes at up to c / m: the same step bound as a drag rate
         raise ParameterError("structure.c / structure.m", s.structure_c / s.structure_m,
-                             f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the explicit "
-                             "integration of the structure's damping finishes in bounded time "
-                             "only below this rate; use solver.method = 1 or 2")
+                             f"<= {rate_limit(s):g} 1/s with solver.method = 3"
+                             f"{_integrator_text(s)}: the integration of the structure's "
+                             "damping finishes in bounded time only below this rate; use "
+                             f"solver.method = 1 or 2{_implicit_hint(s)}")
     if s.solver_method == METHOD_ODE and s.drag_model == LINEAR_DRAG:
-        if s.drag_b / s.ice_M > DRAG_RATE_MAX:
+        if s.drag_b / s.ice_M > rate_limit(s):
             raise ParameterError("B * drag.v_lin / ice.M", s.drag_b / s.ice_M,
-                                 f"<= {DRAG_RATE_MAX:g} 1/s with solver.method = 3: the "
-                                 "explicit integration of the drag finishes in bounded time "
-                                 "only below this rate")
+                                 f"<= {rate_limit(s):g} 1/s with solver.method = 3"
+                                 f"{_integrator_text(s)}: the integration of the drag finishes "
+                                 f"in bounded time only below this rate{_implicit_hint(s)}")
     if s.structure_drag_on:
         _check_structure_drag_rate(s, max(abs(s.flow_u), abs(s.flow_u - s.structure_v0)),
                                    "max(|flow.u|, |flow.u - structure.v0|)")
@@ -394,6 +449,18 @@ OMEGA_MAX_ODE = 1e4
 #: stable only for steps below ~3.3 / rate: at 1e6 1/s that is ~3e5 steps (about 10 s of wall
 #: time) per simulated second; flow.u = 1e12 m/s (rate 6e11 1/s) did not finish 20 ms in 60 s.
 DRAG_RATE_MAX = 1e6
+#: solver.ode_method values whose integrators are explicit (method 3), by name.
+EXPLICIT_ODE_METHODS = {1: "RK45", 2: "DOP853"}
+#: Largest relaxation rate (1/s) of method 3 with an explicit integrator (RK45, DOP853): the
+#: rate rules above (c / m, b / M, 2 B speed / M, the Morison drag on the structure) at this
+#: limit instead of DRAG_RATE_MAX. Near its stability bound such an integrator costs about
+#: 3e-5 s of CPU x rate per simulated second (measured 2.6e-5 to 3.5e-5 s at 2.9e5 1/s in
+#: the four stiff scene kinds of docs/robustness.md, with the flow reversed every 1 ms step:
+#: 3.3-10.1 s per simulated second at 2.9e5 1/s, 28 s at 1e6; tests/ode_rate_cost.py), so that
+#: 1 s of simulated time costs at most ~10 s of CPU. LSODA (solver.ode_method = 3) switches to an implicit method when stiff:
+#: at most 7.6 s per simulated second at 9.9e5 1/s in the same scenes; it and Radau keep
+#: DRAG_RATE_MAX.
+ODE_EXPLICIT_RATE_MAX = 3e5
 
 
 def _check_scales(scene: Scene) -> None:

@@ -26,13 +26,15 @@ article's steady-state thresholds (eq. 27-29):
   the contact force over a step is exact to the tolerance.
 
 Each ``solve_ivp`` call covers at most a chunk of :data:`CHUNK_PERIODS` structure periods (and
-:data:`CHUNK_MAX` seconds) from the
-start of the segment, and its dense output answers the communication steps inside it, so the
-result does not depend on the communication step (unless the flow speed changes, which restarts
+:data:`CHUNK_MAX` seconds, and :data:`CHUNK_RATE` / rate for the stiffest rate integrated, so
+that a chunk costs a bounded number of steps) from the start of the segment, and its dense
+output answers the communication steps inside it, so the result does not depend on the communication step (unless the flow speed changes, which restarts
 the integration at the change). A segment's first call spans one period of the structure (after
 a flow change: the step being taken, if shorter), and each next one twice the previous, up to
 the chunk: a segment that an impact ends early, or a flow changing at every step, costs work in
-proportion to its own length, not a whole chunk. Work is bounded: every impact either
+proportion to its own length, not a whole chunk. The explicit integrators' steps are bounded
+by :data:`STABLE_STEP` / rate, inside their stability intervals, so that states far below the
+absolute tolerance do not ring through the ice. Work is bounded: every impact either
 lasts a resolvable bounce or ends the bouncing, and repeated events at one instant (a degenerate
 contact, or integration noise at a loose tolerance) make the bodies stick.
 """
@@ -48,7 +50,7 @@ from scipy.integrate import solve_ivp
 
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
-from ..scene import Scene
+from ..scene import Scene, integrated_rate
 from .base import Solver, SolverError, State
 from .contact_rules import (
     INTEGRATED_POLICY,
@@ -80,6 +82,26 @@ CHUNK_PERIODS = 20.0
 #: and a slow structure with a stiff drag (b/M >> omega_n) makes each second of it costly for the
 #: explicit integrators (94 s chunks took 40 s for a 1 s run).
 CHUNK_MAX = 5.0
+
+#: ... and at most CHUNK_RATE / rate (s), rate being the fastest relaxation rate the segment
+#: integrates (:func:`iceimpact.scene.integrated_rate`: c / m, the drag rates): near their
+#: stability bound the explicit integrators take ~3.3 / rate to ~6 / rate per step, so a chunk
+#: is at most ~600 steps, ~0.06 s of CPU (3e-5 s x rate per simulated second), however slow the
+#: structure. A slow structure with a stiff drag integrated whole chunks of 5 s ahead of a run
+#: that needed 0.01 s of them (a 4 g floe, b/M = 1.4e5 1/s, stuck for 10 s of CPU). Scenes with
+#: rates below CHUNK_RATE / CHUNK_MAX = 400 1/s (the article's: 0.13 1/s) keep their chunks.
+CHUNK_RATE = 2000.0
+
+#: The explicit integrators' steps are at most STABLE_STEP[method] / rate, rate being
+#: the fastest relaxation rate integrated (:func:`~iceimpact.scene.integrated_rate`, the
+#: quadratic drags' at the speeds of the call's start, see ``OdeSolver._max_step``): inside
+#: each method's stability interval on the negative real axis (about 3.3 for RK45, 6 for
+#: DOP853). Where the states are far below the absolute tolerance (a structure at rest to
+#: 1e-24 m), the error control alone let DOP853's steps grow 100-fold past that bound; the
+#: unstable steps' dense output rang up to 25 times the tolerance, the structure 2.5e-10 m past
+#: the ice (a critically damped structure, c / m = 7.9e3 1/s, steps of 1e-2 s). Only the
+#: explicit methods (these keys) are bounded.
+STABLE_STEP = {"RK45": 3.0, "DOP853": 5.0}
 
 #: Positive stand-in for a zero event value at the start of a segment.
 _TINY = 1e-300
@@ -128,7 +150,10 @@ class _Gap:
         # at the start the bodies may touch (g = 0): count that as open, so that only a crossing
         # after the start is an event (and the root bracket stays valid)
         gap = y[0] - y[2] + self.slack
-        return gap if t > self.start else max(gap, _TINY)
+        # after the start, only a negative gap is a crossing: bodies touching at exactly zero
+        # gap (positions underflowed to 0 while the speeds, 1e-319 m/s, part them) are not
+        # meeting; each such touch was an event, ~1e5 a second
+        return gap if t > self.start and gap != 0.0 else max(gap, _TINY)
 
 
 class _ContactForce:
@@ -177,12 +202,9 @@ class OdeSolver(Solver):
         self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels,
                                   INTEGRATED_POLICY, (PARTING_NOISE * self.rtol,
                                                       PARTING_NOISE * self.atol))
-        period = 2.0 * math.pi / scene.omega_n
-        self.chunk = min(max(1.0, CHUNK_PERIODS * period), CHUNK_MAX)
-        # a segment's first call spans one period, then each next one twice the previous, up to
-        # the chunk: a segment that an impact ends early costs about its own length, not a chunk
-        self.first_chunk = min(period, self.chunk)
+        self.period = 2.0 * math.pi / scene.omega_n
         self.u = scene.flow_u
+        self._set_chunks(self.u)
         self.pending_impulse = 0.0
         self.nfev = 0                   # right-hand-side evaluations, for the benchmarks
         self._events_here = 0
@@ -190,6 +212,44 @@ class OdeSolver(Solver):
         s = self.state
         self.first_span = self.first_chunk  # length of a segment's first solve_ivp call, s
         self._begin(0.0, s.x, s.v, s.z, s.w)
+
+    def _chunks(self, u: float) -> tuple[float, float]:
+        """Length of a solve_ivp chunk and of a segment's first call (s) at flow speed u: 20
+        periods of the structure (at least 1 s, at most CHUNK_MAX), and at most CHUNK_RATE / rate
+        for the stiffest rate integrated; a segment's first call spans one period, then each next
+        one twice the previous, up to the chunk: a segment that an impact ends early costs about
+        its own length, not a chunk."""
+        chunk = min(max(1.0, CHUNK_PERIODS * self.period), CHUNK_MAX)
+        rate = integrated_rate(self.scene, u)
+        if rate > 0.0:
+            chunk = min(chunk, CHUNK_RATE / rate)
+        return chunk, min(self.period, chunk)
+
+    def _set_chunks(self, u: float) -> None:
+        self.chunk, self.first_chunk = self._chunks(u)
+
+    def _max_step(self, y: np.ndarray) -> float:
+        """Largest step of an explicit integrator for a call starting from y (s): STABLE_STEP
+        over the fastest relaxation rate about the states the integration can fall below its
+        tolerance at. The quadratic drags' rates are taken at the speeds relative to the flow at
+        the call's start: sticking, 2 B |v - u| / (m + M) (bodies pushed at a steady speed have
+        that rate however small their motion about it); the structure's Morison drag,
+        2 B_s |v - u| / (m + m_a). In flight the ice's quadratic drag is left out: its rate
+        2 B |w - u| / M vanishes where the ice meets the flow, the only place its motion falls
+        below the tolerance, and above it the error control sees an unstable step (a bound at
+        the speed after a flow reversal, 2 |u|, held whole steps to that peak rate, which the
+        drag relaxes within a fraction of a step: 15 s of CPU per simulated second at 2.9e5
+        1/s instead of 4 s). (A bound from the structure's amplitude about x = 0 was far too
+        loose for bodies pushed to an equilibrium 33 m away: steps of 1.7e-5 s, 30 s of CPU
+        for 0.55 s.) A function of the call's start, so that a restored snapshot integrates
+        its chunk again identically."""
+        if self.method not in STABLE_STEP:
+            return math.inf
+        structure_speed = abs(float(y[1]) - self.u)
+        ice_speed = (0.0 if self.phase is Phase.FLIGHT
+                     else structure_speed * self.M / (self.m + self.M))
+        rate = integrated_rate(self.scene, self.u, ice_speed, structure_speed)
+        return STABLE_STEP[self.method] / rate if rate > 0.0 else math.inf
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
         a_x = self.osc.acceleration(x, v)
@@ -241,7 +301,8 @@ class OdeSolver(Solver):
         if lo < self.hold_until:
             hi, events = self.hold_until, None
         res = solve_ivp(self.rhs, (lo, hi), y_lo, method=self.method, rtol=self.rtol,
-                        atol=self.atol, dense_output=True, events=events)
+                        atol=self.atol, dense_output=True, events=events,
+                        max_step=self._max_step(y_lo))
         if res.status == -1:
             raise SolverError(f"ODE integration ({self.method}) failed at t = {lo}: "
                               f"{res.message}")
@@ -324,6 +385,7 @@ class OdeSolver(Solver):
             y = [float(c) for c in self.y_now]
             sticking = self.phase is Phase.STICK
             self.u = u
+            self._set_chunks(u)
             x, v, z, w = reanchor_on_flow_change(*(y[:2] * 2 if sticking else y), sticking)
             self._begin(t, x, v, z, w, reanchor=True)
             # the flow may change again at the next step: integrate ahead by this step only
@@ -395,9 +457,10 @@ class OdeSolver(Solver):
         hold_until = rec.real("hold_until", finite=False, high=math.inf)
         t_lo = rec.real("t_lo", low=start)
         t_hi = rec.real("t_hi", low=t_lo)
-        first_span = rec.real("first_span", low=0.0, high=self.chunk)
+        chunk = self._chunks(u)[0]
+        first_span = rec.real("first_span", low=0.0, high=chunk)
         if first_span == 0.0:
-            raise StateError(rec.field("first_span"), first_span, f"in (0, {self.chunk!r}] s")
+            raise StateError(rec.field("first_span"), first_span, f"in (0, {chunk!r}] s")
         chunk_hi = rec.real("chunk_hi", low=t_lo)
         gap_slack = rec.real("gap_slack", low=0.0)
         y_lo = rec.reals("y_lo", size, allow_none=True)
@@ -411,6 +474,7 @@ class OdeSolver(Solver):
 
         def apply() -> None:
             self.u = u
+            self._set_chunks(u)
             self._equations(phase, start, gap_slack)
             self.pending_impulse, self.nfev = pending, nfev
             self._events_here, self._last_event_t = events_here, last_event_t
