@@ -46,6 +46,8 @@ class FmuLifecycle:
 
     #: The contract's parameters (their start values are the values before any fmi2Set).
     PARAMETERS: tuple[Variable, ...] = ()
+    #: The contract's outputs, in the order of :attr:`published`.
+    OUTPUTS: tuple[Variable, ...] = ()
     #: What :meth:`build` makes from the values, as messages name it ("simulator").
     CORE_NAME = "model"
     #: The layout of this FMU's serialized state.
@@ -61,6 +63,10 @@ class FmuLifecycle:
         self.time = 0.0
         self.pending: dict[str, Any] = {}   # tunable values set since the last step
         self.error: str | None = None       # why the instance cannot step
+        #: The outputs' values in the order of :attr:`OUTPUTS`, for a model that keeps them
+        #: ready (refreshed whenever they change; the FMU reads them at every step without a
+        #: call per variable); None: every output is read through :meth:`get`.
+        self.published: list[Any] | None = None
 
     # hooks of a model ----------------------------------------------------------------------------
     @property
@@ -92,11 +98,6 @@ class FmuLifecycle:
         if name in self.values:
             return self.pending.get(name, self.values[name])
         return self.read(name)
-
-    def getter(self, name: str) -> Callable[[], Any]:
-        """The function an FMI library calls for fmi2Get of ``name``: :meth:`get`, unless a
-        model gives a quicker one for its outputs (read after every step)."""
-        return lambda: self.get(name)
 
     def set(self, name: str, value: Any) -> None:
         """fmi2Set of a parameter or the input; validated when it takes effect."""
