@@ -9,6 +9,11 @@ too, so the table splits the cost into model and FMI plumbing. Prints a table an
 ``benchmarks/results/fmu_overhead.json``. Times are the best of ``--repeat`` interleaved runs, as
 CPU time of this process (insensitive to other load on the machine; the ratio uses it) and as
 wall-clock time.
+
+The trivial slave (``benchmarks/trivial_fmu/TrivialSlave.py``) keeps PythonFMU's default
+fmi2Get/fmi2Set path (one getter call per variable); IceImpact.fmu's slave reads its outputs in
+batch calls (``iceimpact.fmi.slave_base``). The yardstick is a do-nothing slave as PythonFMU
+makes it, so the benchmark checks that the trivial slave overrides none of those methods.
 """
 
 from __future__ import annotations
@@ -49,6 +54,11 @@ def _check_trivial_interface() -> None:
     kinds = {trivial.Real: float, trivial.Integer: int, trivial.Boolean: bool}
     assert trivial.INPUTS == tuple(v.name for v in INPUTS), trivial.INPUTS
     assert [(n, kinds[k]) for n, k in trivial.OUTPUTS] == [(o.name, o.kind) for o in OUTPUTS]
+    # PythonFMU's own fmi2Get/fmi2Set path: the yardstick is a slave as PythonFMU makes it
+    for kind in ("real", "integer", "boolean", "string"):
+        for method in (f"get_{kind}", f"set_{kind}"):
+            assert getattr(trivial.TrivialSlave, method) is getattr(trivial.Fmi2Slave, method), (
+                f"TrivialSlave overrides PythonFMU's {method}")
 
 
 def _build_trivial(dest: Path) -> Path:
