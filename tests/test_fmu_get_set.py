@@ -26,6 +26,7 @@ from pythonfmu import Fmi2Slave
 from fmu_host import DT, FMI_ERROR, FMI_OK, Instance, errors
 from iceimpact import Scene, Simulator
 from iceimpact.contract import INPUTS, OUTPUTS, PARAMETERS, VARIABLES
+from iceimpact.fmi.adapter import FmuModel
 from IceImpact import IceImpact
 
 KINDS = (float, int, bool)
@@ -123,6 +124,20 @@ def test_set_tables_cover_exactly_the_parameters_and_inputs():
     for kind in KINDS:  # each table holds the variables of its FMI type only
         assert all(VARIABLES[vr].kind is kind for vr in slave._settable[kind])
         assert all(VARIABLES[vr].kind is kind for vr in slave._output_slots[kind])
+
+
+@pytest.mark.parametrize("start_time", [0.0, 2.0, -3.5])
+@pytest.mark.parametrize("t_last", [-1.0, 0.0, -0.0, 5e-324, 0.25, 1e300])
+def test_published_time_of_the_last_impact_is_in_the_master_time_frame(start_time, t_last):
+    model = FmuModel(lambda status, text: None)
+    model.setup_experiment(start_time)
+    report = Simulator(Scene()).report
+    report.__dict__["t_last"] = t_last
+    model.publish(report)
+    got = model.published[[o.name for o in OUTPUTS].index("contact.t_last")]
+    want = t_last + start_time if t_last >= 0.0 else -1.0  # docs/fmu.md: simulation time
+    assert got == want and math.copysign(1.0, got) == math.copysign(1.0, want), (got, want)
+    assert [model.get(o.name) for o in OUTPUTS] == list(model.published)
 
 
 # Through FMPy: against an independent reference ---------------------------------------------------

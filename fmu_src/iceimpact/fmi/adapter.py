@@ -83,9 +83,13 @@ class FmuModel(FmuLifecycle):
         """Make ``report`` the outputs' values (:attr:`published`), contact.t_last in the
         master's time frame (-1 before the first impact)."""
         self.report = report
-        row = list(_REPORT_ROW(report.__dict__))
+        row = _REPORT_ROW(report.__dict__)
         t = row[_T_LAST]
-        row[_T_LAST] = t + self.start_time if t >= 0.0 else -1.0
+        # the report's value is already the output's with start time 0 (t + 0.0 is t for t > 0)
+        # and before the first impact (-1.0): the row is then used as it is, at most steps
+        if not ((t > 0.0 and self.start_time == 0.0) or t == -1.0):
+            row = list(row)
+            row[_T_LAST] = t + self.start_time if t >= 0.0 else -1.0
         self.published = row
 
     def write_input(self, name: str, value: Any) -> bool:
@@ -114,10 +118,12 @@ class FmuModel(FmuLifecycle):
 
     def advance(self, current_time: float, step_size: float) -> bool:
         sim = self.sim
-        before = sim.save() if self.pending else None
+        pending = self.pending
+        before = sim.save() if pending else None
         try:
-            for name, value in self.pending.items():
-                TUNERS[name](sim, value)
+            if pending:
+                for name, value in pending.items():
+                    TUNERS[name](sim, value)
             structure = (tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS)
                          if sim.external else None)
             report = sim.advance(step_size, self.flow_u, structure)
@@ -126,9 +132,9 @@ class FmuModel(FmuLifecycle):
                 sim.restore(before)  # the tunables applied before the refusal are undone
             self._log(ERROR, f"doStep at t = {current_time!r} s: {exc}")
             return False
-        if self.pending:
-            self.values.update(self.pending)
-            self.pending.clear()
+        if pending:
+            self.values.update(pending)
+            pending.clear()
         self.publish(report)
         if report.penetration > 0.0 and not self.penetration_logged:
             self.penetration_logged = True
