@@ -1,6 +1,6 @@
 """Cost of one doStep of IceImpact.fmu against a PythonFMU slave that does no work.
 
-    python benchmarks/fmu_overhead.py [--quick] [--repeat N]
+    python benchmarks/fmu_overhead.py [--quick] [--repeat N] [--base COMMIT]
 
 Both FMUs are built fresh, then simulated in this one process through FMPy's ``simulate_fmu``,
 the Figure 2 scene for 400 s (``--quick``: 40 s) at a communication step of 1 ms, recording every
@@ -8,7 +8,10 @@ output at every step. The core alone (``Simulator.advance`` over the same steps,
 too, so the table splits the cost into model and FMI plumbing. Prints a table and writes
 ``benchmarks/results/fmu_overhead.json``. Times are the best of ``--repeat`` interleaved runs, as
 CPU time of this process (insensitive to other load on the machine; the ratio uses it) and as
-wall-clock time.
+wall-clock time. ``--base COMMIT`` also builds IceImpact.fmu from that commit (its
+``build_fmu.py``, ``fmu_src``, ``fmu_native`` and ``pyproject.toml``, extracted with ``git
+archive``) and steps it in the same interleaved runs: before and after side by side, under the
+same machine load.
 
 The trivial slave (``benchmarks/trivial_fmu/TrivialSlave.py``) keeps PythonFMU's default
 fmi2Get/fmi2Set path (one getter call per variable); IceImpact.fmu's slave reads its outputs in
@@ -23,6 +26,7 @@ import importlib.metadata
 import importlib.util
 import json
 import platform
+import subprocess
 import sys
 import tempfile
 import time
@@ -34,11 +38,22 @@ HERE = Path(__file__).resolve().parent
 STEP = 1e-3  # s
 
 
-def _build_iceimpact(dest: Path) -> Path:
-    spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")
+def _build_iceimpact(dest: Path, root: Path = ROOT) -> Path:
+    """IceImpact.fmu built by ``root``'s build_fmu.py from ``root``'s sources."""
+    spec = importlib.util.spec_from_file_location(f"build_fmu_{abs(hash(root))}",
+                                                  root / "build_fmu.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.build(dest)
+
+
+def _extract_commit(commit: str, dest: Path) -> Path:
+    """What building IceImpact.fmu needs, as of ``commit``, extracted into ``dest``."""
+    archive = subprocess.run(["git", "archive", commit, "build_fmu.py", "fmu_src", "fmu_native",
+                              "pyproject.toml"], cwd=ROOT, check=True, capture_output=True).stdout
+    dest.mkdir(parents=True)
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+    return dest
 
 
 def _check_trivial_interface() -> None:
@@ -106,21 +121,28 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="40 s instead of 400 s")
     parser.add_argument("--stop-time", type=float, help="simulated time, s (overrides --quick)")
     parser.add_argument("--repeat", type=int, default=1, help="runs per case, best kept")
+    parser.add_argument("--base", help="also step IceImpact.fmu built from this commit")
     parser.add_argument("--output", type=Path, default=HERE / "results" / "fmu_overhead.json")
     args = parser.parse_args(argv)
     stop_time = args.stop_time or (40.0 if args.quick else 400.0)
 
     _check_trivial_interface()
     cases = ("IceImpact.fmu", "TrivialSlave.fmu", "Simulator.advance (core, no FMI)")
+    base_case = f"IceImpact.fmu at {args.base}" if args.base else None
     times: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
     with tempfile.TemporaryDirectory(prefix="fmu_overhead_") as tmp:
         fmus = {cases[0]: _build_iceimpact(Path(tmp) / "ice"),
                 cases[1]: _build_trivial(Path(tmp) / "trivial")}
+        if base_case:
+            cases += (base_case,)
+            times[base_case] = []
+            base_root = _extract_commit(args.base, Path(tmp) / "base")
+            fmus[base_case] = _build_iceimpact(Path(tmp) / "ice_base", base_root)
         print(f"Figure 2 scene, {stop_time:g} s at {STEP * 1e3:g} ms, FMPy simulate_fmu "
               f"recording all outputs, best of {args.repeat}")
         steps = {}
-        for _ in range(args.repeat):  # interleaved, so that both FMUs see the same machine load
-            for case in (cases[1], cases[0]):
+        for _ in range(args.repeat):  # interleaved, so that all FMUs see the same machine load
+            for case in (cases[1], cases[0], *cases[3:]):
                 wall, cpu, result = run_fmu(fmus[case], stop_time)
                 times[case].append((wall, cpu))
                 steps[case] = len(result) - 1
@@ -143,13 +165,17 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nIceImpact.fmu / TrivialSlave.fmu = {ratio:.2f}x (CPU time); the model adds "
           f"{us_cpu[cases[0]] - us_cpu[cases[1]]:.1f} us/step through FMI "
           f"(core alone {us_cpu[cases[2]]:.1f} us/step)")
+    if base_case:
+        print(f"at {args.base}: {us_cpu[base_case] / us_cpu[cases[1]]:.2f}x the trivial slave, "
+              f"{us_cpu[base_case] - us_cpu[cases[0]]:.1f} us/step more than this tree")
     print(f"impacts in {stop_time:g} s: {int(result['contact.count'][-1])}")
 
     report = {
         "benchmark": "fmu_overhead",
         "date": datetime.now(UTC).isoformat(timespec="seconds"),
         "command": "python benchmarks/fmu_overhead.py" + (" --quick" if args.quick else "")
-                   + (f" --repeat {args.repeat}" if args.repeat != 1 else ""),
+                   + (f" --repeat {args.repeat}" if args.repeat != 1 else "")
+                   + (f" --base {args.base}" if args.base else ""),
         "scene": "Figure 2 (defaults)",
         "stop_time_s": stop_time,
         "step_s": STEP,
@@ -161,6 +187,9 @@ def main(argv: list[str] | None = None) -> int:
         "best_cpu_s": {case: best[case][1] for case in cases},
         "ratio_iceimpact_to_trivial_cpu": ratio,
         "ratio_iceimpact_to_trivial_wall": us_wall[cases[0]] / us_wall[cases[1]],
+        **({"base": args.base,
+            "ratio_base_to_trivial_cpu": us_cpu[base_case] / us_cpu[cases[1]]}
+           if base_case else {}),
         "impacts": int(result["contact.count"][-1]),
         "environment": {
             "python": platform.python_version(),
