@@ -17,6 +17,12 @@ The trivial slave (``benchmarks/trivial_fmu/TrivialSlave.py``) keeps PythonFMU's
 fmi2Get/fmi2Set path (one getter call per variable); IceImpact.fmu's slave reads its outputs in
 batch calls (``iceimpact.fmi.slave_base``). The yardstick is a do-nothing slave as PythonFMU
 makes it, so the benchmark checks that the trivial slave overrides none of those methods.
+
+A second table splits a step into its FMI calls: each FMU is instantiated with FMPy's
+``FMU2Slave`` and stepped by hand over the first ``CALL_STEPS`` communication points (doStep
+timed alone), then one getReal, getInteger and getBoolean of all its outputs is timed over as
+many calls (what FMPy's recorder asks at every step); best of ``--repeat`` interleaved rounds,
+each round continuing from where the last one stopped.
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 HERE = Path(__file__).resolve().parent
 STEP = 1e-3  # s
+CALL_STEPS = 20000  # steps (and get calls) per round of the per-call table (--quick: 4000)
 
 
 def _build_iceimpact(dest: Path, root: Path = ROOT) -> Path:
@@ -96,6 +103,49 @@ def run_fmu(fmu: Path, stop_time: float) -> tuple[float, float, object]:
     return time.perf_counter() - wall, time.process_time() - cpu, result
 
 
+class CallTimer:
+    """One FMU instance stepped by hand: CPU time per doStep and per round of the three gets."""
+
+    def __init__(self, fmu: Path, name: str):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        md = read_model_description(str(fmu))
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
+                               modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName=name)
+        self.slave.instantiate()
+        self.slave.setupExperiment(startTime=0.0)
+        self.slave.enterInitializationMode()
+        self.slave.exitInitializationMode()
+        outputs = [v for v in md.modelVariables if v.causality == "output"]
+        self.vrs = {kind: [v.valueReference for v in outputs if v.type == kind]
+                    for kind in ("Real", "Integer", "Boolean")}
+        self.k = 0  # communication points k * STEP, as simulate_fmu steps
+
+    def round(self, n: int) -> tuple[float, float]:
+        """us per doStep over the next n steps, us per getReal + getInteger + getBoolean."""
+        slave, k0 = self.slave, self.k
+        cpu = time.process_time()
+        for k in range(k0, k0 + n):
+            slave.doStep(k * STEP, (k + 1) * STEP - k * STEP)
+        step = time.process_time() - cpu
+        self.k = k0 + n
+        get_real, get_integer, get_boolean = slave.getReal, slave.getInteger, slave.getBoolean
+        reals, integers, booleans = self.vrs["Real"], self.vrs["Integer"], self.vrs["Boolean"]
+        cpu = time.process_time()
+        for _ in range(n):
+            get_real(reals)
+            get_integer(integers)
+            get_boolean(booleans)
+        gets = time.process_time() - cpu
+        return 1e6 * step / n, 1e6 * gets / n
+
+    def free(self) -> None:
+        self.slave.terminate()
+        self.slave.freeInstance()
+
+
 def run_core(stop_time: float) -> tuple[float, float, int]:
     """The core stepped over the same communication points, no FMI: wall, CPU (s), steps."""
     sys.path.insert(0, str(ROOT / "fmu_src"))
@@ -148,6 +198,15 @@ def main(argv: list[str] | None = None) -> int:
                 steps[case] = len(result) - 1
             wall, cpu, steps[cases[2]] = run_core(stop_time)
             times[cases[2]].append((wall, cpu))
+        call_steps = CALL_STEPS // 5 if args.quick else CALL_STEPS
+        fmu_cases = (cases[1], cases[0], *cases[3:])
+        timers = {case: CallTimer(fmus[case], f"calls{i}") for i, case in enumerate(fmu_cases)}
+        calls: dict[str, list[tuple[float, float]]] = {case: [] for case in fmu_cases}
+        for _ in range(args.repeat):
+            for case in fmu_cases:
+                calls[case].append(timers[case].round(call_steps))
+        for timer in timers.values():
+            timer.free()
     assert len(set(steps.values())) == 1, steps
     n = steps[cases[0]]
 
@@ -170,6 +229,16 @@ def main(argv: list[str] | None = None) -> int:
               f"{us_cpu[base_case] - us_cpu[cases[0]]:.1f} us/step more than this tree")
     print(f"impacts in {stop_time:g} s: {int(result['contact.count'][-1])}")
 
+    us_calls = {case: {"doStep": min(c[0] for c in calls[case]),
+                       "getReal+getInteger+getBoolean": min(c[1] for c in calls[case])}
+                for case in fmu_cases}
+    print(f"\nper FMI call, FMU2Slave stepped by hand over {call_steps} steps per round (CPU us, "
+          f"best of {args.repeat})")
+    print(f"{'case':{width}s}  {'doStep':>8s}  {'3 gets':>8s}")
+    for case in fmu_cases:
+        print(f"{case:{width}s}  {us_calls[case]['doStep']:8.2f}  "
+              f"{us_calls[case]['getReal+getInteger+getBoolean']:8.2f}")
+
     report = {
         "benchmark": "fmu_overhead",
         "date": datetime.now(UTC).isoformat(timespec="seconds"),
@@ -191,6 +260,8 @@ def main(argv: list[str] | None = None) -> int:
             "ratio_base_to_trivial_cpu": us_cpu[base_case] / us_cpu[cases[1]]}
            if base_case else {}),
         "impacts": int(result["contact.count"][-1]),
+        "call_steps": call_steps,
+        "us_per_call_cpu": us_calls,
         "environment": {
             "python": platform.python_version(),
             "platform": platform.platform(),
