@@ -24,10 +24,10 @@ from fmpy.fmi1 import FMICallException
 from pythonfmu import Fmi2Slave
 
 from fmu_host import DT, FMI_ERROR, FMI_OK, Instance, errors
+from IceImpact import IceImpact
 from iceimpact import Scene, Simulator
 from iceimpact.contract import INPUTS, OUTPUTS, PARAMETERS, VARIABLES
 from iceimpact.fmi.adapter import FmuModel
-from IceImpact import IceImpact
 
 KINDS = (float, int, bool)
 DEFAULT_GET = {float: Fmi2Slave.get_real, int: Fmi2Slave.get_integer, bool: Fmi2Slave.get_boolean}

@@ -17,10 +17,10 @@ getter per variable, with a type test each): the value references are the contra
 in order (the order they are registered in), so one table per FMI type, derived from the
 contract when the slave class is made, maps a value reference to its slot in the model's
 ``published`` outputs (read after every step: one loop over the value references, no call
-per variable) or to the name of a parameter or input. Anything else (parameters, inputs, a model that publishes nothing) is asked
-of the model variable by variable. A value reference that is not a variable of the call's type
-(or, for fmi2Set, an output) is refused with ``fmi2Error`` and a message naming it, and the call
-then reads or sets nothing.
+per variable) or to the name of a parameter or input. Anything else (parameters, inputs, a model
+that publishes nothing) is asked of the model variable by variable. A value reference that is not
+a variable of the call's type (or, for fmi2Set, an output) is refused with ``fmi2Error`` and a
+message naming it, and the call then reads or sets nothing.
 
 Only slaves import this module (it needs PythonFMU); they import it as ``iceimpact.fmi...``,
 which inside an FMU is the FMU's private copy of the core (``iceimpact_fmu_boot``).
@@ -95,7 +95,7 @@ def _batch_set(kind: type):
                 self._all_of(vrs, kind, "Set")  # refuses the call, naming the value reference
                 return
         set_value = self._model.set
-        for vr, value in zip(vrs, values):
+        for vr, value in zip(vrs, values, strict=False):  # as long as each other (C)
             set_value(names[vr], value)
 
     set_.__name__ = f"set_{_TYPE_NAMES[kind].lower()}"
