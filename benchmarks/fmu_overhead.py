@@ -1,6 +1,6 @@
 """Cost of one doStep of IceImpact.fmu against a PythonFMU slave that does no work.
 
-    python benchmarks/fmu_overhead.py [--quick] [--repeat N]
+    python benchmarks/fmu_overhead.py [--quick] [--repeat N] [--base COMMIT]
 
 Both FMUs are built fresh, then simulated in this one process through FMPy's ``simulate_fmu``,
 the Figure 2 scene for 400 s (``--quick``: 40 s) at a communication step of 1 ms, recording every
@@ -8,7 +8,21 @@ output at every step. The core alone (``Simulator.advance`` over the same steps,
 too, so the table splits the cost into model and FMI plumbing. Prints a table and writes
 ``benchmarks/results/fmu_overhead.json``. Times are the best of ``--repeat`` interleaved runs, as
 CPU time of this process (insensitive to other load on the machine; the ratio uses it) and as
-wall-clock time.
+wall-clock time. ``--base COMMIT`` also builds IceImpact.fmu from that commit (its
+``build_fmu.py``, ``fmu_src``, ``fmu_native`` and ``pyproject.toml``, extracted with ``git
+archive``) and steps it in the same interleaved runs: before and after side by side, under the
+same machine load.
+
+The trivial slave (``benchmarks/trivial_fmu/TrivialSlave.py``) keeps PythonFMU's default
+fmi2Get/fmi2Set path (one getter call per variable); IceImpact.fmu's slave reads its outputs in
+batch calls (``iceimpact.fmi.slave_base``). The yardstick is a do-nothing slave as PythonFMU
+makes it, so the benchmark checks that the trivial slave overrides none of those methods.
+
+A second table splits a step into its FMI calls: each FMU is instantiated with FMPy's
+``FMU2Slave`` and stepped by hand over the first ``CALL_STEPS`` communication points (doStep
+timed alone), then one getReal, getInteger and getBoolean of all its outputs is timed over as
+many calls (what FMPy's recorder asks at every step); best of ``--repeat`` interleaved rounds,
+each round continuing from where the last one stopped.
 """
 
 from __future__ import annotations
@@ -18,6 +32,7 @@ import importlib.metadata
 import importlib.util
 import json
 import platform
+import subprocess
 import sys
 import tempfile
 import time
@@ -27,13 +42,25 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 HERE = Path(__file__).resolve().parent
 STEP = 1e-3  # s
+CALL_STEPS = 20000  # steps (and get calls) per round of the per-call table (--quick: 4000)
 
 
-def _build_iceimpact(dest: Path) -> Path:
-    spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")
+def _build_iceimpact(dest: Path, root: Path = ROOT) -> Path:
+    """IceImpact.fmu built by ``root``'s build_fmu.py from ``root``'s sources."""
+    spec = importlib.util.spec_from_file_location(f"build_fmu_{abs(hash(root))}",
+                                                  root / "build_fmu.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.build(dest)
+
+
+def _extract_commit(commit: str, dest: Path) -> Path:
+    """What building IceImpact.fmu needs, as of ``commit``, extracted into ``dest``."""
+    archive = subprocess.run(["git", "archive", commit, "build_fmu.py", "fmu_src", "fmu_native",
+                              "pyproject.toml"], cwd=ROOT, check=True, capture_output=True).stdout
+    dest.mkdir(parents=True)
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+    return dest
 
 
 def _check_trivial_interface() -> None:
@@ -49,6 +76,11 @@ def _check_trivial_interface() -> None:
     kinds = {trivial.Real: float, trivial.Integer: int, trivial.Boolean: bool}
     assert trivial.INPUTS == tuple(v.name for v in INPUTS), trivial.INPUTS
     assert [(n, kinds[k]) for n, k in trivial.OUTPUTS] == [(o.name, o.kind) for o in OUTPUTS]
+    # PythonFMU's own fmi2Get/fmi2Set path: the yardstick is a slave as PythonFMU makes it
+    for kind in ("real", "integer", "boolean", "string"):
+        for method in (f"get_{kind}", f"set_{kind}"):
+            assert getattr(trivial.TrivialSlave, method) is getattr(trivial.Fmi2Slave, method), (
+                f"TrivialSlave overrides PythonFMU's {method}")
 
 
 def _build_trivial(dest: Path) -> Path:
@@ -69,6 +101,49 @@ def run_fmu(fmu: Path, stop_time: float) -> tuple[float, float, object]:
     wall, cpu = time.perf_counter(), time.process_time()
     result = simulate_fmu(str(fmu), start_time=0.0, stop_time=stop_time, output_interval=STEP)
     return time.perf_counter() - wall, time.process_time() - cpu, result
+
+
+class CallTimer:
+    """One FMU instance stepped by hand: CPU time per doStep and per round of the three gets."""
+
+    def __init__(self, fmu: Path, name: str):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+
+        md = read_model_description(str(fmu))
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
+                               modelIdentifier=md.coSimulation.modelIdentifier,
+                               instanceName=name)
+        self.slave.instantiate()
+        self.slave.setupExperiment(startTime=0.0)
+        self.slave.enterInitializationMode()
+        self.slave.exitInitializationMode()
+        outputs = [v for v in md.modelVariables if v.causality == "output"]
+        self.vrs = {kind: [v.valueReference for v in outputs if v.type == kind]
+                    for kind in ("Real", "Integer", "Boolean")}
+        self.k = 0  # communication points k * STEP, as simulate_fmu steps
+
+    def round(self, n: int) -> tuple[float, float]:
+        """us per doStep over the next n steps, us per getReal + getInteger + getBoolean."""
+        slave, k0 = self.slave, self.k
+        cpu = time.process_time()
+        for k in range(k0, k0 + n):
+            slave.doStep(k * STEP, (k + 1) * STEP - k * STEP)
+        step = time.process_time() - cpu
+        self.k = k0 + n
+        get_real, get_integer, get_boolean = slave.getReal, slave.getInteger, slave.getBoolean
+        reals, integers, booleans = self.vrs["Real"], self.vrs["Integer"], self.vrs["Boolean"]
+        cpu = time.process_time()
+        for _ in range(n):
+            get_real(reals)
+            get_integer(integers)
+            get_boolean(booleans)
+        gets = time.process_time() - cpu
+        return 1e6 * step / n, 1e6 * gets / n
+
+    def free(self) -> None:
+        self.slave.terminate()
+        self.slave.freeInstance()
 
 
 def run_core(stop_time: float) -> tuple[float, float, int]:
@@ -96,26 +171,42 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="40 s instead of 400 s")
     parser.add_argument("--stop-time", type=float, help="simulated time, s (overrides --quick)")
     parser.add_argument("--repeat", type=int, default=1, help="runs per case, best kept")
+    parser.add_argument("--base", help="also step IceImpact.fmu built from this commit")
     parser.add_argument("--output", type=Path, default=HERE / "results" / "fmu_overhead.json")
     args = parser.parse_args(argv)
     stop_time = args.stop_time or (40.0 if args.quick else 400.0)
 
     _check_trivial_interface()
     cases = ("IceImpact.fmu", "TrivialSlave.fmu", "Simulator.advance (core, no FMI)")
+    base_case = f"IceImpact.fmu at {args.base}" if args.base else None
     times: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
     with tempfile.TemporaryDirectory(prefix="fmu_overhead_") as tmp:
         fmus = {cases[0]: _build_iceimpact(Path(tmp) / "ice"),
                 cases[1]: _build_trivial(Path(tmp) / "trivial")}
+        if base_case:
+            cases += (base_case,)
+            times[base_case] = []
+            base_root = _extract_commit(args.base, Path(tmp) / "base")
+            fmus[base_case] = _build_iceimpact(Path(tmp) / "ice_base", base_root)
         print(f"Figure 2 scene, {stop_time:g} s at {STEP * 1e3:g} ms, FMPy simulate_fmu "
               f"recording all outputs, best of {args.repeat}")
         steps = {}
-        for _ in range(args.repeat):  # interleaved, so that both FMUs see the same machine load
-            for case in (cases[1], cases[0]):
+        for _ in range(args.repeat):  # interleaved, so that all FMUs see the same machine load
+            for case in (cases[1], cases[0], *cases[3:]):
                 wall, cpu, result = run_fmu(fmus[case], stop_time)
                 times[case].append((wall, cpu))
                 steps[case] = len(result) - 1
             wall, cpu, steps[cases[2]] = run_core(stop_time)
             times[cases[2]].append((wall, cpu))
+        call_steps = CALL_STEPS // 5 if args.quick else CALL_STEPS
+        fmu_cases = (cases[1], cases[0], *cases[3:])
+        timers = {case: CallTimer(fmus[case], f"calls{i}") for i, case in enumerate(fmu_cases)}
+        calls: dict[str, list[tuple[float, float]]] = {case: [] for case in fmu_cases}
+        for _ in range(args.repeat):
+            for case in fmu_cases:
+                calls[case].append(timers[case].round(call_steps))
+        for timer in timers.values():
+            timer.free()
     assert len(set(steps.values())) == 1, steps
     n = steps[cases[0]]
 
@@ -133,13 +224,27 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nIceImpact.fmu / TrivialSlave.fmu = {ratio:.2f}x (CPU time); the model adds "
           f"{us_cpu[cases[0]] - us_cpu[cases[1]]:.1f} us/step through FMI "
           f"(core alone {us_cpu[cases[2]]:.1f} us/step)")
+    if base_case:
+        print(f"at {args.base}: {us_cpu[base_case] / us_cpu[cases[1]]:.2f}x the trivial slave, "
+              f"{us_cpu[base_case] - us_cpu[cases[0]]:.1f} us/step more than this tree")
     print(f"impacts in {stop_time:g} s: {int(result['contact.count'][-1])}")
+
+    us_calls = {case: {"doStep": min(c[0] for c in calls[case]),
+                       "getReal+getInteger+getBoolean": min(c[1] for c in calls[case])}
+                for case in fmu_cases}
+    print(f"\nper FMI call, FMU2Slave stepped by hand over {call_steps} steps per round (CPU us, "
+          f"best of {args.repeat})")
+    print(f"{'case':{width}s}  {'doStep':>8s}  {'3 gets':>8s}")
+    for case in fmu_cases:
+        print(f"{case:{width}s}  {us_calls[case]['doStep']:8.2f}  "
+              f"{us_calls[case]['getReal+getInteger+getBoolean']:8.2f}")
 
     report = {
         "benchmark": "fmu_overhead",
         "date": datetime.now(UTC).isoformat(timespec="seconds"),
         "command": "python benchmarks/fmu_overhead.py" + (" --quick" if args.quick else "")
-                   + (f" --repeat {args.repeat}" if args.repeat != 1 else ""),
+                   + (f" --repeat {args.repeat}" if args.repeat != 1 else "")
+                   + (f" --base {args.base}" if args.base else ""),
         "scene": "Figure 2 (defaults)",
         "stop_time_s": stop_time,
         "step_s": STEP,
@@ -151,7 +256,12 @@ def main(argv: list[str] | None = None) -> int:
         "best_cpu_s": {case: best[case][1] for case in cases},
         "ratio_iceimpact_to_trivial_cpu": ratio,
         "ratio_iceimpact_to_trivial_wall": us_wall[cases[0]] / us_wall[cases[1]],
+        **({"base": args.base,
+            "ratio_base_to_trivial_cpu": us_cpu[base_case] / us_cpu[cases[1]]}
+           if base_case else {}),
         "impacts": int(result["contact.count"][-1]),
+        "call_steps": call_steps,
+        "us_per_call_cpu": us_calls,
         "environment": {
             "python": platform.python_version(),
             "platform": platform.platform(),

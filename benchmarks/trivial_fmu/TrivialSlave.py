@@ -2,6 +2,14 @@
 
 The floor for any PythonFMU FMU: ``benchmarks/fmu_overhead.py`` steps and records it exactly like
 IceImpact.fmu, so the difference between the two is the cost of the model core.
+
+It reads and sets its variables the way a PythonFMU slave does by default: it registers a getter
+(and for the inputs a setter) per variable and keeps PythonFMU's own ``get_real``,
+``get_integer``, ``get_boolean`` and ``set_*``, which call one getter per value reference after a
+type test. IceImpact's slave replaces those with batch calls over value-reference tables
+(``iceimpact.fmi.slave_base``); this one does not, on purpose: the yardstick is a do-nothing
+PythonFMU slave as PythonFMU makes it (``benchmarks/fmu_overhead.py`` checks it overrides none of
+them).
 """
 
 from __future__ import annotations

@@ -22,8 +22,7 @@ the FMI library.
 from __future__ import annotations
 
 from collections.abc import Callable
-from functools import partial
-from operator import getitem
+from operator import itemgetter
 from typing import Any
 
 from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES, STRUCTURE_INPUTS
@@ -39,7 +38,11 @@ TUNERS: dict[str, Callable[[Simulator, Any], None]] = {
     "impact.e": Simulator.set_restitution,
 }
 
-_OUTPUT_FIELDS = {o.name: o.field for o in OUTPUTS}
+#: Where each output stands in :attr:`FmuModel.published` (the contract's order).
+_OUTPUT_SLOTS = {o.name: slot for slot, o in enumerate(OUTPUTS)}
+_T_LAST = _OUTPUT_SLOTS["contact.t_last"]
+#: The StepReport fields of the outputs, in the contract's order, read in one call.
+_REPORT_ROW = itemgetter(*(o.field for o in OUTPUTS))
 
 #: Parameters of the built-in structure that an external one (structure.model = 2) ignores.
 IGNORED_WITH_EXTERNAL = ("structure.c", "structure.x0", "structure.v0")
@@ -49,6 +52,7 @@ class FmuModel(FmuLifecycle):
     """One IceImpact.fmu instance's values, simulator and life-cycle rules (no FMI library)."""
 
     PARAMETERS = PARAMETERS
+    OUTPUTS = OUTPUTS
     CORE_NAME = "simulator"
     CODEC = state.CODEC
 
@@ -59,9 +63,6 @@ class FmuModel(FmuLifecycle):
         #: the external structure's inputs (structure.model = 2), by name
         self.structure_in: dict[str, Any] = {v.name: v.start for v in STRUCTURE_INPUTS}
         self.sim: Simulator | None = None
-        #: the outputs' values by StepReport field (and "t_last_master"), refreshed by
-        #: :meth:`publish` whenever the report changes: the FMI getters read it directly
-        self.outputs: dict[str, Any] = {}
         self.publish(Simulator(Scene()).report)
         self.penetration_logged = False
 
@@ -71,34 +72,25 @@ class FmuModel(FmuLifecycle):
         return self.sim is not None
 
     def read(self, name: str) -> Any:
+        slot = _OUTPUT_SLOTS.get(name)
+        if slot is not None:
+            return self.published[slot]
         if name == FLOW_INPUT.name:
             return self.flow_u
-        if name in self.structure_in:
-            return self.structure_in[name]
-        if name == "contact.t_last":
-            return self.t_last()
-        return getattr(self.report, _OUTPUT_FIELDS[name])
-
-    def t_last(self) -> float:
-        """contact.t_last in the master's time frame, s (-1 before the first impact)."""
-        t = self.report.t_last
-        return t + self.start_time if t >= 0.0 else -1.0
+        return self.structure_in[name]
 
     def publish(self, report: StepReport) -> None:
-        """Make ``report`` the outputs' values."""
+        """Make ``report`` the outputs' values (:attr:`published`), contact.t_last in the
+        master's time frame (-1 before the first impact)."""
         self.report = report
-        outputs = self.outputs
-        outputs.update(report.__dict__)
-        t = report.t_last  # as t_last(), inline: this runs at every step
-        outputs["t_last_master"] = t + self.start_time if t >= 0.0 else -1.0
-
-    def getter(self, name: str) -> Callable[[], Any]:
-        if name == "contact.t_last":
-            return partial(getitem, self.outputs, "t_last_master")
-        field = _OUTPUT_FIELDS.get(name)
-        if field is None:
-            return super().getter(name)
-        return partial(getitem, self.outputs, field)  # what read() gives, with no Python call
+        row = _REPORT_ROW(report.__dict__)
+        t = row[_T_LAST]
+        # the report's value is already the output's with start time 0 (t + 0.0 is t for t > 0)
+        # and before the first impact (-1.0): the row is then used as it is, at most steps
+        if not ((t > 0.0 and self.start_time == 0.0) or t == -1.0):
+            row = list(row)
+            row[_T_LAST] = t + self.start_time if t >= 0.0 else -1.0
+        self.published = row
 
     def write_input(self, name: str, value: Any) -> bool:
         if name == FLOW_INPUT.name:
@@ -126,10 +118,12 @@ class FmuModel(FmuLifecycle):
 
     def advance(self, current_time: float, step_size: float) -> bool:
         sim = self.sim
-        before = sim.save() if self.pending else None
+        pending = self.pending
+        before = sim.save() if pending else None
         try:
-            for name, value in self.pending.items():
-                TUNERS[name](sim, value)
+            if pending:
+                for name, value in pending.items():
+                    TUNERS[name](sim, value)
             structure = (tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS)
                          if sim.external else None)
             report = sim.advance(step_size, self.flow_u, structure)
@@ -138,9 +132,9 @@ class FmuModel(FmuLifecycle):
                 sim.restore(before)  # the tunables applied before the refusal are undone
             self._log(ERROR, f"doStep at t = {current_time!r} s: {exc}")
             return False
-        if self.pending:
-            self.values.update(self.pending)
-            self.pending.clear()
+        if pending:
+            self.values.update(pending)
+            pending.clear()
         self.publish(report)
         if report.penetration > 0.0 and not self.penetration_logged:
             self.penetration_logged = True

@@ -24,7 +24,7 @@ reports an error that must make the FMI call in progress return ``fmi2Error``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..contract import Variable
@@ -36,6 +36,7 @@ OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 
 #: A master's communication point may differ from the sum of the step sizes by rounding only.
 TIME_RTOL = 1e-9
+_INF = math.inf
 
 
 class FmuLifecycle:
@@ -46,6 +47,8 @@ class FmuLifecycle:
 
     #: The contract's parameters (their start values are the values before any fmi2Set).
     PARAMETERS: tuple[Variable, ...] = ()
+    #: The contract's outputs, in the order of :attr:`published`.
+    OUTPUTS: tuple[Variable, ...] = ()
     #: What :meth:`build` makes from the values, as messages name it ("simulator").
     CORE_NAME = "model"
     #: The layout of this FMU's serialized state.
@@ -61,6 +64,10 @@ class FmuLifecycle:
         self.time = 0.0
         self.pending: dict[str, Any] = {}   # tunable values set since the last step
         self.error: str | None = None       # why the instance cannot step
+        #: The outputs' values in the order of :attr:`OUTPUTS` (a list or tuple), for a model
+        #: that keeps them ready (refreshed whenever they change; the FMU reads them at every
+        #: step without a call per variable); None: every output is read through :meth:`get`.
+        self.published: Sequence[Any] | None = None
 
     # hooks of a model ----------------------------------------------------------------------------
     @property
@@ -92,11 +99,6 @@ class FmuLifecycle:
         if name in self.values:
             return self.pending.get(name, self.values[name])
         return self.read(name)
-
-    def getter(self, name: str) -> Callable[[], Any]:
-        """The function an FMI library calls for fmi2Get of ``name``: :meth:`get`, unless a
-        model gives a quicker one for its outputs (read after every step)."""
-        return lambda: self.get(name)
 
     def set(self, name: str, value: Any) -> None:
         """fmi2Set of a parameter or the input; validated when it takes effect."""
@@ -144,26 +146,25 @@ class FmuLifecycle:
     def do_step(self, current_time: float, step_size: float) -> bool:
         """One communication step; False (fmi2Discard) refuses it and changes nothing."""
         try:
-            return self._do_step(current_time, step_size)
+            if not self.initialized and not self.initialize("doStep"):
+                self._fail(f"doStep refused: {self.error}")
+                return False
+            if not 0.0 < step_size < _INF:  # finite and > 0 (NaN fails it)
+                self._log(ERROR, f"doStep: communication step size = {step_size!r} s is not "
+                          "allowed: finite and > 0")
+                return False
+            now = self.time
+            scale = now if now >= 1.0 else (-now if now <= -1.0 else 1.0)  # max(1, |now|)
+            if not (-_INF < current_time < _INF
+                    and abs(current_time - now) <= TIME_RTOL * scale):
+                self._log(ERROR, f"doStep: current communication point = {current_time!r} s "
+                          f"does not match the time of the FMU, {self.time!r} s (the end of the "
+                          "last step)")
+                return False
+            if not self.advance(current_time, step_size):
+                return False
+            self.time = current_time + step_size
+            return True
         except Exception as exc:  # never let an exception reach the FMI library
             self._log(ERROR, f"doStep at t = {current_time!r} s failed: {exc!r}")
             return False
-
-    def _do_step(self, current_time: float, step_size: float) -> bool:
-        if not self.initialized and not self.initialize("doStep"):
-            self._fail(f"doStep refused: {self.error}")
-            return False
-        if not (math.isfinite(step_size) and step_size > 0.0):
-            self._log(ERROR, f"doStep: communication step size = {step_size!r} s is not "
-                      "allowed: finite and > 0")
-            return False
-        now = self.time
-        scale = now if now >= 1.0 else (-now if now <= -1.0 else 1.0)  # max(1, |now|)
-        if not (math.isfinite(current_time) and abs(current_time - now) <= TIME_RTOL * scale):
-            self._log(ERROR, f"doStep: current communication point = {current_time!r} s does "
-                      f"not match the time of the FMU, {self.time!r} s (the end of the last step)")
-            return False
-        if not self.advance(current_time, step_size):
-            return False
-        self.time = current_time + step_size
-        return True

@@ -12,12 +12,24 @@ the instance, and a later ``fmi2FreeInstance`` can then crash the host. Failures
 (variable, value, allowed range) and reported through ``do_step`` returning False
 (``fmi2Discard``) or, where the call must fail, through ``fail_call`` (``fmi2Error``).
 
+fmi2Get and fmi2Set are batch calls here (PythonFMU's own ``get_real`` and friends call one
+getter per variable, with a type test each): the value references are the contract's variables
+in order (the order they are registered in), so one table per FMI type, derived from the
+contract when the slave class is made, maps a value reference to its slot in the model's
+``published`` outputs (read after every step: one loop over the value references, no call
+per variable) or to the name of a parameter or input. Anything else (parameters, inputs, a model
+that publishes nothing) is asked of the model variable by variable. A value reference that is not
+a variable of the call's type (or, for fmi2Set, an output) is refused with ``fmi2Error`` and a
+message naming it, and the call then reads or sets nothing.
+
 Only slaves import this module (it needs PythonFMU); they import it as ``iceimpact.fmi...``,
 which inside an FMU is the FMU's private copy of the core (``iceimpact_fmu_boot``).
 """
 
 from __future__ import annotations
 
+import math
+from functools import partial
 from types import ModuleType
 from typing import Any, ClassVar
 
@@ -35,15 +47,59 @@ from pythonfmu.enums import Fmi2Status
 
 from iceimpact_fmu_boot import fail_call
 
-from ..contract import CONTINUOUS, DISCRETE, FIXED, INPUT, OUTPUT, PARAMETER, TUNABLE
+from ..contract import CONTINUOUS, DISCRETE, FIXED, INPUT, OUTPUT, PARAMETER, TUNABLE, Variable
+from ..scene import ParameterError
 from .lifecycle import FmuLifecycle
 from .pythonfmu_fixes import guard_native_exit
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
+#: The FMI types, by the contract's kind, as the FMI functions name them (fmi2GetReal).
+_TYPE_NAMES = {float: "Real", int: "Integer", bool: "Boolean", str: "String"}
+#: What a refused fmi2Get gives for a value it cannot read (the call returns fmi2Error).
+_UNDEFINED = {float: math.nan, int: 0, bool: False, str: ""}
 _CAUSALITY = {PARAMETER: Fmi2Causality.parameter, INPUT: Fmi2Causality.input,
               OUTPUT: Fmi2Causality.output}
 _VARIABILITY = {FIXED: Fmi2Variability.fixed, TUNABLE: Fmi2Variability.tunable,
                 CONTINUOUS: Fmi2Variability.continuous, DISCRETE: Fmi2Variability.discrete}
+
+
+def _batch_get(kind: type):
+    """PythonFMU's ``get_<type>(vrs)`` for the FMI type of ``kind``: the published outputs read
+    through the value-reference table (a loop, quicker than a comprehension on Python 3.11),
+    anything else asked of the model variable by variable."""
+    def get(self: FmuSlave, vrs: list[int]) -> list[Any]:
+        published = self._model.published
+        if published is not None:
+            slots = self._output_slots[kind]
+            values = []
+            try:
+                for vr in vrs:
+                    values.append(published[slots[vr]])
+                return values
+            except KeyError:  # not only outputs of this type
+                pass
+        return self._get(vrs, kind)
+
+    get.__name__ = f"get_{_TYPE_NAMES[kind].lower()}"
+    return get
+
+
+def _batch_set(kind: type):
+    """PythonFMU's ``set_<type>(vrs, values)`` for the FMI type of ``kind``: every value
+    reference checked first (a parameter or input of this type), then each value passed to the
+    model; a call with one that is not is refused and sets nothing."""
+    def set_(self: FmuSlave, vrs: list[int], values: list[Any]) -> None:
+        names = self._settable[kind]
+        for vr in vrs:
+            if vr not in names:
+                self._all_of(vrs, kind, "Set")  # refuses the call, naming the value reference
+                return
+        set_value = self._model.set
+        for vr, value in zip(vrs, values, strict=False):  # as long as each other (C)
+            set_value(names[vr], value)
+
+    set_.__name__ = f"set_{_TYPE_NAMES[kind].lower()}"
+    return set_
 
 
 class FmuSlave(Fmi2Slave):
@@ -63,23 +119,41 @@ class FmuSlave(Fmi2Slave):
         cls.default_experiment = DefaultExperiment(start_time=experiment.start_time,
                                                    stop_time=experiment.stop_time,
                                                    step_size=experiment.step_size)
+        # The value reference of a variable is its index in the contract (see __init__).
+        variables: tuple[Variable, ...] = contract.VARIABLES
+        outputs = tuple(v for v in variables if v.causality == OUTPUT)
+        if cls.MODEL.OUTPUTS not in ((), outputs):
+            raise TypeError(f"{cls.MODEL.__name__}.OUTPUTS are not the contract's outputs")
+        slot = {v.name: i for i, v in enumerate(outputs)}
+        cls._variables = variables
+        #: by FMI type: value reference -> slot in the model's published outputs
+        cls._output_slots = {kind: {vr: slot[v.name] for vr, v in enumerate(variables)
+                                    if v.kind is kind and v.causality == OUTPUT}
+                             for kind in _TYPE_NAMES}
+        #: by FMI type: value reference -> name, for every variable but the outputs
+        cls._settable = {kind: {vr: v.name for vr, v in enumerate(variables)
+                                if v.kind is kind and v.causality != OUTPUT}
+                         for kind in _TYPE_NAMES}
+        #: by FMI type: the value references fmi2Get reads
+        cls._readable = {kind: frozenset(vr for vr, v in enumerate(variables) if v.kind is kind)
+                         for kind in _TYPE_NAMES}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         guard_native_exit()
         self._model = self.MODEL(self._log, fail=self._fail)
-        for var in self.CONTRACT.VARIABLES:
+        for vr, var in enumerate(self._variables):
             output = var.causality == OUTPUT
-            self.register_variable(_TYPES[var.kind](
+            scalar = _TYPES[var.kind](
                 var.name, causality=_CAUSALITY[var.causality],
                 variability=_VARIABILITY[var.variability], description=var.description,
                 initial=Fmi2Initial.calculated if output else None,
-                getter=self._model.getter(var.name),
-                setter=None if output else self._setter(var.name)),
-                nested=False)
-
-    def _setter(self, name: str):
-        return lambda value: self._model.set(name, value)
+                getter=partial(self._model.get, var.name),
+                setter=None if output else partial(self._model.set, var.name))
+            self.register_variable(scalar, nested=False)
+            if scalar.value_reference != vr:  # the batch tables rely on it
+                raise RuntimeError(f"{var.name}: value reference {scalar.value_reference}, "
+                                   f"expected {vr}")
 
     def _log(self, status: int, message: str) -> None:
         # FMI loggers treat the message as a printf format string
@@ -88,6 +162,47 @@ class FmuSlave(Fmi2Slave):
     def _fail(self, message: str) -> None:
         """Log an error and make the FMI call in progress return fmi2Error."""
         fail_call(self, message.replace("%", "%%"))
+
+    # fmi2Get / fmi2Set: batch calls over tables made from the contract --------------------------
+    def _get(self, vrs: list[int], kind: type) -> list[Any]:
+        """fmi2Get<kind> the slow way: each variable asked of the model (parameters, inputs,
+        a model that publishes nothing), or the call refused."""
+        if not self._all_of(vrs, kind, "Get"):
+            return [_UNDEFINED[kind]] * len(vrs)
+        get = self._model.get
+        variables = self._variables
+        return [kind(get(variables[vr].name)) for vr in vrs]
+
+    def _all_of(self, vrs: list[int], kind: type, verb: str) -> bool:
+        """True if every value reference is a variable of type ``kind`` (fmi2Set: not an
+        output); else the call is refused (fmi2Error) naming the first that is not."""
+        table = self._settable[kind] if verb == "Set" else self._readable[kind]
+        for vr in vrs:
+            if vr not in table:
+                self._fail(self._not_allowed(vr, kind, verb, sorted(table)))
+                return False
+        return True
+
+    def _not_allowed(self, vr: int, kind: type, verb: str, allowed: list[int]) -> str:
+        type_name = _TYPE_NAMES[kind]
+        what = f"the value reference of a {type_name} variable"
+        if verb == "Set":
+            what += " that is a parameter or an input"
+        refs = _ranges(allowed) if allowed else f"{type(self).__name__}.fmu has none"
+        text = str(ParameterError("value reference", vr, f"{what} ({refs})"))
+        if 0 <= vr < len(self._variables):
+            var = self._variables[vr]
+            text += f"; {vr} is {var.name}, {var.causality}, {_TYPE_NAMES[var.kind]}"
+        return f"fmi2{verb}{type_name}: {text}; nothing is {'set' if verb == 'Set' else 'read'}"
+
+    get_real = _batch_get(float)
+    get_integer = _batch_get(int)
+    get_boolean = _batch_get(bool)
+    get_string = _batch_get(str)
+    set_real = _batch_set(float)
+    set_integer = _batch_set(int)
+    set_boolean = _batch_set(bool)
+    set_string = _batch_set(str)
 
     # FMI life cycle ------------------------------------------------------------------------------
     def setup_experiment(self, start_time: float, stop_time: float | None,
@@ -132,3 +247,14 @@ class FmuSlave(Fmi2Slave):
             return cls.MODEL.CODEC.decode(blob)
         except Exception as exc:  # refused, with the reason, by _set_fmu_state
             return {"refused": f"fmi2DeSerializeFMUstate: {exc}"}
+
+
+def _ranges(numbers: list[int]) -> str:
+    """Sorted integers as runs: [0, 1, 2, 5] -> "0-2, 5"."""
+    runs: list[list[int]] = []
+    for n in numbers:
+        if runs and n == runs[-1][1] + 1:
+            runs[-1][1] = n
+        else:
+            runs.append([n, n])
+    return ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in runs)
