@@ -1060,3 +1060,37 @@ def test_method_3_work_per_simulated_second_is_proportional_to_the_rate(kind):
         r = sim.advance(1e-3, 0.1 if i % 2 == 0 else -0.1)
         assert r.gap >= 0.0 and r.impulse >= 0.0 and math.isfinite(r.x)
     assert sim.solver.nfev <= 12.0 * rate * sim.solver.chunk_hi
+
+
+def test_a_light_pair_sticking_far_from_its_equilibrium_parts_nothing_in_bounded_time():
+    """Method 1, linear drag: a light pair (m = 2.2e-6 kg, M = 1.1e-7 kg, k = 5.2e-9 N/m) under
+    b = 4e5 kg/s sticks towards an equilibrium b u / k = 7.7e12 m away, where a position's ulp
+    is 1e-3 m. The contact force (k x, 5e-13 N at 0.1 mm) was evaluated as b (u - v) - M a,
+    terms of b u = 4e4 N, below its own rounding: the separation search took over 60 s of
+    CPU for the first 1 ms. Positions, force and impulse now come from increments from the
+    anchor: each step's impulse equals the structure's momentum balance m dv + k x dt (c = 0),
+    and the pair drifts with the flow."""
+    import signal
+
+    def _out_of_time(signum, frame):
+        raise TimeoutError("the sticking phase took over 5 s of CPU")
+
+    m, k, u, h = 2.2e-6, 5.2e-9, 0.1, 1e-3
+    sim = Simulator(Scene(structure_m=m, structure_c=0.0, structure_k=k, structure_x0=0.0,
+                          structure_v0=u, ice_M=1.1e-7, ice_A=4004.0, ice_Cd=2.0, ice_z0=0.0,
+                          ice_v0=u, impact_e=0.0, drag_model=1, flow_u=u, solver_method=1))
+    assert sim.scene.drag_b == pytest.approx(4e5, rel=1e-5)
+    previous = signal.signal(signal.SIGPROF, _out_of_time)
+    signal.setitimer(signal.ITIMER_PROF, 5.0)
+    try:
+        v_before, x_before = u, 0.0
+        for i in range(20):
+            r = sim.advance(h)
+            assert r.sticking and r.impulse >= 0.0
+            balance = m * (r.v - v_before) + k * 0.5 * (r.x + x_before) * h
+            assert r.impulse == pytest.approx(balance, rel=1e-6, abs=1e-24)
+            assert r.x == pytest.approx(u * (i + 1) * h, rel=1e-9)
+            v_before, x_before = r.v, r.x
+    finally:
+        signal.setitimer(signal.ITIMER_PROF, 0.0)
+        signal.signal(signal.SIGPROF, previous)
