@@ -511,7 +511,7 @@ def test_method_3_bodies_parting_under_noise_still_meet_again():
 
 def test_sticking_far_from_its_equilibrium_keeps_the_impulse_sound():
     """Method 1, linear drag: a soft structure (k = 1.2e-4 N/m) pressed by a strong drag
-    (b = 8.1e5 kg/s) sticks towards an equilibrium b u / k = 6.9e8 m away. Positions about it
+    (b = 8.1e4 kg/s) sticks towards an equilibrium b u / k = 6.9e7 m away. Positions about it
     carry its rounding (1e-7 m) and b (xb - xa) turned that into contact impulses of +-0.1 N.s,
     some tensile. The displacement increments now come from the exponents of the over-damped
     motion: each step's impulse equals the structure's momentum balance
