@@ -205,3 +205,20 @@ def test_contact_force_sign():
     # ice pushed towards the structure (a_z > a_x): compressive, positive
     assert contact_force(-1.0, 0.5, 2.0, 2.0) == pytest.approx(1.5)
     assert contact_force(1.0, -0.5, 2.0, 2.0) < 0.0
+
+
+@pytest.mark.parametrize("y0, v0", [(1.0, 0.0), (-7.7e12, 0.1), (3.0, -2.0)])
+def test_deviation_integral_matches_quadrature(y0, v0):
+    """``Oscillator.deviation_integral`` (int_0^t (y - y0) dt', on the two exponents) against
+    adaptive quadrature of the closed-form response minus y0, well over-damped, at times
+    inside the series (|s t| < 0.01) and past it."""
+    from scipy.integrate import quad
+
+    osc = Oscillator(2.0, 40.0, 3.0)
+    assert osc.two_modes
+    for t in (1e-4, 0.05, 0.7, 30.0):
+        increment = osc.deviation_increment(y0, v0)
+        exact, err = quad(lambda s: increment(s)[0], 0.0, t, epsabs=0.0, epsrel=1e-13,
+                          limit=200)
+        assert float(osc.deviation_integral(y0, v0, t)) == pytest.approx(exact, rel=1e-10,
+                                                                         abs=1e-300)

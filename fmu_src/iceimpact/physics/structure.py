@@ -32,6 +32,17 @@ import numpy as np
 UNDER, CRITICAL, OVER = "under-damped", "critically damped", "over-damped"
 
 
+def _expm1_minus_x(s, t):
+    """(e^{s t} - 1 - s t) / s (s < 0; t a float or an array), without cancellation: its
+    series where |s t| < 0.01 (the first omitted term is below 1e-16 of the sum)."""
+    x = np.multiply(s, t)
+    small = np.abs(x) < 0.01
+    xs = np.where(small, x, 0.0)
+    series = xs * xs * (0.5 + xs * (1.0 / 6.0 + xs * (1.0 / 24.0 + xs * (1.0 / 120.0 + xs * (
+        1.0 / 720.0 + xs * (1.0 / 5040.0))))))
+    return np.where(small, series, np.expm1(x) - x) / s
+
+
 class Oscillator:
     """Linear damped oscillator ``mass y'' + damping y' + stiffness (x - offset) = 0``."""
 
@@ -152,7 +163,12 @@ class Oscillator:
 
         The returned function takes t alone; its constants are bound as its default values (fast
         local variables, and no closure cells to make per anchor)."""
-        y0 = x0 - self.offset
+        return self.deviation_increment(x0 - self.offset, v0)
+
+    def deviation_increment(self, y0: float, v0: float) -> Callable[[float], tuple[float, float]]:
+        """:meth:`increment` from the deviation y0 = x0 - offset itself: ``t -> (y(t) - y0,
+        y'(t))``. Any free response given by its value and rate serves (the linear sticking
+        phase follows its contact force's part ``-b y' - M y''`` so, without the offset)."""
         regime, omega = self.regime, self.omega
         if regime == OVER and omega > 0.5 * self.sigma:
             slow, fast = self._s_slow, self._s_fast
@@ -225,6 +241,24 @@ class Oscillator:
                 s = 0.5 * (slow - fast) / omega
             return y0 * cm1 + p * s, v0 * c - q * s
         return over
+
+    @property
+    def two_modes(self) -> bool:
+        """Well over-damped (wo > sigma / 2): the response is written on its two exponents."""
+        return self.regime == OVER and self.omega > 0.5 * self.sigma
+
+    def deviation_integral(self, y0, v0, t):
+        """``int_0^t (y - y0) dt'`` for the free response from (y0, v0) (floats or arrays like
+        t), well over-damped only (:attr:`two_modes`), on the exponents s1, s2:
+        ``A (e^{s1 t} - 1 - s1 t) / s1 + B (e^{s2 t} - 1 - s2 t) / s2``, each term without
+        cancellation (a series where |s t| < 0.01), so that the integral stays accurate when y0
+        is far larger than the motion (a sticking phase's contact force: lam0 plus the
+        increments of a free response of 4e4 N that moves by 1e-11 N)."""
+        slow, fast = self._s_slow, self._s_fast
+        gap = slow - fast  # 2 wo
+        a = (v0 - fast * y0) / gap
+        b = (slow * y0 - v0) / gap
+        return a * _expm1_minus_x(slow, t) + b * _expm1_minus_x(fast, t)
 
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
         """x(t) - x0 (free of the rounding of x0) and v(t): :meth:`increment` at one time."""

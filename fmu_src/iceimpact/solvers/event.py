@@ -372,59 +372,92 @@ class DraggedFlight(Flight):
 
 class LinearStick(_SearchedSegment):
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k;
-    with the Morison terms on the structure, m is m + m_a and b_s adds to b: docs/morison.md)."""
+    with the Morison terms on the structure, m is m + m_a and b_s adds to b: docs/morison.md).
 
-    __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search", "_increment")
+    Positions, velocities and the contact force are all evaluated as increments from the
+    anchor, as a flight's are. The equilibrium b u / k can be far away (7.7e12 m for a light
+    pair under b = 4e5 kg/s and k = 5.2e-9 N/m, where a position's ulp is 1e-3 m): a position
+    written as offset + y carried that rounding, and the contact force ``b (u - v) - M x''``
+    from it was a difference of terms of b u = 4e4 N for a force of 1e-11 N, below its own
+    rounding, so that the separation search crawled. Here the force is
+    ``lam = lam0 + (q - q0)``: lam0 from the anchor's own state (no offset in it), and
+    ``q = -b y' - M y''`` a free response of the same oscillator (eq. 24), followed by its
+    increments from (q0, lam0')."""
+
+    __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search", "_increment",
+                 "_lam0", "_q0", "_q_increment", "_last", "_b_all", "_c")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
     PUSHES = True
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
-        self.M = solver.M
+        self.M = M = solver.M
         self.drag = solver.drag
-        self.b = solver.drag.b
+        self.b = b = solver.drag.b
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
         self.start = start
         b_s = solver.structure_b  # linearised drag on the structure (0 when off)
-        self.osc = Oscillator(solver.m + solver.M, solver.c + self.b + b_s, solver.k,
-                              offset=(self.b + b_s) * u / solver.k)
-        self._increment = self.osc.increment(x0, v0)
+        self.osc = osc = Oscillator(solver.m + solver.M, solver.c + b + b_s, solver.k,
+                                    offset=(b + b_s) * u / solver.k)
+        self._increment = osc.increment(x0, v0)
+        self._c = solver.c
+        self._b_all = b + b_s
+        self._lam0, self._q0, rate0 = self._anchor_force(x0, v0)
+        self._q_increment = osc.deviation_increment(self._q0, rate0)
+        self._last: tuple[float, float, float] = (0.0, 0.0, rate0)
         self.search = RootSearch(start, _time_eps(t0))
 
+    def _anchor_force(self, x0, v0):
+        """(lam0, q0, lam0') at an anchor (floats or arrays), lam = b u + q: the acceleration and
+        jerk from the anchor's own state, (b + b_s) (u - v) - c v - k x, not k (x - offset),
+        whose offset carries the rounding of a far equilibrium."""
+        osc, b, M, u = self.osc, self.b, self.M, self.u
+        a0 = (self._b_all * (u - v0) - self._c * v0 - osc.stiffness * x0) / osc.mass
+        j0 = -(osc.damping * a0 + osc.stiffness * v0) / osc.mass
+        lam0 = sticking_contact_force(self.drag.force(v0, u), M * a0)
+        return lam0, -b * v0 - M * a0, -b * a0 - M * j0
+
     def state(self, tau: float) -> tuple[float, float, float, float]:
-        x, v = self.osc.response(self.x0, self.v0, tau)
+        dx, v = self._increment(tau)
+        x = self.x0 + dx
         return x, v, x, v
 
     def state_array(self, anchor, tau):
-        x, v = self.osc.response_array(*anchor, tau)
+        x0, v0 = anchor
+        dx, v = self.osc.displacement_change_array(x0, v0, tau)
+        x = x0 + dx
         return x, v, x, v
+
+    def _force(self, tau: float) -> tuple[float, float, float]:
+        """(tau, q - q0, lam') at tau; the last one is kept (the search asks again for it)."""
+        last = self._last
+        if last[0] == tau:
+            return last
+        dq, rate = self._q_increment(tau)
+        self._last = last = (tau, dq, rate)
+        return last
 
     def force(self, tau: float) -> float:
         """Contact force on the structure, N: drag on the ice minus its inertia."""
-        x, v = self.osc.response(self.x0, self.v0, tau)
-        return sticking_contact_force(self.drag.force(v, self.u),
-                                      self.M * self.osc.acceleration(x, v))
+        return self._lam0 + self._force(tau)[1]
 
     def force_and_rate(self, tau: float) -> tuple[float, float]:
         """Contact force (N) and its rate (N/s): -b a - M j, a and j the acceleration and jerk."""
-        x, v = self.osc.response(self.x0, self.v0, tau)
-        a, j, _ = self.osc.derivatives(x, v)
-        return (sticking_contact_force(self.drag.force(v, self.u), self.M * a),
-                -self.b * a - self.M * j)
+        _, dq, rate = self._force(tau)
+        return self._lam0 + dq, rate
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
-        """Contact force, its two derivatives, bounds on |lam''| and |lam'''| from here on."""
-        x, v = self.osc.response(self.x0, self.v0, tau)
-        _, _, a, j, s, s1, s2 = self.osc.derivative_chain(x, v, 6)
-        lam = sticking_contact_force(self.drag.force(v, self.u), self.M * a)
-        rate = -self.b * a - self.M * j
-        curvature = -self.b * j - self.M * s
-        bound = (self.b * self.osc.amplitude_bound(j, s)
-                 + self.M * self.osc.amplitude_bound(s, s1))
-        jerk = (self.b * self.osc.amplitude_bound(s, s1)
-                + self.M * self.osc.amplitude_bound(s1, s2))
-        return lam, rate, curvature, bound, jerk
+        """Contact force, its two derivatives, bounds on |lam''| and |lam'''| from here on: the
+        higher derivatives of q from its equation of motion, mass q'' + damping q' + k q = 0."""
+        _, dq, rate = self._force(tau)
+        osc = self.osc
+        mass, damping, stiffness = osc.mass, osc.damping, osc.stiffness
+        curvature = -(damping * rate + stiffness * (self._q0 + dq)) / mass
+        q3 = -(damping * curvature + stiffness * rate) / mass
+        q4 = -(damping * q3 + stiffness * curvature) / mass
+        return (self._lam0 + dq, rate, curvature, osc.amplitude_bound(curvature, q3),
+                osc.amplitude_bound(q3, q4))
 
     def clearance(self, tau: float) -> float:
         """Time from tau (s) during which the contact force provably stays compressive: all of
@@ -437,14 +470,11 @@ class LinearStick(_SearchedSegment):
         bodies ringing stiffly in contact with an amplitude too small to part them (omega
         3.9e7 rad/s, 3e-13 m under a drag force b u of 5.7e6 N) cost the Taylor steps of the
         search two evaluations per period; this spans the whole phase at once."""
-        osc = self.osc
-        x, v = osc.response(self.x0, self.v0, tau)
-        a, j, _ = osc.derivatives(x, v)
+        _, dq, rate = self._force(tau)
         push = self.b * self.u
-        q, q_rate = -self.b * v - self.M * a, -self.b * a - self.M * j
-        reach = osc.amplitude_bound(q, q_rate)
-        rounding = GAP_ULPS * (abs(push) + abs(q) + reach + self.M * osc.omega2
-                               * (abs(x) + abs(osc.offset)) + abs(self.b * v))
+        q = self._q0 + dq
+        reach = self.osc.amplitude_bound(q, rate)
+        rounding = GAP_ULPS * (abs(push) + abs(q) + reach + abs(self._lam0) + abs(dq))
         return math.inf if push - reach - rounding > 0.0 else 0.0
 
     def next_event(self, tau_end: float) -> float | None:
@@ -455,6 +485,8 @@ class LinearStick(_SearchedSegment):
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
         if tau_b <= tau_a:
             return 0.0
+        if self.osc.two_modes:
+            return float(self._integral((self.x0, self.v0), tau_a, tau_b))
         # displacement increments from the anchor: positions about an equilibrium b u / k far
         # away carry its rounding, which b (xb - xa) would multiply
         dxa, va = self._increment(tau_a)
@@ -462,6 +494,8 @@ class LinearStick(_SearchedSegment):
         return self._impulse(dxa, va, dxb, vb, tau_b - tau_a)
 
     def impulse_array(self, anchor, tau_a, tau_b):
+        if self.osc.two_modes:
+            return np.where(tau_b > tau_a, self._integral(anchor, tau_a, tau_b), 0.0)
         dxa, va = self.osc.displacement_change_array(*anchor, tau_a)
         dxb, vb = self.osc.displacement_change_array(*anchor, tau_b)
         return np.where(tau_b > tau_a, self._impulse(dxa, va, dxb, vb, tau_b - tau_a), 0.0)
@@ -471,6 +505,16 @@ class LinearStick(_SearchedSegment):
         displacements from the anchor)."""
         return -self.b * ((dxb - dxa) - self.u * duration) - self.M * (vb - va)
 
+    def _integral(self, anchor, tau_a, tau_b):
+        """The contact force's integral as ``lam0 (tau_b - tau_a)`` plus that of q - q0
+        (:meth:`Oscillator.deviation_integral`), well over-damped: far from the equilibrium,
+        b (dx - u dt) is a difference of displacements whose rounding (b ulp(dx), 5e-15 N.s
+        for 1e-4 m under b = 4e5 kg/s) exceeds an impulse of 1e-11 N over 1 ms. Anchors are
+        floats or arrays (the samples of :meth:`impulse_array`)."""
+        lam0, q0, rate0 = self._anchor_force(*anchor)
+        integral = self.osc.deviation_integral
+        return (lam0 * (tau_b - tau_a) + (integral(q0, rate0, tau_b)
+                                          - integral(q0, rate0, tau_a)))
 
 class QuadraticStick:
     """Bodies together under quadratic drag: Taylor steps (:mod:`.taylor`) from the anchor, each
