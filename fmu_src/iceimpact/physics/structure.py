@@ -43,6 +43,16 @@ def _expm1_minus_x(s, t):
     return np.where(small, series, np.expm1(x) - x) / s
 
 
+def _decay_pair(arg: float) -> tuple[float, float]:
+    """(e^arg, e^arg - 1) for arg <= 0, each without cancellation (the scalar form of the rule
+    in :meth:`Oscillator.basis_parts_array`)."""
+    if arg < -0.7:  # the decay is below 1/2: e - 1 has no cancellation
+        decay = exp(arg)
+        return decay, decay - 1.0
+    decay_m1 = expm1(arg)  # above 1/2: 1 + (e - 1) loses nothing
+    return 1.0 + decay_m1, decay_m1
+
+
 class Oscillator:
     """Linear damped oscillator ``mass y'' + damping y' + stiffness (x - offset) = 0``."""
 
@@ -189,13 +199,7 @@ class Oscillator:
         if regime == UNDER:
             def under(t: float, neg_sigma=neg_sigma, omega=omega, y0=y0, p=p, q=q,
                       v0=v0) -> tuple[float, float]:
-                arg = neg_sigma * t
-                if arg < -0.7:  # the decay is below 1/2: e - 1 has no cancellation
-                    decay = exp(arg)
-                    decay_m1 = decay - 1.0
-                else:           # above 1/2: 1 + (e - 1) loses nothing
-                    decay_m1 = expm1(arg)
-                    decay = 1.0 + decay_m1
+                decay, decay_m1 = _decay_pair(neg_sigma * t)
                 wt = omega * t
                 cos_wt = cos(wt)
                 half = sin(0.5 * wt)
@@ -207,13 +211,7 @@ class Oscillator:
         if regime == CRITICAL:
             def critical(t: float, neg_sigma=neg_sigma, y0=y0, p=p, q=q,
                          v0=v0) -> tuple[float, float]:
-                arg = neg_sigma * t
-                if arg < -0.7:
-                    decay = exp(arg)
-                    decay_m1 = decay - 1.0
-                else:
-                    decay_m1 = expm1(arg)
-                    decay = 1.0 + decay_m1
+                decay, decay_m1 = _decay_pair(neg_sigma * t)
                 s = t * decay
                 return y0 * decay_m1 + p * s, v0 * decay - q * s
             return critical
@@ -222,13 +220,7 @@ class Oscillator:
                  s_fast=self._s_fast, y0=y0, p=p, q=q, v0=v0) -> tuple[float, float]:
             wt = omega * t
             if wt < 1.0:  # small wo t: sinh/wo without cancellation
-                arg = neg_sigma * t
-                if arg < -0.7:
-                    decay = exp(arg)
-                    decay_m1 = decay - 1.0
-                else:
-                    decay_m1 = expm1(arg)
-                    decay = 1.0 + decay_m1
+                decay, decay_m1 = _decay_pair(neg_sigma * t)
                 cosh_wt = cosh(wt)
                 half = sinh(0.5 * wt)
                 c = decay * cosh_wt
