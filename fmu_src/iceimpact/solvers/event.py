@@ -31,7 +31,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..physics.ice import downstream_speed_bound, make_drag
-from ..physics.structure import DraggedStructure, Oscillator, morison_oscillator
+from ..physics.structure import UNDER, DraggedStructure, Oscillator, morison_oscillator
 from ..scene import Scene
 from .base import GAP_ROUNDING, Solver, SolverError, State
 from .contact_rules import (
@@ -59,6 +59,10 @@ _MAX_STALLED_STEPS = 4
 
 #: Rounding of a gap evaluated from positions of magnitude X is below GAP_ULPS * X (m).
 GAP_ULPS = 16.0 * 2.0 ** -52
+
+#: The period search looks no further than omega_n t = this (rad): beyond, one ulp of the phase
+#: nears a degree.
+DRIFT_PHASE_LIMIT = 2.0 ** 46
 
 #: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
 #: (those the future can ask for: one, or two at a step boundary).
@@ -219,9 +223,86 @@ class Flight(_SearchedSegment):
         rounding = GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
         speed = downstream_speed_bound(w, self.u, self.drag.drags)
         if lowest - rounding <= 0.0:
-            touch = lowest >= -rounding and lowest - rounding >= -GAP_ROUNDING
-            return math.inf if speed == 0.0 and touch else 0.0
+            if speed == 0.0:
+                touch = lowest >= -rounding and lowest - rounding >= -GAP_ROUNDING
+                return math.inf if touch else 0.0
+            return self._drift_clearance(tau, x - offset, v, w, reach, lowest, speed)
         return math.inf if speed == 0.0 else (lowest - rounding) / speed
+
+    def _drift_clearance(self, tau: float, y: float, v: float, w: float, reach: float,
+                         lowest: float, speed: float) -> float:
+        """Time from tau (s) during which the gap provably stays open, the ice drifting
+        downstream at the lowest point of an undamped structure's envelope (``clearance``'s
+        margin is gone): the periods whose troughs the ice has not yet reached, found by
+        bisection over the periods instead of period by period. 0 where it does not apply.
+
+        Undamped (eq. 9-10 with c = 0), the structure repeats itself exactly every period T,
+        x(t + T) = x(t), and the ice never moves upstream (its velocity stays between w and u,
+        eq. 5, 32, both >= 0), so g(t + T) = x(t) - z(t + T) <= g(t): no period's lowest gap is
+        above the next one's, and if one period's dip stays >= 0, so do all the periods before
+        it. Near a trough (x - offset <= -R/2, a sixth of a period either side) the gap is
+        convex, ``g'' = -omega^2 (x - offset) - z'' >= omega^2 R / 2 - A = m`` (A the ice's
+        acceleration bound), so its one minimum there lies within |g'(t_r)| / m of any point
+        t_r, and by Taylor's theorem with the jerk bound J it is at least
+        ``g(t_r) - g'(t_r)^2 / (2 g''(t_r)) - J (|g'(t_r)| / m)^3 / 6``: the dip, taken one
+        Newton step from the trough (the last term is then below 1e-25 m, so a dip of 1e-19 m
+        that no representable time can show is still seen). Away from the troughs
+        x - offset > -R/2, and with the ice's drift over a period below R/8 the gap stays above
+        R/4 there. The first period whose dip goes below zero is found by doubling, then
+        bisection, from tau's period; the periods before it are root-free, and the stretch ends
+        at the crest before it, where the gap is about 2R. There the search takes over and
+        locates the impact as anywhere else. Each call evaluates at most 4 log2(periods) + 4
+        probes however slowly the ice drifts. A dip within the rounding of the gap (a few ulps of
+        the positions) may be taken for a touch, as fix 13's holding-still ice is.
+
+        The doubling stops where omega t reaches ``DRIFT_PHASE_LIMIT`` (beyond, one ulp of the
+        phase nears a degree); the search then goes on period by period."""
+        osc = self.osc
+        u = self.u
+        if (osc.sigma != 0.0 or osc.regime != UNDER or not reach > 0.0 or lowest < -0.25 * reach
+                or w < 0.0 or (u < 0.0 and self.drag.drags)):
+            return 0.0  # damped, deep inside the envelope, or the ice can move upstream
+        omega = osc.omega
+        period = 2.0 * math.pi / omega
+        _, accel_bound, _ = self.drag.accel_bounds(w, u)
+        curvature = omega * omega * reach
+        if speed * period > 0.125 * reach or accel_bound > 0.25 * curvature:
+            return 0.0  # the ice's drift over a period is no small change: nothing to gain
+        convexity = 0.5 * curvature - accel_bound  # m above, > 0
+        # y = R cos(omega s - phi) from tau: the next trough at omega s = phi + pi
+        to_trough = (math.atan2(v / omega, y) + math.pi) / omega  # in [0, T]
+        if to_trough > 5.0 * period / 6.0:
+            return 0.0  # within a sixth of a period after a trough: the search rises out of it
+        probe = self.probe
+
+        def closes(k: int) -> bool:
+            """Whether the gap may go below zero at the k-th trough after tau."""
+            t_k = tau + (to_trough + k * period)
+            g, dg, d2, _, jerk = probe(t_k)
+            if d2 > 0.0 and abs(dg) <= d2 * period / 12.0:
+                g, dg, d2, _, jerk = probe(t_k - dg / d2)  # a Newton step towards the bottom
+            if not d2 >= convexity:
+                return True  # (rounding: nothing proven)
+            reach_s = abs(dg) / convexity
+            return g - 0.5 * dg * (dg / d2) - jerk * reach_s * reach_s * reach_s / 6.0 < 0.0
+
+        if closes(0):
+            return 0.0
+        lo, stride, hi = 0, 1, None
+        while omega * (tau + to_trough + (lo + stride) * period) <= DRIFT_PHASE_LIMIT:
+            if closes(lo + stride):
+                hi = lo + stride
+                break
+            lo += stride
+            stride *= 2
+        if hi is not None:
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if closes(mid):
+                    hi = mid
+                else:
+                    lo = mid
+        return to_trough + (lo + 0.5) * period  # to the crest after trough lo
 
     def next_event(self, tau_end: float) -> float | None:
         return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate,
