@@ -1120,3 +1120,155 @@ def test_sticking_far_from_its_equilibrium_keeps_its_positions_exact():
             t = Decimal(i) / 1000
             exact = offset + a * (s1 * t).exp() + b * (s2 * t).exp()
             assert abs(float(Decimal(r.x) - exact)) < 1e-16
+
+
+# --- a drifting ice at the lowest point of the envelope (method 1) -----------------------------
+
+#: pi to 60 digits, for the exact impact times below
+_PI = "3.14159265358979323846264338327950288419716939937510582097494459"
+
+#: (flow / drag, ice velocity (m/s), ice's distance below the envelope's lowest point (m)):
+#: coasting without drag, and at rest in a weak linear drag that pushes it downstream
+DRIFTS = {
+    "coasting at 1e-9 m/s": (dict(ice_Cd=0.0, flow_u=0.0), 1e-9, 5e-10),
+    "coasting at 1e-13 m/s": (dict(ice_Cd=0.0, flow_u=0.0), 1e-13, 5e-14),
+    "coasting at 1e-15 m/s": (dict(ice_Cd=0.0, flow_u=0.0), 1e-15, 5e-16),
+    "at rest, linear drag, u = 1e-6 m/s": (dict(ice_Cd=1.0, drag_model=1, flow_u=1e-6), 0.0,
+                                           1e-15),
+}
+
+
+def _drifting(omega: float, flow: dict, w: float, below: float, swinging: bool) -> Simulator:
+    """An undamped structure (m = M = 1600 kg, e = 1) swinging down to -0.16 m, released from
+    rest there or (``swinging``) from its rest point at speed -0.16 omega_n; the ice ``below``
+    m under the lowest point of its swing with velocity w."""
+    start = dict(structure_x0=0.0, structure_v0=TANGENT_X0 * omega) if swinging else dict(
+        structure_x0=TANGENT_X0, structure_v0=0.0)
+    return Simulator(Scene(**{**dict(structure_m=1600.0, structure_k=1600.0 * omega ** 2,
+                                     structure_c=0.0, **start, ice_M=1600.0,
+                                     ice_z0=TANGENT_X0 - below, ice_v0=w, impact_e=1.0,
+                                     solver_method=1), **flow}))
+
+
+def _exact_first_impact(scene: Scene) -> tuple[float, float, float]:
+    """Time (s), closing speed (m/s) and the ice's velocity (m/s) of the first impact, in 60-digit decimal arithmetic
+    from the scene's own numbers. The structure, released from rest at x0 or from 0 at speed
+    v0 < 0, is at its lowest point L (x0, or v0 / omega_n) at every t_j = t_0 + j T (t_0 = 0 or
+    T / 4); the ice (z0 + w0 t, or z0 + u t + (w0 - u)(1 - e^{-kappa t}) / kappa under the
+    linear drag) moves downstream only, so the first trough it is past (z(t_j) > L, found by
+    bisection over j) ends the first period the gap closes in (the earlier trough's dip, below
+    (dz/dt)^2 / (2 omega_n^2 |L|) = 1e-33 m, is left out). Near it the gap is
+    ``-d - w s + |L| omega_n^2 s^2 / 2`` (d = z(t_j) - L, w = dz/dt there; the next terms,
+    (omega_n s)^4 |L| and z'' s^2, are below 1e-40 m), so it closes at its root s < 0, with
+    closing speed sqrt(w^2 + 2 |L| omega_n^2 d)."""
+    from decimal import Decimal, localcontext
+
+    with localcontext() as ctx:
+        ctx.prec = 60
+        z0, w0 = Decimal(scene.ice_z0), Decimal(scene.ice_v0)
+        omega = (Decimal(scene.structure_k) / Decimal(scene.structure_m)).sqrt()
+        period = 2 * Decimal(_PI) / omega
+        if scene.structure_v0 == 0.0:
+            lowest, first = Decimal(scene.structure_x0), Decimal(0)
+        else:
+            assert scene.structure_x0 == 0.0 and scene.structure_v0 < 0.0
+            lowest, first = Decimal(scene.structure_v0) / omega, period / 4
+        if scene.ice_Cd == 0.0:
+            def ice(t):
+                return z0 + w0 * t, w0
+        else:
+            kappa, u = Decimal(scene.drag_b) / Decimal(scene.ice_M), Decimal(scene.flow_u)
+
+            def ice(t):
+                decay = (-kappa * t).exp()
+                return z0 + u * t + (w0 - u) * (1 - decay) / kappa, u + (w0 - u) * decay
+        lo, hi = -1, 1
+        while ice(first + hi * period)[0] <= lowest:
+            lo, hi = hi, 2 * hi
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (lo, mid) if ice(first + mid * period)[0] > lowest else (mid, hi)
+        t_j = first + hi * period
+        z, w = ice(t_j)
+        depth, curvature = z - lowest, -lowest * omega * omega
+        closing = (w * w + 2 * curvature * depth).sqrt()
+        return float(t_j + (w - closing) / curvature), float(closing), float(w)
+
+
+@pytest.mark.parametrize("swinging", [False, True])
+@pytest.mark.parametrize("omega", [4.1e5, 4.1e7])
+@pytest.mark.parametrize("name", list(DRIFTS))
+def test_a_drifting_ice_meets_the_envelope_exactly_in_bounded_work(name, omega, swinging,
+                                                                  monkeypatch):
+    """The ice drifting downstream into the lowest point of an undamped structure's swing: the
+    gap's dip deepens by the ice's drift per period, w T (1.5e-16 m to 1.5e-22 m), so its
+    first impact comes after up to 1e7 periods at the bottom of the envelope. The root search
+    walked those period by period (6.6e6 periods a second at omega_n = 4.1e7 rad/s, one
+    simulated second of the ice at 1e-15 m/s did not finish in 5 s of CPU), and took a graze
+    within its time resolution for a touch, then the structure's speed there for a closing
+    speed: impacts up to 1.9e4 periods early, where the gap was still open by 2e-16 m. The
+    periods the ice has not yet reached are now proven free by bisection over the periods
+    (``Flight._drift_clearance``): a few hundred evaluations of the closed forms, whatever
+    omega_n and the drift. The impact is the exact one (60-digit decimal arithmetic, above),
+    to the search's time resolution."""
+    flow, w, below = DRIFTS[name]
+    sim = _drifting(omega, flow, w, below, swinging)
+    calls = [0]
+    probe = Flight.probe
+
+    def counted(self, tau):
+        calls[0] += 1
+        assert calls[0] <= 10_000, "period by period"
+        return probe(self, tau)
+    monkeypatch.setattr(Flight, "probe", counted)
+    while sim.impact_count == 0:
+        sim.advance(0.01)
+        assert sim.t < 2.0
+    assert calls[0] <= 300
+    hit = sim.impacts[0]
+    t_exact, closing, drift = _exact_first_impact(sim.scene)
+    resolution = 8.9e-16 * (1.0 + t_exact)  # the search's time resolution there
+    # and the rounding of the structure's lowest point: exact released from rest (x0 + x0 (C - 1)
+    # at C = -1), 1.7e-17 m off through its rest point (v0 S / omega_n), 2.8e-17 m (one ulp of
+    # 0.16) per 1e-15 m/s of drift is 0.028 s
+    rounding = 0.0 if swinging is False else math.ulp(TANGENT_X0)
+    assert abs(hit.t - t_exact) <= 2.0 * resolution + rounding / drift
+    # the closing speed to what those give: the structure's speed changes by its curvature
+    # omega_n^2 |x0| times the time (0.48 m/s over 1.8e-15 s at omega_n = 4.1e7), and a dip
+    # deeper by the rounding closes at sqrt(2 curvature rounding)
+    curvature = omega ** 2 * abs(TANGENT_X0)
+    assert abs((hit.w_minus - hit.v_minus) - closing) <= (curvature * 2.0 * resolution
+                                                          + math.sqrt(2.0 * curvature * rounding))
+
+
+def test_an_ice_stopping_short_of_the_envelope_is_proven_clear_at_once(monkeypatch):
+    """The ice coasting into the envelope's lowest point at 1e-12 m/s under a linear drag and no
+    flow: it stops 5e-16 m short (z0 + w0 / kappa), within the rounding the envelope's margin
+    allows, so no impact ever (exact: the ice never passes the structure's lowest point, which
+    the structure released from rest there reaches exactly). The root search walked the
+    grazes period by period, forever; the period search now proves the future up to
+    omega_n t = 2^46 (1.7e6 s) free at once."""
+    scene = Scene(structure_m=1600.0, structure_k=1600.0 * TANGENT_OMEGA ** 2,
+                  structure_c=0.0, structure_x0=TANGENT_X0, structure_v0=0.0, ice_M=1600.0,
+                  ice_Cd=1.0, drag_model=1, flow_u=0.0, ice_z0=TANGENT_X0 - 1e-15,
+                  impact_e=1.0, solver_method=1)
+    kappa = scene.drag_b / scene.ice_M
+    sim = Simulator(Scene(**{**scene.__dict__, "ice_v0": 5e-16 * kappa}))
+    from decimal import Decimal
+    stop = Decimal(sim.scene.ice_z0) + Decimal(sim.scene.ice_v0) / (
+        Decimal(sim.scene.drag_b) / Decimal(sim.scene.ice_M))
+    assert stop < Decimal(TANGENT_X0)
+    calls = [0]
+    probe = Flight.probe
+
+    def counted(self, tau):
+        calls[0] += 1
+        assert calls[0] <= 10_000, "period by period"
+        return probe(self, tau)
+    monkeypatch.setattr(Flight, "probe", counted)
+    for _ in range(100):
+        r = sim.advance(0.01)
+        assert r.gap >= 0.0 and r.impulse == 0.0
+    assert sim.impact_count == 0
+    assert calls[0] <= 300
+    assert sim.solver.seg.search.a >= 1e4  # its frontier, s

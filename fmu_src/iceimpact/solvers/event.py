@@ -242,11 +242,13 @@ class Flight(_SearchedSegment):
         above the next one's, and if one period's dip stays >= 0, so do all the periods before
         it. Near a trough (x - offset <= -R/2, a sixth of a period either side) the gap is
         convex, ``g'' = -omega^2 (x - offset) - z'' >= omega^2 R / 2 - A = m`` (A the ice's
-        acceleration bound), so its one minimum there lies within |g'(t_r)| / m of any point
-        t_r, and by Taylor's theorem with the jerk bound J it is at least
-        ``g(t_r) - g'(t_r)^2 / (2 g''(t_r)) - J (|g'(t_r)| / m)^3 / 6``: the dip, taken one
-        Newton step from the trough (the last term is then below 1e-25 m, so a dip of 1e-19 m
-        that no representable time can show is still seen). Away from the troughs
+        acceleration bound), so its one minimum there lies within s = |g'(t_r)| / m of any
+        point t_r, and by Taylor's theorem it is at least
+        ``g(t_r) - g'(t_r)^2 / (2 g''(t_r)) - G s^3 / 6``, G a bound on |g'''| within s of
+        t_r (omega^2 |v| + the ice's jerk bound): the dip, taken one Newton step from the
+        trough. G s^3 is then about R (omega dt)^4 for the time dt between representable
+        times, 1e-33 m at t = 1 s and omega = 4e7 rad/s, so a dip of 1e-19 m that no
+        representable time can show is still seen. Away from the troughs
         x - offset > -R/2, and with the ice's drift over a period below R/8 the gap stays above
         R/4 there. The first period whose dip goes below zero is found by doubling, then
         bisection, from tau's period; the periods before it are root-free, and the stretch ends
@@ -264,8 +266,9 @@ class Flight(_SearchedSegment):
             return 0.0  # damped, deep inside the envelope, or the ice can move upstream
         omega = osc.omega
         period = 2.0 * math.pi / omega
-        _, accel_bound, _ = self.drag.accel_bounds(w, u)
-        curvature = omega * omega * reach
+        _, accel_bound, jerk_bound = self.drag.accel_bounds(w, u)
+        omega2 = omega * omega
+        curvature = omega2 * reach
         if speed * period > 0.125 * reach or accel_bound > 0.25 * curvature:
             return 0.0  # the ice's drift over a period is no small change: nothing to gain
         convexity = 0.5 * curvature - accel_bound  # m above, > 0
@@ -278,13 +281,18 @@ class Flight(_SearchedSegment):
         def closes(k: int) -> bool:
             """Whether the gap may go below zero at the k-th trough after tau."""
             t_k = tau + (to_trough + k * period)
-            g, dg, d2, _, jerk = probe(t_k)
+            g, dg, d2, _, _ = probe(t_k)
             if d2 > 0.0 and abs(dg) <= d2 * period / 12.0:
-                g, dg, d2, _, jerk = probe(t_k - dg / d2)  # a Newton step towards the bottom
+                t_k -= dg / d2  # a Newton step towards the bottom
+                g, dg, d2, _, _ = probe(t_k)
             if not d2 >= convexity:
                 return True  # (rounding: nothing proven)
-            reach_s = abs(dg) / convexity
-            return g - 0.5 * dg * (dg / d2) - jerk * reach_s * reach_s * reach_s / 6.0 < 0.0
+            # the bottom is within s of t_k; on the way |g'''| <= omega^2 |v| + J_z, and
+            # |v| <= |v(t_k)| + omega^2 R s
+            s = abs(dg) / convexity
+            v_k = self._motion(t_k)[2]
+            rest = (omega2 * (abs(v_k) + curvature * s) + jerk_bound) * s * s * s / 6.0
+            return g - 0.5 * dg * (dg / d2) - rest < 0.0
 
         if closes(0):
             return 0.0
