@@ -14,11 +14,21 @@ finish reports how far it got. Cases, each a 1 s run:
   the ice;
 - ``stiff pair ringing in contact``: the random search's scene (m = 3537 kg, k = 1.06e19 N/m,
   c = 0, M = 3619 kg, linear drag, u = 6478 m/s, bodies together at -0.57 m/s), 0.37 s steps
-  with the flow reversing at every step.
+  with the flow reversing at every step;
+- ``drifting at W m/s, omega_n O``: the tangent ringing's structure (omega_n 4.1e7 or 4.1e5
+  rad/s), the ice coasting at W (no drag) from W / 2 s below the lowest point of its swing,
+  which it reaches at 0.5 s: the first impact is at the first trough after that (the exact one
+  in 60-digit decimal arithmetic is in ``tests/test_robust_input.py``), after up to 1e7 periods
+  at the bottom of the envelope;
+- ``at rest 1e-15 m below, linear drag, u = 1e-6``: the ice pushed there by a weak flow;
+- ``stopping 5e-16 m short``: the ice coasting in at 1.6e-17 m/s under a linear drag and no
+  flow, which stops it short of the structure's lowest point: no impact ever.
 
-Reported per case and tree: the simulated time reached, the CPU time, impacts, root-search
-iterations of the last segment, the smallest gap at the communication points and the smallest
-contact impulse of a step.
+Reported per case and tree: the simulated time reached, the CPU time, impacts, the first
+impact's time, the evaluations of a flight's gap (value, slope, curvature and bounds: each
+root-search iteration makes one, the drifting ice's period search a few per period it
+bisects), root-search iterations of the last segment, the smallest gap at the communication
+points and the smallest contact impulse of a step.
 
     python benchmarks/ringing.py                    # base 29ed3b0, limit 10 s
     python benchmarks/ringing.py --base HEAD~4 --limit 5
@@ -51,11 +61,29 @@ PAIR = dict(structure_m=3537.1073490753306, structure_c=0.0,
             ice_A=1.282686929497336, ice_Cd=1.0689804569440564, ice_z0=0.0,
             ice_v0=-0.5706191297623756, impact_e=0.0, drag_model=1,
             drag_v_lin=1.282686929497336, flow_u=6478.176589776202, solver_method=1)
+#: linear drag on the ice (drag.b = 49.95 kg/s with the defaults: b / M = 0.03121875 1/s)
+LINEAR = dict(ice_Cd=1.0, drag_model=1)
+
+
+def _drifting(speed: float, omega: float) -> dict:
+    return {**TANGENT, "structure_k": 1600.0 * omega ** 2, "ice_z0": X0 - 0.5 * speed,
+            "ice_v0": speed, "flow_u": 0.0}
+
+
 #: name: (scene, communication step (s), flow reverses at every step)
 CASES = {
     "tangent ringing, u = 0": ({**TANGENT, "flow_u": 0.0}, 0.01, False),
     "tangent ringing, no drag, u = 0.1": ({**TANGENT, "flow_u": 0.1}, 0.01, False),
     "stiff pair ringing in contact": (PAIR, 0.37, True),
+    "drifting at 1e-9 m/s, omega_n 4.1e7": (_drifting(1e-9, OMEGA), 0.01, False),
+    "drifting at 1e-13 m/s, omega_n 4.1e7": (_drifting(1e-13, OMEGA), 0.01, False),
+    "drifting at 1e-15 m/s, omega_n 4.1e7": (_drifting(1e-15, OMEGA), 0.01, False),
+    "drifting at 1e-15 m/s, omega_n 4.1e5": (_drifting(1e-15, 4.1e5), 0.01, False),
+    "at rest 1e-15 m below, linear drag, u = 1e-6": (
+        {**TANGENT, **LINEAR, "ice_z0": X0 - 1e-15, "flow_u": 1e-6}, 0.01, False),
+    "stopping 5e-16 m short": ({**TANGENT, **LINEAR, "ice_z0": X0 - 1e-15,
+                                "ice_v0": 5e-16 * (49.95 / 1600.0), "flow_u": 0.0},
+                               0.01, False),
 }
 
 
@@ -72,12 +100,21 @@ def _worker(limit: float) -> dict:
     import signal
 
     from iceimpact import Scene, Simulator
+    from iceimpact.solvers.event import Flight
 
+    probes = [0]
+    probe = Flight.probe
+
+    def counted(self, tau):
+        probes[0] += 1
+        return probe(self, tau)
+    Flight.probe = counted
     signal.signal(signal.SIGPROF, _stop)
     out = {}
     for name, (kw, h, reversing) in CASES.items():
         scene = Scene(**kw)
         sim = Simulator(scene)
+        probes[0] = 0
         u = scene.flow_u
         min_gap = min_impulse = float("inf")
         start = time.process_time()
@@ -98,6 +135,8 @@ def _worker(limit: float) -> dict:
         search = getattr(sim.solver.seg, "search", None)
         out[name] = {"t": sim.t, "cpu_s": cpu, "finished": sim.t >= T_END - 1e-12,
                      "impacts": sim.impact_count,
+                     "first_impact_s": sim.impacts[0].t if sim.impacts else None,
+                     "probes": probes[0],
                      "iterations": search.iterations if search is not None else None,
                      "min_gap_m": min_gap, "min_impulse_Ns": min_impulse}
     return out
@@ -126,14 +165,16 @@ def main() -> None:
         subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
         base = _run(Path(tmp) / "fmu_src", args.limit)
     current = _run(ROOT / "fmu_src", args.limit)
-    print("| case | tree | simulated (s) | CPU (s) | impacts | search iterations | "
-          "min gap (m) | min impulse (N.s) |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| case | tree | simulated (s) | CPU (s) | impacts | first impact (s) | "
+          "gap evaluations | search iterations | min gap (m) | min impulse (N.s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name in CASES:
         for label, res in ((args.base, base[name]), ("this tree", current[name])):
             reached = f"{res['t']:.3g}" + ("" if res["finished"] else " (stopped)")
+            first = res["first_impact_s"]
+            first = "-" if first is None else f"{first:.16g}"
             print(f"| {name} | {label} | {reached} | {res['cpu_s']:.2f} | {res['impacts']} | "
-                  f"{res['iterations']} | {res['min_gap_m']:.3g} | "
+                  f"{first} | {res['probes']} | {res['iterations']} | {res['min_gap_m']:.3g} | "
                   f"{res['min_impulse_Ns']:.3g} |")
     result = {"base": args.base, "limit_cpu_s": args.limit, "t_end_s": T_END,
               "python": platform.python_version(), "machine": platform.machine(),
