@@ -126,3 +126,76 @@ def test_the_search_holds_its_signal_only_during_a_call():
     assert search.next_root_before(0.1, probe, f, rate) is None
     assert search.probe is search.value is search.value_and_rate is None
     assert search.next_root_before(10.0, probe, f, rate) == pytest.approx(math.log(2.0))
+
+
+# --- probes whose values lie far apart (docs/robustness.md, fix 23) ---------------------------
+
+def _first_stretch(probe: tuple[float, float, float, float, float]) -> float:
+    """The frontier after one step of a search from 0 on a signal with this probe, its value
+    staying >= 0 (no sign test finds a crossing)."""
+    search = RootSearch(0.0, 1e-300)
+    search.next_root_before(0.0, lambda t: probe, lambda t: 1.0)
+    return search.a
+
+
+def _proven_stretch(probe: tuple[float, float, float, float, float]) -> float:
+    """The longest stretch its bounds prove root-free, in 60-digit decimal arithmetic: the Taylor
+    stretch (f + f' h - K h^2 / 2 >= 0) or, falling (f' < 0), the monotone one, where
+    f' + f'' s + J s^2 / 2 (and f' + K s) stays < 0, whichever is longer."""
+    from decimal import Decimal, localcontext
+
+    with localcontext() as ctx:
+        ctx.prec = 60
+        f, df, d2, bound, jerk = (Decimal(value) for value in probe)
+        free = (df + (df * df + 2 * bound * f).sqrt()) / bound
+        mono = -df / bound
+        if df < 0 and jerk > 0:
+            mono = max(mono, (-d2 + (d2 * d2 - 2 * jerk * df).sqrt()) / jerk)
+        return float(max(free, mono))
+
+
+#: (name, probe (f, f', f'', K, J)) in a time unit of 2^-300 s and a value unit of 2^-900:
+#: balanced ones whose squares then underflow
+FAR_APART = {
+    # f'^2 and K f both underflowed: the Taylor stretch came out as f / -f', 1415 times too long
+    "falling, K decides": (1.0, -1e-3, 0.0, 1.0, 1.0),
+    # f''^2 and J f' both underflowed in the monotone stretch's refinement (f'' > 0), which came
+    # out as -2 f' / f'', 4.5 times the stretch the bounds prove
+    "falling, f'' > 0 and J decide": (1.0, -1e-20, 1e-10, 1.0, 1.0),
+    # the ordinary cases, for the rescaling itself
+    "rising": (1.0, 0.5, -0.25, 1.0, 2.0),
+    "falling, f'' < 0": (1.0, -0.5, -0.25, 1.0, 2.0),
+}
+
+
+@pytest.mark.parametrize("name", list(FAR_APART))
+def test_probes_with_values_far_apart_prove_what_their_bounds_prove(name):
+    """A probe is homogeneous: in a time unit tau every step length is tau times that of
+    (f, f' tau, f'' tau^2, K tau^2, J tau^3). With tau = 2^-300 (and values times 2^-900, so
+    that J is about 1) the squares and products of the step lengths underflowed, fix 15's
+    scaling of all five values by one factor cannot help, and two stretches came out longer
+    than their bounds prove (unsound). Each probe is now rescaled in time as well
+    (``rootfind.balanced``): the stretch is exactly tau times the balanced probe's, and the
+    proven one (decimal arithmetic) to rounding."""
+    unit = FAR_APART[name]
+    tau, scale = 2.0 ** -300, 2.0 ** -900
+    far = tuple(value * scale / tau ** degree
+                for value, degree in zip(unit, (0, 1, 2, 2, 3)))
+    assert _first_stretch(far) == tau * _first_stretch(unit)
+    assert _first_stretch(far) == pytest.approx(_proven_stretch(far), rel=1e-14)
+
+
+def test_the_rescaling_is_exact_and_balances_the_exponents():
+    """``balanced`` multiplies by powers of 2 only, and leaves an ordinary probe's values
+    within a few binades of one another."""
+    from iceimpact.solvers.rootfind import balanced
+
+    probe = (1.1830521861667747e-271, -2.409919865102884e-184, 0.0, 4.909093465297727e-91, 1.0)
+    *values, unit = balanced(*probe)
+    p = math.frexp(unit)[1] - 1
+    assert unit == math.ldexp(1.0, p)
+    ratios = {value / original / unit ** degree
+              for value, original, degree in zip(values, probe, (0, 1, 2, 2, 3)) if original}
+    assert len(ratios) == 1 and math.frexp(ratios.pop())[0] == 0.5  # one power of 2
+    nonzero = [abs(value) for value in values if value]
+    assert max(nonzero) <= 1.0 and min(nonzero) >= 2.0 ** -20

@@ -68,6 +68,48 @@ FOREVER = 1e300
 #: 1e14 s that stepped over the separation.
 SCALED_BELOW = 1e-100
 
+#: A probe with a nonzero value below this times its largest is rescaled in time as well
+#: (:func:`balanced`): with f = 1.2e-271, f' = -2.4e-184, K = 4.9e-91, J = 1 both f'^2 and K f
+#: underflowed, and the Taylor stretch came out as f / -f', 1415 times the one its bounds prove.
+SPREAD = 1e-140
+
+#: The time degree of each of (f, f', f'', K, J): a time unit tau multiplies them by tau^degree.
+_DEGREES = (0, 1, 2, 2, 3)
+
+
+def balanced(f: float, df: float, d2: float, bound: float,
+             jerk: float) -> tuple[float, float, float, float, float, float]:
+    """The probe (f, f', f'', K, J) in a time unit tau = 2^p and a value unit, both powers of 2
+    (so the rescaling is exact): (f, f' tau, f'' tau^2, K tau^2, J tau^3) times 2^-q, and tau.
+    p makes the values' binary exponents as close together as it can (the largest minus the
+    smallest, over the nonzero values), q brings the largest to about 1. Every step length of
+    the search is homogeneous of degree 1 in time and 0 in value, so it is the rescaled probe's
+    times tau: equal to the unscaled one's where nothing under- or overflows, and where the
+    values are far apart (f = 1e-2 m, f' = 1e-190 m/s) the squares and products that decide it
+    no longer lose their precision."""
+    values = (f, df, d2, bound, jerk)
+    exponents = [(math.frexp(value)[1], degree) for value, degree in zip(values, _DEGREES)
+                 if value != 0.0]
+    if not exponents:
+        return f, df, d2, bound, jerk, 1.0
+    # the spread, max - min of e + degree p, is convex in p: its least is where two of the lines
+    # cross
+    candidates = {0}
+    for e_1, d_1 in exponents:
+        for e_2, d_2 in exponents:
+            if d_1 > d_2:
+                cross = (e_2 - e_1) / (d_1 - d_2)
+                candidates.update((math.floor(cross), math.ceil(cross)))
+
+    def spread(p: int) -> int:
+        shifted = [e + degree * p for e, degree in exponents]
+        return max(shifted) - min(shifted)
+    p = min(sorted(candidates, key=lambda q: (abs(q), q)), key=spread)  # least spread, |p|
+    p = max(-1000, min(1000, p))  # tau = 2^p stays a normal number
+    top = max(e + degree * p for e, degree in exponents)
+    scaled = [math.ldexp(value, degree * p - top) for value, degree in zip(values, _DEGREES)]
+    return (*scaled, math.ldexp(1.0, p))
+
 
 class RootSearch:
     """Incremental search for the first time after a start point where f goes below zero.
@@ -148,20 +190,25 @@ class RootSearch:
         if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
             return
-        size = max(abs(f), abs(df), abs(d2), bound, jerk)
-        if 0.0 < size < SCALED_BELOW or 1.0 / SCALED_BELOW < size < math.inf:
-            # the squares below would underflow (or overflow): every step length is
-            # homogeneous of degree 0 in (f, f', f'', K, J), so scale them by a power of 2 (exact)
-            scale = math.ldexp(1.0, max(-1000, min(1000, -math.frexp(size)[1])))
-            f, df, d2, bound, jerk = f * scale, df * scale, d2 * scale, bound * scale, jerk * scale
+        f_size, df_size, d2_size = abs(f), abs(df), abs(d2)
+        size = max(f_size, df_size, d2_size, bound, jerk)
+        floor = SPREAD * size
+        unit = 1.0  # the time unit of the step lengths below (s)
+        if (0.0 < size < SCALED_BELOW or 1.0 / SCALED_BELOW < size < math.inf
+                or (size < math.inf and (0.0 < f_size < floor or 0.0 < df_size < floor
+                                         or 0.0 < d2_size < floor or 0.0 < bound < floor
+                                         or 0.0 < jerk < floor))):
+            # the squares below would underflow (or overflow), or the values are too far apart
+            # for their products to keep their precision: rescale by powers of 2 (exact)
+            f, df, d2, bound, jerk, unit = balanced(f, df, d2, bound, jerk)
         if bound <= 0.0:  # f is linear from here on
             if df < 0.0:
-                self.root = a + f / -df
+                self.root = a + unit * (f / -df)
             else:
                 self.a = math.inf
             return
         disc = math.sqrt(df * df + 2.0 * bound * f)
-        h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
+        h_free = unit * ((df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df))
         if self.clearance is not None:
             cleared = self.clearance(a)
             if cleared > h_free:  # max(), written out (this runs at every step)
@@ -169,9 +216,9 @@ class RootSearch:
         if df >= 0.0:
             # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
             if jerk > 0.0:
-                h_rise = (d2 + math.sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
+                h_rise = unit * ((d2 + math.sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk)
             else:
-                h_rise = math.inf if d2 >= 0.0 else df / -d2
+                h_rise = math.inf if d2 >= 0.0 else unit * (df / -d2)
             if h_rise > h_free:
                 h_free = h_rise
         else:
@@ -189,6 +236,7 @@ class RootSearch:
                         h_mono = h_jerk
             elif d2 <= 0.0:
                 h_mono = math.inf
+            h_mono *= unit
             if h_mono > h_free:
                 span = FOREVER if FOREVER < h_mono else h_mono  # min(h_mono, FOREVER, max_step)
                 if self.max_step < span:
@@ -196,7 +244,7 @@ class RootSearch:
                 b = a + span
                 if b > a:
                     if self.value_and_rate is not None:
-                        self._descend(a, f, df, d2, b)
+                        self._descend(a, f, df, d2, b, unit)
                         return
                     if self.value(b) < 0.0:  # exactly one crossing in (a, b)
                         self.root = self._bracketed_root(a, b)
@@ -225,9 +273,11 @@ class RootSearch:
             return
         self.a = b
 
-    def _descend(self, a: float, f: float, df: float, d2: float, b: float) -> None:
-        """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0, f''(a) = d2) on the monotone
-        stretch [a, b]: set the root if it is in [a, b], else move the frontier to b.
+    def _descend(self, a: float, f: float, df: float, d2: float, b: float,
+                 unit: float = 1.0) -> None:
+        """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0, f''(a) = d2, in the time
+        ``unit`` of :func:`balanced`) on the monotone stretch [a, b]: set the root if it is in
+        [a, b], else move the frontier to b.
 
         f decreases on [a, b], so a point t with f(t) >= 0 leaves [a, t] root-free (the
         frontier moves on), and one with f(t) < 0 brackets the only root in (a, t). The first
@@ -237,7 +287,7 @@ class RootSearch:
         t, f_t, df_t = a, f, df
         disc = df * df - 2.0 * f * d2
         # first step: root of f + df h + d2 h^2 / 2 (cancellation-free form), else Newton's
-        step = 2.0 * f / (math.sqrt(disc) - df) if disc >= 0.0 else f / -df
+        step = unit * (2.0 * f / (math.sqrt(disc) - df) if disc >= 0.0 else f / -df)
         for _ in range(DESCENT_STEPS):
             if not df_t < 0.0:  # f' vanishing to rounding inside the stretch
                 break
