@@ -67,6 +67,7 @@ FOREVER = 1e300
 #: underflowed at contact forces of 1e-286 N, and a discriminant of 0 gave a Taylor stretch of
 #: 1e14 s that stepped over the separation.
 SCALED_BELOW = 1e-100
+SCALED_ABOVE = 1.0 / SCALED_BELOW
 
 #: A probe with a nonzero value below this times its largest is rescaled in time as well
 #: (:func:`balanced`): with f = 1.2e-271, f' = -2.4e-184, K = 4.9e-91, J = 1 both f'^2 and K f
@@ -194,13 +195,17 @@ class RootSearch:
         size = max(f_size, df_size, d2_size, bound, jerk)
         floor = SPREAD * size
         unit = 1.0  # the time unit of the step lengths below (s)
-        if (0.0 < size < SCALED_BELOW or 1.0 / SCALED_BELOW < size < math.inf
-                or (size < math.inf and (0.0 < f_size < floor or 0.0 < df_size < floor
-                                         or 0.0 < d2_size < floor or 0.0 < bound < floor
-                                         or 0.0 < jerk < floor))):
-            # the squares below would underflow (or overflow), or the values are too far apart
-            # for their products to keep their precision: rescale by powers of 2 (exact)
-            f, df, d2, bound, jerk, unit = balanced(f, df, d2, bound, jerk)
+        if (f_size < floor or df_size < floor or d2_size < floor or bound < floor
+                or jerk < floor or not SCALED_BELOW <= size <= SCALED_ABOVE):
+            # (rarely: a value is 0 or far below the largest, or all are tiny or huge)
+            if 0.0 < size < math.inf and (
+                    not SCALED_BELOW <= size <= SCALED_ABOVE or 0.0 < f_size < floor
+                    or 0.0 < df_size < floor or 0.0 < d2_size < floor or 0.0 < bound < floor
+                    or 0.0 < jerk < floor):
+                # the squares below would underflow (or overflow), or the values are too far
+                # apart for their products to keep their precision: rescale by powers of 2
+                # (exact)
+                f, df, d2, bound, jerk, unit = balanced(f, df, d2, bound, jerk)
         if bound <= 0.0:  # f is linear from here on
             if df < 0.0:
                 self.root = a + unit * (f / -df)
