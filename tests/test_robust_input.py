@@ -1151,13 +1151,14 @@ def _drifting(omega: float, flow: dict, w: float, below: float, swinging: bool) 
 
 
 def _exact_first_impact(scene: Scene) -> tuple[float, float, float]:
-    """Time (s), closing speed (m/s) and the ice's velocity (m/s) of the first impact, in 60-digit decimal arithmetic
-    from the scene's own numbers. The structure, released from rest at x0 or from 0 at speed
-    v0 < 0, is at its lowest point L (x0, or v0 / omega_n) at every t_j = t_0 + j T (t_0 = 0 or
-    T / 4); the ice (z0 + w0 t, or z0 + u t + (w0 - u)(1 - e^{-kappa t}) / kappa under the
-    linear drag) moves downstream only, so the first trough it is past (z(t_j) > L, found by
-    bisection over j) ends the first period the gap closes in (the earlier trough's dip, below
-    (dz/dt)^2 / (2 omega_n^2 |L|) = 1e-33 m, is left out). Near it the gap is
+    """Time (s), closing speed (m/s) and the ice's velocity (m/s) of the first impact, in
+    60-digit decimal arithmetic from the scene's own numbers. The structure, released from rest
+    at x0 or from 0 at speed v0 < 0, is at its lowest point L (x0, or v0 / omega_n) at every
+    t_j = t_0 + j T (t_0 = 0 or T / 4); the ice (z0 + w0 t, or under the linear drag
+    z0 + u t + (w0 - u)(1 - e^{-kappa t}) / kappa) moves downstream only, so the first trough
+    it is past (z(t_j) > L, found by bisection over j) ends the first period the gap closes in
+    (the earlier trough's dip, below (dz/dt)^2 / (2 omega_n^2 |L|) = 1e-33 m, is left out).
+    Near it the gap is
     ``-d - w s + |L| omega_n^2 s^2 / 2`` (d = z(t_j) - L, w = dz/dt there; the next terms,
     (omega_n s)^4 |L| and z'' s^2, are below 1e-40 m), so it closes at its root s < 0, with
     closing speed sqrt(w^2 + 2 |L| omega_n^2 d)."""

@@ -180,7 +180,7 @@ def test_probes_with_values_far_apart_prove_what_their_bounds_prove(name):
     unit = FAR_APART[name]
     tau, scale = 2.0 ** -300, 2.0 ** -900
     far = tuple(value * scale / tau ** degree
-                for value, degree in zip(unit, (0, 1, 2, 2, 3)))
+                for value, degree in zip(unit, (0, 1, 2, 2, 3), strict=True))
     assert _first_stretch(far) == tau * _first_stretch(unit)
     assert _first_stretch(far) == pytest.approx(_proven_stretch(far), rel=1e-14)
 
@@ -195,7 +195,8 @@ def test_the_rescaling_is_exact_and_balances_the_exponents():
     p = math.frexp(unit)[1] - 1
     assert unit == math.ldexp(1.0, p)
     ratios = {value / original / unit ** degree
-              for value, original, degree in zip(values, probe, (0, 1, 2, 2, 3)) if original}
+              for value, original, degree in zip(values, probe, (0, 1, 2, 2, 3), strict=True)
+              if original}
     assert len(ratios) == 1 and math.frexp(ratios.pop())[0] == 0.5  # one power of 2
     nonzero = [abs(value) for value in values if value]
     assert max(nonzero) <= 1.0 and min(nonzero) >= 2.0 ** -20

@@ -89,8 +89,8 @@ def balanced(f: float, df: float, d2: float, bound: float,
     values are far apart (f = 1e-2 m, f' = 1e-190 m/s) the squares and products that decide it
     no longer lose their precision."""
     values = (f, df, d2, bound, jerk)
-    exponents = [(math.frexp(value)[1], degree) for value, degree in zip(values, _DEGREES)
-                 if value != 0.0]
+    exponents = [(math.frexp(value)[1], degree)
+                 for value, degree in zip(values, _DEGREES, strict=True) if value != 0.0]
     if not exponents:
         return f, df, d2, bound, jerk, 1.0
     # the spread, max - min of e + degree p, is convex in p: its least is where two of the lines
@@ -108,7 +108,8 @@ def balanced(f: float, df: float, d2: float, bound: float,
     p = min(sorted(candidates, key=lambda q: (abs(q), q)), key=spread)  # least spread, |p|
     p = max(-1000, min(1000, p))  # tau = 2^p stays a normal number
     top = max(e + degree * p for e, degree in exponents)
-    scaled = [math.ldexp(value, degree * p - top) for value, degree in zip(values, _DEGREES)]
+    scaled = [math.ldexp(value, degree * p - top)
+              for value, degree in zip(values, _DEGREES, strict=True)]
     return (*scaled, math.ldexp(1.0, p))
 
 
