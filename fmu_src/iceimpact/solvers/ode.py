@@ -121,6 +121,17 @@ class _Flight:
         return [y[1], -(self.c * y[1] + self.k * y[0]) / self.m, y[3],
                 self.drag.force(y[3], self.u) / self.M]
 
+    def structure_damping(self, v: float) -> float:
+        """d(m x'')/dx' of the structure, kg/s: -c."""
+        return -self.c
+
+    def jacobian(self, t: float, y: np.ndarray) -> list[list[float]]:
+        """d(:meth:`__call__`)/dy, for the implicit integrators (exact: the drags' force_rate)."""
+        return [[0.0, 1.0, 0.0, 0.0],
+                [-self.k / self.m, self.structure_damping(y[1]) / self.m, 0.0, 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+                [0.0, 0.0, 0.0, self.drag.force_rate(y[3], self.u) / self.M]]
+
 
 class _DraggedFlight(_Flight):
     """Flight with the Morison drag on the structure (docs/morison.md):
@@ -134,6 +145,9 @@ class _DraggedFlight(_Flight):
         f_s = self.structure_drag.force(y[1], self.u)
         return [y[1], (f_s - self.c * y[1] - self.k * y[0]) / self.m, y[3],
                 self.drag.force(y[3], self.u) / self.M]
+
+    def structure_damping(self, v: float) -> float:
+        return self.structure_drag.force_rate(v, self.u) - self.c
 
 
 class _Gap:
@@ -300,9 +314,10 @@ class OdeSolver(Solver):
         events = self.event_fn
         if lo < self.hold_until:
             hi, events = self.hold_until, None
+        implicit = {} if self.method in STABLE_STEP else {"jac": self.rhs.jacobian}
         res = solve_ivp(self.rhs, (lo, hi), y_lo, method=self.method, rtol=self.rtol,
                         atol=self.atol, dense_output=True, events=events,
-                        max_step=self._max_step(y_lo))
+                        max_step=self._max_step(y_lo), **implicit)
         if res.status == -1:
             raise SolverError(f"ODE integration ({self.method}) failed at t = {lo}: "
                               f"{res.message}")
