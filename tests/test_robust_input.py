@@ -1065,8 +1065,8 @@ def test_method_3_work_per_simulated_second_is_proportional_to_the_rate(kind):
 def test_method_3_radau_has_limits_from_its_steps_per_period_and_tolerance():
     """Radau's error estimate is of order 3: its steps per period of the structure and per
     relaxation after a flow change grow as rtol^(-1/4), whatever the rate (~350 per period and
-    150-300 per flow change at rtol 1e-8; a structure ringing at 1e4 rad/s cost 79 s of CPU per
-    simulated second). With solver.ode_method = 4 omega_n is held to 1e3 rad/s at rtol 1e-8,
+    150-300 per flow change at rtol 1e-8; a structure ringing at 1e4 rad/s cost 82-84 s of CPU
+    per simulated second). With solver.ode_method = 4 omega_n is held to 1e3 rad/s at rtol 1e-8,
     scaled as rtol^(1/4) up to OMEGA_MAX_ODE, and solver.rtol to >= 1e-10; the messages name
     the variable, its value and the range. LSODA keeps OMEGA_MAX_ODE and every rtol."""
     from iceimpact.scene import RADAU_OMEGA_MAX, RADAU_RTOL_MIN, omega_limit
@@ -1098,9 +1098,10 @@ def test_method_3_radau_has_limits_from_its_steps_per_period_and_tolerance():
                                         ("ringing", 0.99e3)])
 def test_method_3_radau_work_is_set_by_its_tolerance_not_the_rate(kind, rate):
     """Radau at rtol 1e-8, the flow reversed at every 1 ms step: each step costs at most ~300
-    Radau steps (~7 evaluations each, 2500 in all) whatever the drag rate from 1e3 to 1e6
-    1/s; a structure ringing at the omega_n limit, ~350 steps per period. The law the
-    Radau rules are derived from, independent of CPU speed (tests/ode_rate_cost.py)."""
+    Radau steps (~7.5 evaluations each, 2200 measured at 9.9e5 1/s) whatever the drag rate
+    from 1e3 to 1e6 1/s; a structure ringing at the omega_n limit, ~350 steps (~2500
+    evaluations) per period. The law the Radau rules are derived from, independent of CPU
+    speed (benchmarks/implicit_cost.py)."""
     from ode_rate_cost import scene as stiff_scene
 
     if kind == "ringing":  # omega_n = rate, zeta = 0.01, the ice out of reach
@@ -1116,9 +1117,9 @@ def test_method_3_radau_work_is_set_by_its_tolerance_not_the_rate(kind, rate):
         assert r.gap >= 0.0 and r.impulse >= 0.0 and math.isfinite(r.x)
     if kind == "ringing":
         periods = sim.solver.chunk_hi * rate / (2.0 * math.pi)
-        assert sim.solver.nfev <= 8 * 450 * (periods + 1)
+        assert sim.solver.nfev <= 3000 * periods
     else:
-        assert sim.solver.nfev <= 2500 * steps
+        assert sim.solver.nfev <= 3000 * steps
 
 
 def test_method_3_implicit_integrators_get_the_exact_jacobian():

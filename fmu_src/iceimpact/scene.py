@@ -498,14 +498,15 @@ RADAU_ODE_METHOD = 4
 #: then costs at most ~800 steps (~0.1 s of CPU); 1e-12: 1500-2500 steps, 0.2-0.3 s.
 RADAU_RTOL_MIN = 1e-10
 #: Steps of Radau per period of a ringing structure at solver.rtol = RADAU_OMEGA_RTOL (measured
-#: 350-410 at omega_n = 1e3 and 1e4 rad/s, zeta = 0.01).
+#: 350-365 at omega_n = 1e3 and 1e4 rad/s, zeta = 0.01).
 RADAU_STEPS_PER_PERIOD = 350
-_RADAU_TEXT = f" and solver.ode_method = {RADAU_ODE_METHOD} (Radau)"
 #: Largest omega_n (rad/s) of Radau at solver.rtol = RADAU_OMEGA_RTOL, scaled as rtol^(1/4)
 #: (omega_limit): 1e3 rad/s rings 160 periods, ~6e4 steps, 7-9 s of CPU per simulated second;
-#: OMEGA_MAX_ODE = 1e4 rad/s cost 79 s.
+#: OMEGA_MAX_ODE = 1e4 rad/s cost 82-84 s (benchmarks/results/implicit_cost.md).
 RADAU_OMEGA_MAX = 1e3
+#: The solver.rtol at which RADAU_OMEGA_MAX and RADAU_STEPS_PER_PERIOD were measured.
 RADAU_OMEGA_RTOL = 1e-8
+_RADAU_TEXT = f" and solver.ode_method = {RADAU_ODE_METHOD} (Radau)"
 
 
 def _check_scales(scene: Scene) -> None:

@@ -211,7 +211,8 @@ class Together:
         return [y[1], (f - self.c * y[1] - self.k * y[0]) / self.total, f]
 
     def jacobian(self, t: float, y) -> list[list[float]]:
-        """d(:meth:`__call__`)/dy, for the implicit integrators (exact: the drag's force_rate)."""
+        """d(:meth:`__call__`)/dy, for method 3's implicit integrators: exact, the drag's dF/dv
+        from its ``force_rate``."""
         df = self.drag.force_rate(y[1], self.u)
         return [[0.0, 1.0, 0.0],
                 [-self.k / self.total, (df - self.c) / self.total, 0.0],

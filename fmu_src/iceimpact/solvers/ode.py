@@ -10,7 +10,10 @@ quadratic, eq. 2-3 and 31-32); the gap ``g = x - z`` is a terminal event with di
 
 The integrator is ``solver.ode_method`` (1 = RK45, 2 = DOP853, 3 = LSODA, 4 = Radau) with
 ``rtol = solver.rtol`` and ``atol = rtol * 1e-3`` (m, m/s: displacements of the article's scenes
-are of the order of a millimetre).
+are of the order of a millimetre). The implicit ones (LSODA, Radau) are given the exact Jacobian
+of each right-hand side (its ``jacobian``, from the drag laws' ``force_rate``) instead of
+estimating it by finite differences; Radau's own limits on omega_n and rtol are in
+:func:`iceimpact.scene.omega_limit` and ``RADAU_RTOL_MIN``.
 
 Sticking follows the contact rules shared with the exact solver
 (:mod:`iceimpact.solvers.contact_rules`, with its :data:`INTEGRATED_POLICY`), in place of the
@@ -126,7 +129,8 @@ class _Flight:
         return -self.c
 
     def jacobian(self, t: float, y: np.ndarray) -> list[list[float]]:
-        """d(:meth:`__call__`)/dy, for the implicit integrators (exact: the drags' force_rate)."""
+        """d(:meth:`__call__`)/dy, for the implicit integrators: exact, the drags' dF/dw from
+        their ``force_rate`` (-b for eq. 4-5, -2 B |w - u| for eq. 2-3)."""
         return [[0.0, 1.0, 0.0, 0.0],
                 [-self.k / self.m, self.structure_damping(y[1]) / self.m, 0.0, 0.0],
                 [0.0, 0.0, 0.0, 1.0],
