@@ -495,7 +495,7 @@ RADAU_ODE_METHOD = 4
 #: steps per period of a ringing structure (RADAU_STEPS_PER_PERIOD), and 150 (linear
 #: right-hand side) to 300 (quadratic drag) steps to resolve the relaxation that follows each
 #: flow change, at any rate from 1e3 to 1e6 1/s. Smallest solver.rtol of Radau: a flow change
-#: then costs at most ~800 steps (~0.1 s of CPU); 1e-12: 1500-2500 steps, 0.2-0.3 s.
+#: then costs at most ~800 steps (~0.12 s of CPU); 1e-12: 1500-2500 steps, 0.2-0.4 s.
 RADAU_RTOL_MIN = 1e-10
 #: Steps of Radau per period of a ringing structure at solver.rtol = RADAU_OMEGA_RTOL (measured
 #: 350-365 at omega_n = 1e3 and 1e4 rad/s, zeta = 0.01).
