@@ -1062,6 +1062,99 @@ def test_method_3_work_per_simulated_second_is_proportional_to_the_rate(kind):
     assert sim.solver.nfev <= 12.0 * rate * sim.solver.chunk_hi
 
 
+def test_method_3_radau_has_limits_from_its_steps_per_period_and_tolerance():
+    """Radau's error estimate is of order 3: its steps per period of the structure and per
+    relaxation after a flow change grow as rtol^(-1/4), whatever the rate (~350 per period and
+    150-300 per flow change at rtol 1e-8; a structure ringing at 1e4 rad/s cost 82-84 s of CPU
+    per simulated second). With solver.ode_method = 4 omega_n is held to 1e3 rad/s at rtol 1e-8,
+    scaled as rtol^(1/4) up to OMEGA_MAX_ODE, and solver.rtol to >= 1e-10; the messages name
+    the variable, its value and the range. LSODA keeps OMEGA_MAX_ODE and every rtol."""
+    from iceimpact.scene import RADAU_OMEGA_MAX, RADAU_RTOL_MIN, omega_limit
+
+    assert (RADAU_OMEGA_MAX, RADAU_RTOL_MIN) == (1e3, 1e-10)
+    ringing = dict(structure_m=1.0, structure_k=1e8, structure_c=200.0, structure_x0=0.01,
+                   ice_M=1e-3, ice_Cd=0.0, ice_z0=-1.0, solver_method=3)   # omega_n = 1e4
+    with pytest.raises(ParameterError) as err:
+        Scene(**ringing, solver_ode_method=4)
+    assert str(err.value).startswith(
+        "sqrt(structure.k / structure.m) = 10000.0 is not allowed: omega_n <= 1e+03 rad/s with "
+        "solver.method = 3 and solver.ode_method = 4 (Radau)")
+    with pytest.raises(ParameterError, match=r"omega_n <= 3.16e\+03 rad/s .*solver.rtol = 1e-06"):
+        Scene(**ringing, solver_ode_method=4, solver_rtol=1e-6)
+    assert Scene(**ringing, solver_ode_method=4, solver_rtol=1e-4).omega_n == 1e4
+    assert omega_limit(Scene(solver_method=3, solver_ode_method=4, solver_rtol=1e-10)) == \
+        pytest.approx(1e3 * 1e-2 ** 0.25)
+    Scene(**{**ringing, "structure_k": 0.99e6}, solver_ode_method=4)
+    with pytest.raises(ParameterError, match=r"^solver.rtol = 1e-11 is not allowed: >= 1e-10 "
+                                             r"with solver.method = 3 and solver.ode_method = "
+                                             r"4 \(Radau\)"):
+        Scene(solver_method=3, solver_ode_method=4, solver_rtol=1e-11)
+    Scene(solver_method=3, solver_ode_method=4, solver_rtol=1e-10)
+    Scene(**ringing, solver_ode_method=3, solver_rtol=1e-13)  # LSODA
+
+
+@pytest.mark.parametrize("kind, rate", [("linear drag", 1e3), ("linear drag", 9.9e5),
+                                        ("quadratic drag", 1e3), ("quadratic drag", 9.9e5),
+                                        ("ringing", 0.99e3)])
+def test_method_3_radau_work_is_set_by_its_tolerance_not_the_rate(kind, rate):
+    """Radau at rtol 1e-8, the flow reversed at every 1 ms step: each step costs at most ~300
+    Radau steps (~7.5 evaluations each, 2200 measured at 9.9e5 1/s) whatever the drag rate
+    from 1e3 to 1e6 1/s; a structure ringing at the omega_n limit, ~350 steps (~2500
+    evaluations) per period. The law the Radau rules are derived from, independent of CPU
+    speed (benchmarks/implicit_cost.py)."""
+    from ode_rate_cost import scene as stiff_scene
+
+    if kind == "ringing":  # omega_n = rate, zeta = 0.01, the ice out of reach
+        scene = Scene(structure_m=1.0, structure_k=rate ** 2, structure_c=0.02 * rate,
+                      structure_x0=0.01, ice_M=1e-3, ice_Cd=0.0, ice_z0=-1.0, solver_method=3,
+                      solver_ode_method=4)
+    else:
+        scene = stiff_scene(kind, rate, 4)
+    sim = Simulator(scene)
+    steps = 10
+    for i in range(steps):
+        r = sim.advance(1e-3, scene.flow_u if i % 2 == 0 else -scene.flow_u)
+        assert r.gap >= 0.0 and r.impulse >= 0.0 and math.isfinite(r.x)
+    if kind == "ringing":
+        periods = sim.solver.chunk_hi * rate / (2.0 * math.pi)
+        assert sim.solver.nfev <= 3000 * periods
+    else:
+        assert sim.solver.nfev <= 3000 * steps
+
+
+def test_method_3_implicit_integrators_get_the_exact_jacobian():
+    """LSODA and Radau are given d(rhs)/dy from the same drag laws (force_rate) instead of
+    estimating it by finite differences: it matches central differences of each right-hand
+    side (flight, flight with the Morison drag on the structure, sticking, sticking with it)."""
+    from iceimpact.solvers.contact_rules import Phase
+    from iceimpact.solvers.ode import OdeSolver
+
+    def numeric(fun, y):
+        y = np.asarray(y, dtype=float)
+        cols = []
+        for j in range(y.size):
+            h = 1e-6 * max(1.0, abs(y[j]))
+            dy = np.zeros_like(y)
+            dy[j] = h
+            cols.append((np.asarray(fun(0.0, y + dy)) - np.asarray(fun(0.0, y - dy))) / (2 * h))
+        return np.array(cols).T
+
+    morison = dict(structure_Cd=1.0, structure_A=2.0, structure_V=1.0, structure_Ca=1.0)
+    for drag_model in (1, 2):
+        for extra in ({}, morison):
+            scene = Scene(drag_model=drag_model, flow_u=0.3, solver_method=3,
+                          solver_ode_method=4, impact_e=0.0, **extra)
+            solver = OdeSolver(scene)
+            assert (solver.structure_drag is not None) == bool(extra)
+            for phase, y in ((Phase.FLIGHT, [0.01, -0.2, -0.05, 0.7]),
+                             (Phase.STICK, [0.01, -0.2, 0.0])):
+                solver._equations(phase, 0.0)
+                exact = np.array(solver.rhs.jacobian(0.0, y))
+                assert exact.shape == (len(y), len(y))
+                assert np.allclose(exact, numeric(solver.rhs, y), rtol=1e-7, atol=1e-9), \
+                    (drag_model, extra, phase)
+
+
 def test_a_light_pair_sticking_far_from_its_equilibrium_parts_nothing_in_bounded_time():
     """Method 1, linear drag: a light pair (m = 2.2e-6 kg, M = 1.1e-7 kg, k = 5.2e-9 N/m) under
     b = 4e5 kg/s sticks towards an equilibrium b u / k = 7.7e12 m away, where a position's ulp

@@ -287,6 +287,19 @@ def rate_limit(scene: Scene) -> float:
     return DRAG_RATE_MAX
 
 
+def omega_limit(scene: Scene) -> float:
+    """Largest omega_n (rad/s) the scene's method resolves in bounded work: OMEGA_MAX_EXACT
+    (method 1), OMEGA_MAX_ODE (method 3), and with Radau RADAU_OMEGA_MAX scaled by
+    (solver.rtol / RADAU_OMEGA_RTOL)^(1/4), its steps per period scaling as rtol^(-1/4), up to
+    OMEGA_MAX_ODE (docs/robustness.md)."""
+    if scene.solver_method == METHOD_EXACT:
+        return OMEGA_MAX_EXACT
+    if scene.solver_method == METHOD_ODE and scene.solver_ode_method == RADAU_ODE_METHOD:
+        scale = (scene.solver_rtol / RADAU_OMEGA_RTOL) ** 0.25
+        return min(OMEGA_MAX_ODE, RADAU_OMEGA_MAX * scale)
+    return OMEGA_MAX_ODE
+
+
 def _integrator_text(scene: Scene) -> str:
     """The integrator a method-3 rate limit depends on, for messages ('' for method 1)."""
     if scene.solver_method != METHOD_ODE:
@@ -371,16 +384,28 @@ def _check_work(scene: Scene) -> None:
     s = scene
     if s.solver_method == METHOD_FIXED_STEP:
         return  # closed forms (and eq. 36) on a grid: work is the number of grid points
-    omega_max = OMEGA_MAX_EXACT if s.solver_method == METHOD_EXACT else OMEGA_MAX_ODE
+    radau = s.solver_method == METHOD_ODE and s.solver_ode_method == RADAU_ODE_METHOD
+    if radau and s.solver_rtol < RADAU_RTOL_MIN:
+        raise ParameterError("solver.rtol", s.solver_rtol,
+                             f">= {RADAU_RTOL_MIN:g} with solver.method = 3{_RADAU_TEXT}: its "
+                             "steps grow as rtol^(-1/4) (an error estimate of order 3), "
+                             "~500-800 steps (~0.1 s of CPU) per change of the flow at this "
+                             "limit; solver.ode_method = 3 (LSODA) accepts tighter tolerances")
+    omega_max = omega_limit(s)
     if s.omega_n > omega_max:
         why = ("the chatter time (1e-2 of the structure's period) must stay above the time "
                f"resolution of the exact method's root search ({TIME_RESOLUTION:g} s x t) "
                f"up to t = {RESOLVED_HORIZON:g} s") if s.solver_method == METHOD_EXACT else (
+               f"Radau takes ~{RADAU_STEPS_PER_PERIOD:g} ({RADAU_OMEGA_RTOL:g} / solver.rtol)"
+               f"^(1/4) steps per period of the structure (here solver.rtol = "
+               f"{s.solver_rtol:g}); use "
+               "solver.ode_method = 3 (LSODA) or solver.method = 1 or 2 for a stiffer "
+               "structure") if radau else (
                "the ODE integrators take 10-20 steps per period of the structure; use "
                "solver.method = 1 or 2 for a stiffer structure")
         raise ParameterError("sqrt(structure.k / structure.m)", s.omega_n,
                              f"omega_n <= {omega_max:.3g} rad/s with solver.method = "
-                             f"{s.solver_method}: {why}")
+                             f"{s.solver_method}{_RADAU_TEXT if radau else ''}: {why}")
     if _integrates_quadratic_drag(s):
         speed = _speed_bound(s, s.flow_u)
         if _drag_rate(s, speed) > rate_limit(s):
@@ -461,6 +486,27 @@ EXPLICIT_ODE_METHODS = {1: "RK45", 2: "DOP853"}
 #: at most 7.6 s per simulated second at 9.9e5 1/s in the same scenes; it and Radau keep
 #: DRAG_RATE_MAX.
 ODE_EXPLICIT_RATE_MAX = 3e5
+#: solver.ode_method of Radau (method 3).
+RADAU_ODE_METHOD = 4
+#: scipy's Radau estimates a step's error with an embedded formula of order 3 (error ~ h^4),
+#: so its steps per period of the structure, and per relaxation after a change of the flow,
+#: grow as rtol^(-1/4) whatever the rate (measured: x3.2 per two decades of rtol from 1e-4 to
+#: 1e-12), each step ~150 us of CPU (benchmarks/implicit_cost.py). At solver.rtol = 1e-8: ~350
+#: steps per period of a ringing structure (RADAU_STEPS_PER_PERIOD), and 150 (linear
+#: right-hand side) to 300 (quadratic drag) steps to resolve the relaxation that follows each
+#: flow change, at any rate from 1e3 to 1e6 1/s. Smallest solver.rtol of Radau: a flow change
+#: then costs at most ~800 steps (~0.12 s of CPU); 1e-12: 1500-2500 steps, 0.2-0.4 s.
+RADAU_RTOL_MIN = 1e-10
+#: Steps of Radau per period of a ringing structure at solver.rtol = RADAU_OMEGA_RTOL (measured
+#: 350-365 at omega_n = 1e3 and 1e4 rad/s, zeta = 0.01).
+RADAU_STEPS_PER_PERIOD = 350
+#: Largest omega_n (rad/s) of Radau at solver.rtol = RADAU_OMEGA_RTOL, scaled as rtol^(1/4)
+#: (omega_limit): 1e3 rad/s rings 160 periods, ~6e4 steps, 7-9 s of CPU per simulated second;
+#: OMEGA_MAX_ODE = 1e4 rad/s cost 82-84 s (benchmarks/results/implicit_cost.md).
+RADAU_OMEGA_MAX = 1e3
+#: The solver.rtol at which RADAU_OMEGA_MAX and RADAU_STEPS_PER_PERIOD were measured.
+RADAU_OMEGA_RTOL = 1e-8
+_RADAU_TEXT = f" and solver.ode_method = {RADAU_ODE_METHOD} (Radau)"
 
 
 def _check_scales(scene: Scene) -> None:

@@ -210,6 +210,14 @@ class Together:
         f = self.drag.force(y[1], self.u)
         return [y[1], (f - self.c * y[1] - self.k * y[0]) / self.total, f]
 
+    def jacobian(self, t: float, y) -> list[list[float]]:
+        """d(:meth:`__call__`)/dy, for method 3's implicit integrators: exact, the drag's dF/dv
+        from its ``force_rate``."""
+        df = self.drag.force_rate(y[1], self.u)
+        return [[0.0, 1.0, 0.0],
+                [-self.k / self.total, (df - self.c) / self.total, 0.0],
+                [0.0, df, 0.0]]
+
     @property
     def structure_drag_B(self) -> float:
         """Quadratic Morison drag constant on the structure, kg/m (0: none)."""
@@ -256,6 +264,13 @@ class TogetherWithStructureDrag(Together):
         f = self.drag.force(y[1], self.u)
         f_s = self.structure_drag.force(y[1], self.u)
         return [y[1], (f + f_s - self.c * y[1] - self.k * y[0]) / self.total, f]
+
+    def jacobian(self, t: float, y) -> list[list[float]]:
+        df = self.drag.force_rate(y[1], self.u)
+        df_s = self.structure_drag.force_rate(y[1], self.u)
+        return [[0.0, 1.0, 0.0],
+                [-self.k / self.total, (df + df_s - self.c) / self.total, 0.0],
+                [0.0, df, 0.0]]
 
     def contact_force(self, y) -> float:
         x, v = y[0], y[1]

@@ -10,7 +10,10 @@ quadratic, eq. 2-3 and 31-32); the gap ``g = x - z`` is a terminal event with di
 
 The integrator is ``solver.ode_method`` (1 = RK45, 2 = DOP853, 3 = LSODA, 4 = Radau) with
 ``rtol = solver.rtol`` and ``atol = rtol * 1e-3`` (m, m/s: displacements of the article's scenes
-are of the order of a millimetre).
+are of the order of a millimetre). The implicit ones (LSODA, Radau) are given the exact Jacobian
+of each right-hand side (its ``jacobian``, from the drag laws' ``force_rate``) instead of
+estimating it by finite differences; Radau's own limits on omega_n and rtol are in
+:func:`iceimpact.scene.omega_limit` and ``RADAU_RTOL_MIN``.
 
 Sticking follows the contact rules shared with the exact solver
 (:mod:`iceimpact.solvers.contact_rules`, with its :data:`INTEGRATED_POLICY`), in place of the
@@ -121,6 +124,18 @@ class _Flight:
         return [y[1], -(self.c * y[1] + self.k * y[0]) / self.m, y[3],
                 self.drag.force(y[3], self.u) / self.M]
 
+    def structure_damping(self, v: float) -> float:
+        """d(m x'')/dx' of the structure, kg/s: -c."""
+        return -self.c
+
+    def jacobian(self, t: float, y: np.ndarray) -> list[list[float]]:
+        """d(:meth:`__call__`)/dy, for the implicit integrators: exact, the drags' dF/dw from
+        their ``force_rate`` (-b for eq. 4-5, -2 B |w - u| for eq. 2-3)."""
+        return [[0.0, 1.0, 0.0, 0.0],
+                [-self.k / self.m, self.structure_damping(y[1]) / self.m, 0.0, 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+                [0.0, 0.0, 0.0, self.drag.force_rate(y[3], self.u) / self.M]]
+
 
 class _DraggedFlight(_Flight):
     """Flight with the Morison drag on the structure (docs/morison.md):
@@ -134,6 +149,9 @@ class _DraggedFlight(_Flight):
         f_s = self.structure_drag.force(y[1], self.u)
         return [y[1], (f_s - self.c * y[1] - self.k * y[0]) / self.m, y[3],
                 self.drag.force(y[3], self.u) / self.M]
+
+    def structure_damping(self, v: float) -> float:
+        return self.structure_drag.force_rate(v, self.u) - self.c
 
 
 class _Gap:
@@ -300,9 +318,10 @@ class OdeSolver(Solver):
         events = self.event_fn
         if lo < self.hold_until:
             hi, events = self.hold_until, None
+        implicit = {} if self.method in STABLE_STEP else {"jac": self.rhs.jacobian}
         res = solve_ivp(self.rhs, (lo, hi), y_lo, method=self.method, rtol=self.rtol,
                         atol=self.atol, dense_output=True, events=events,
-                        max_step=self._max_step(y_lo))
+                        max_step=self._max_step(y_lo), **implicit)
         if res.status == -1:
             raise SolverError(f"ODE integration ({self.method}) failed at t = {lo}: "
                               f"{res.message}")
