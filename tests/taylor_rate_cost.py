@@ -19,7 +19,6 @@ as refused.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 from iceimpact import ParameterError, Scene, Simulator
