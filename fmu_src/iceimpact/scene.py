@@ -303,9 +303,16 @@ def sticking_rates(scene: Scene, speed: float) -> tuple[float, float, float]:
     sqrt(k / (m + M)), damping c / (m + M) and drag 2 (B + B_s) speed / (m + M) (the drag's
     linearisation; B_s the Morison drag on the structure, 0 when off)."""
     s = scene
-    total = s.structure_mass + s.ice_M
-    B = s.drag_B + (s.structure_drag_B if s.structure_drag_on else 0.0)
+    total, B = _sticking_constants(s)
     return (math.sqrt(s.structure_k / total), s.structure_c / total, 2.0 * B * speed / total)
+
+
+def _sticking_constants(scene: Scene) -> tuple[float, float]:
+    """The mass m + M (kg, m with its added mass) and drag constant B + B_s (kg/m) of method 1's
+    quadratic-drag sticking equation."""
+    s = scene
+    return (s.structure_mass + s.ice_M,
+            s.drag_B + (s.structure_drag_B if s.structure_drag_on else 0.0))
 
 
 def _check_sticking_rate(scene: Scene, speed: float, flow: float | None = None) -> None:
@@ -317,10 +324,9 @@ def _check_sticking_rate(scene: Scene, speed: float, flow: float | None = None) 
     rate = max(stiffness, damping, drag)
     if rate <= TAYLOR_RATE_MAX:
         return
-    why = ("the sticking phase is integrated by explicit Taylor steps of about 1 / rate, "
-           f"~{TAYLOR_COST:g} s of CPU x rate per simulated second")
-    total = s.structure_mass + s.ice_M
-    B = s.drag_B + (s.structure_drag_B if s.structure_drag_on else 0.0)
+    why = ("the sticking phase is integrated by explicit Taylor steps of about 5 / rate, "
+           f"up to ~{TAYLOR_COST:g} s of CPU x rate per simulated second")
+    total, B = _sticking_constants(s)
     if flow is not None and drag > TAYLOR_RATE_MAX:
         limit = TAYLOR_RATE_MAX * total / (2.0 * B)
         raise ParameterError(FLOW_INPUT.name, flow,
