@@ -43,7 +43,13 @@ from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError
-from iceimpact.scene import DRAG_RATE_MAX, ODE_EXPLICIT_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE
+from iceimpact.scene import (
+    DRAG_RATE_MAX,
+    ODE_EXPLICIT_RATE_MAX,
+    OMEGA_MAX_EXACT,
+    OMEGA_MAX_ODE,
+    TAYLOR_RATE_MAX,
+)
 from iceimpact.solvers.ode import ATOL_SCALE
 from test_properties import scenes
 
@@ -84,6 +90,8 @@ def scale_scenes(draw, method: int):
     drag = draw(st.sampled_from([1, 2]))
     B = 0.5 * 999.0 * Cd * A
     u_max = 100.0 if B == 0.0 else min(1e4, 0.4 * RATE_MAX[method] * M / (2.0 * B))
+    if method == 1 and B > 0.0:  # and the sticking phase's drag rate 2 B u / (m + M)
+        u_max = min(u_max, 0.4 * TAYLOR_RATE_MAX * (m + M) / (2.0 * B))
     x0 = draw(st.one_of(st.just(0.0), st.floats(-1.0, 1.0)))
     v0 = draw(st.floats(-1.0, 1.0))
     try:

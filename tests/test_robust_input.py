@@ -20,7 +20,14 @@ from iceimpact.cli import main as cli_main
 from iceimpact.fmi.adapter import FmuModel
 from iceimpact.physics.ice import LinearDrag, QuadraticDrag
 from iceimpact.physics.structure import Oscillator
-from iceimpact.scene import DRAG_RATE_MAX, OMEGA_MAX_EXACT, OMEGA_MAX_ODE, TIME_RESOLUTION
+from iceimpact.scene import (
+    DRAG_RATE_MAX,
+    OMEGA_MAX_EXACT,
+    OMEGA_MAX_ODE,
+    STICKING_RATE,
+    TAYLOR_RATE_MAX,
+    TIME_RESOLUTION,
+)
 from iceimpact.solvers.base import GAP_ROUNDING
 from iceimpact.solvers.contact_rules import CHATTER_FRACTION
 from iceimpact.solvers.event import Flight, LinearStick
@@ -151,9 +158,16 @@ def test_the_drag_rate_limit_through_the_fmu():
     assert fmu.do_step(1e-3, 1e-3)
 
 
-def test_the_drag_rate_limit_at_the_limit_runs():
-    u = 0.99 * DRAG_RATE_MAX * 1600.0 / (2.0 * 499.5)
-    sim = Simulator(Scene(drag_model=2, flow_u=u))
+@pytest.mark.parametrize("method", [1, 3])
+def test_the_drag_rate_limit_at_the_limit_runs(method):
+    """Just inside the drag-rate limit of each method: method 3 (LSODA) at DRAG_RATE_MAX on
+    2 B u / M; method 1 at TAYLOR_RATE_MAX on its sticking phase's 2 B u / (m + M), the lower
+    of its two limits for this scene."""
+    if method == 1:
+        u = 0.99 * TAYLOR_RATE_MAX * (1600.0 + 1600.0) / (2.0 * 499.5)
+    else:
+        u = 0.99 * DRAG_RATE_MAX * 1600.0 / (2.0 * 499.5)
+    sim = Simulator(Scene(drag_model=2, flow_u=u, solver_method=method, solver_ode_method=3))
     for _ in range(5):
         r = sim.advance(1e-3)
         assert math.isfinite(r.x) and r.gap >= 0.0 and r.impulse >= 0.0
@@ -623,14 +637,104 @@ def test_a_structure_too_stiff_for_the_quadratic_sticking_steps_is_refused_for_m
     with pytest.raises(ParameterError) as err:
         Scene(drag_model=2, **stiff)
     message = str(err.value)
-    assert "max(sqrt(structure.k / (m + M)), structure.c / (m + M))" in message
-    assert f"{DRAG_RATE_MAX:g} 1/s" in message and "drag.model = 1" in message
+    assert message.startswith(STICKING_RATE)
+    assert f"{TAYLOR_RATE_MAX:g} 1/s" in message and "drag.model = 1" in message
     Scene(drag_model=1, **stiff)
     Scene(drag_model=2, solver_method=2, **stiff)
     total = Scene().structure_m + Scene().ice_M
-    Scene(drag_model=2, structure_c=0.0, structure_k=total * (0.99 * DRAG_RATE_MAX) ** 2)
+    Scene(drag_model=2, structure_c=0.0, structure_k=total * (0.99 * TAYLOR_RATE_MAX) ** 2)
     with pytest.raises(ParameterError):
-        Scene(drag_model=2, structure_c=0.0, structure_k=total * (1.01 * DRAG_RATE_MAX) ** 2)
+        Scene(drag_model=2, structure_c=0.0, structure_k=total * (1.01 * TAYLOR_RATE_MAX) ** 2)
+
+
+#: 1 kg floe on a 1 kg structure (m + M = 2 kg), quadratic drag at u = 1 m/s (method 1)
+_PAIR = dict(structure_m=1.0, ice_M=1.0, ice_Cd=1.0, structure_x0=0.0, structure_v0=0.0,
+             ice_z0=0.0, ice_v0=0.0, drag_model=2, flow_u=1.0, solver_method=1)
+
+
+def _pair(omega_n: float, zeta: float, drag_rate: float, **fields) -> dict:
+    """_PAIR with the structure's omega_n (rad/s) and zeta, and 2 B u / M = drag_rate (1/s)."""
+    k = omega_n ** 2
+    return {**_PAIR, "structure_k": k, "structure_c": 2.0 * zeta * math.sqrt(k),
+            "ice_A": drag_rate / (2.0 * 499.5), **fields}
+
+
+def test_sticking_phases_too_slow_for_the_taylor_steps_are_refused_for_method_1():
+    """Method 1's quadratic-drag sticking phase takes Taylor steps of about 1 / rate (0.1 to
+    0.3 steps x rate per simulated second), up to ~2e-5 s of CPU x rate per simulated second
+    (tests/taylor_rate_cost.py). Under the former limit of 1e6 1/s the search found an
+    over-damped structure (omega_n 1.6e4 rad/s, zeta 6.1) under a drag rate 2 B u / M of
+    2.9e5 1/s sticking at ~3.2 s of CPU per simulated second, and stiff pairs (sqrt(k / (m + M))
+    of 3.7e5-5.4e5 rad/s) at 4.5-10 s. The rule now holds each rate of the sticking equation,
+    the drag's 2 (B + B_s) speed / (m + M) included, to TAYLOR_RATE_MAX = 1e5 1/s, up front and
+    for each new flow.u, naming the rates, their values and the limit."""
+    assert TAYLOR_RATE_MAX == 1e5
+    # the over-damped scene: sqrt(k / (m + M)) = 1.1e4, c / (m + M) = 9.8e4, drag 1.45e5 1/s
+    with pytest.raises(ParameterError) as err:
+        Scene(**_pair(1.6e4, 6.1, 2.9e5))
+    message = str(err.value)
+    assert message.startswith(f"{STICKING_RATE} = 145000")
+    assert "sqrt(structure.k / (m + M)) = 1.13e+04 rad/s" in message
+    assert "structure.c / (m + M) = 9.76e+04 1/s" in message
+    assert "2 (B + B_s) speed / (m + M) = 1.45e+05 1/s" in message
+    assert "<= 100000 1/s with quadratic drag and solver.method = 1" in message
+    Scene(**_pair(1.6e4, 6.1, 1.9e5))  # drag 9.5e4 1/s: accepted
+    Scene(**_pair(1.6e4, 6.1, 2.9e5, drag_model=1))  # linear drag: closed-form sticking
+    # a stiff pair: sqrt(k / (m + M)) = 3.7e5 rad/s
+    with pytest.raises(ParameterError, match=r"= 370000.0000000\d* is not allowed: <= 100000"):
+        Scene(**_pair(3.7e5 * math.sqrt(2.0), 0.0, 1e3))
+    with pytest.raises(ParameterError, match=r"structure.c / \(m \+ M\) = 1.2e\+05 1/s"):
+        Scene(**_pair(1e4, 12.0, 1e3))  # over-damped: c / (m + M) = 1.2e5 1/s
+    Scene(**_pair(0.99e5 * math.sqrt(2.0), 0.0, 1e3))
+    # the drag on the structure counts as well: B_s doubles the rate of a drag just inside
+    Scene(**_pair(1e2, 0.0, 1.8e5))
+    with pytest.raises(ParameterError, match=r"2 \(B \+ B_s\) speed / \(m \+ M\) = 1.8e\+05"):
+        Scene(**_pair(1e2, 0.0, 1.8e5, structure_Cd=1.0,
+                      structure_A=1.8e5 / (2.0 * 499.5)))
+    # mid-run: a flow whose sticking drag rate exceeds the limit refuses that step only
+    sim = Simulator(Scene(drag_model=2))
+    sim.advance(1e-3)
+    before = sim.save()
+    u_max = TAYLOR_RATE_MAX * 3200.0 / (2.0 * 499.5)  # 3.2e5 m/s, below the 1.6e6 of 2 B u / M
+    with pytest.raises(ParameterError, match=r"flow.u = .* is not allowed: \|flow.u\| <= "
+                                             r"3.2e\+05 m/s .* 2 \(B \+ B_s\) \|flow.u\| / "
+                                             r"\(m \+ M\) = 1.01e\+05 1/s"):
+        sim.advance(1e-3, 1.01 * u_max)
+    assert sim.save() == before
+    sim.advance(1e-3, 0.99 * u_max)
+
+
+@pytest.mark.parametrize("kind", ["stiff", "over-damped", "stiff drag"])
+def test_taylor_sticking_steps_per_simulated_second_are_proportional_to_the_rate(kind):
+    """Just inside TAYLOR_RATE_MAX, the scenes of tests/taylor_rate_cost.py (a 1 kg floe stuck
+    from rest on a 9 kg structure whose sqrt(k / (m + M)), c / (m + M) or sticking drag rate is
+    the given rate), the flow switched at every 1 ms step as there (1 and 0.5 m/s): the Taylor
+    steps per simulated second stay below 0.6 x rate (measured 0.1-0.3 at 1e5 1/s), the work
+    the limit was derived from; independent of CPU speed."""
+    from iceimpact.solvers import taylor
+    from taylor_rate_cost import LOW_FLOW, scene
+
+    calls = [0]
+    original = taylor.StickingTaylor.step
+
+    def counted(self, *args, **kwargs):
+        calls[0] += 1
+        return original(self, *args, **kwargs)
+
+    rate = 0.99 * TAYLOR_RATE_MAX
+    taylor.StickingTaylor.step = counted
+    try:
+        sim = Simulator(scene(kind, rate))
+        for i in range(20):
+            r = sim.advance(1e-3, 1.0 if i % 2 == 0 else LOW_FLOW[kind])
+            assert r.gap >= 0.0 and r.impulse >= 0.0 and math.isfinite(r.x)
+    finally:
+        taylor.StickingTaylor.step = original
+    assert sim.sticking and sim.sticking_since == 0.0
+    assert 0.0 < calls[0] <= 0.6 * rate * sim.t
+    # just outside: refused (the stiff drag by the drag rule 2 B u / M <= 1e6 1/s as well)
+    with pytest.raises(ParameterError, match=r"is not allowed: (<= 100000 1/s|speed <=)"):
+        scene(kind, 1.01 * TAYLOR_RATE_MAX)
 
 
 def test_a_sticking_separation_at_denormal_scales_is_located():

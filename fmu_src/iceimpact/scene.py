@@ -256,6 +256,8 @@ def validate_flow(u: Any, scene: Scene | None = None) -> float:
                 raise ParameterError(FLOW_INPUT.name, u, "a flow speed whose Morison drag force "
                                      "on the structure is finite (" + _OVERFLOW + ")")
             _check_structure_drag_rate(scene, abs(u), FLOW_INPUT.name)
+        if _integrates_taylor_sticking(scene):
+            _check_sticking_rate(scene, abs(u), u)
     return u
 
 
@@ -280,8 +282,9 @@ def _drag_rate_text(scene: Scene, limit: float, what: str) -> str:
 
 def rate_limit(scene: Scene) -> float:
     """Largest relaxation rate (1/s) the scene's method integrates in bounded work: method 3
-    with an explicit integrator (RK45, DOP853), ODE_EXPLICIT_RATE_MAX; method 1 (its Taylor
-    steps) and method 3 with LSODA or Radau, DRAG_RATE_MAX (docs/robustness.md)."""
+    with an explicit integrator (RK45, DOP853), ODE_EXPLICIT_RATE_MAX; method 1 and method 3
+    with LSODA or Radau, DRAG_RATE_MAX (docs/robustness.md). Method 1's sticking phase is held
+    to the lower TAYLOR_RATE_MAX besides (_check_sticking_rate)."""
     if scene.solver_method == METHOD_ODE and scene.solver_ode_method in EXPLICIT_ODE_METHODS:
         return ODE_EXPLICIT_RATE_MAX
     return DRAG_RATE_MAX
@@ -298,6 +301,59 @@ def omega_limit(scene: Scene) -> float:
         scale = (scene.solver_rtol / RADAU_OMEGA_RTOL) ** 0.25
         return min(OMEGA_MAX_ODE, RADAU_OMEGA_MAX * scale)
     return OMEGA_MAX_ODE
+
+
+def _integrates_taylor_sticking(scene: Scene) -> bool:
+    """Method 1 with quadratic drag and the built-in structure: its sticking phase is integrated
+    by explicit Taylor steps (solvers/taylor.py)."""
+    return (scene.solver_method == METHOD_EXACT and scene.drag_model == QUADRATIC_DRAG
+            and not scene.external)
+
+
+def sticking_rates(scene: Scene, speed: float) -> tuple[float, float, float]:
+    """The rates (1/s) of method 1's quadratic-drag sticking equation (m + M) x'' + c x' + k x =
+    (B + B_s) |u - x'| (u - x') at a relative speed |u - x'| = ``speed`` (m/s): its stiffness
+    sqrt(k / (m + M)), damping c / (m + M) and drag 2 (B + B_s) speed / (m + M) (the drag's
+    linearisation; B_s the Morison drag on the structure, 0 when off)."""
+    s = scene
+    total, B = _sticking_constants(s)
+    return (math.sqrt(s.structure_k / total), s.structure_c / total, 2.0 * B * speed / total)
+
+
+def _sticking_constants(scene: Scene) -> tuple[float, float]:
+    """The mass m + M (kg, m with its added mass) and drag constant B + B_s (kg/m) of method 1's
+    quadratic-drag sticking equation."""
+    s = scene
+    return (s.structure_mass + s.ice_M,
+            s.drag_B + (s.structure_drag_B if s.structure_drag_on else 0.0))
+
+
+def _check_sticking_rate(scene: Scene, speed: float, flow: float | None = None) -> None:
+    """Refuse a method-1 quadratic-drag scene whose sticking phase the Taylor steps cannot
+    integrate in bounded work: the largest of :func:`sticking_rates` above TAYLOR_RATE_MAX, the
+    drag's at ``speed`` (the scene's speed bound up front; |flow.u| for a new ``flow``)."""
+    s = scene
+    stiffness, damping, drag = sticking_rates(s, speed)
+    rate = max(stiffness, damping, drag)
+    if rate <= TAYLOR_RATE_MAX:
+        return
+    why = ("the sticking phase is integrated by explicit Taylor steps of about 5 / rate, "
+           f"up to ~{TAYLOR_COST:g} s of CPU x rate per simulated second")
+    total, B = _sticking_constants(s)
+    if flow is not None and drag > TAYLOR_RATE_MAX:
+        limit = TAYLOR_RATE_MAX * total / (2.0 * B)
+        raise ParameterError(FLOW_INPUT.name, flow,
+                             f"|flow.u| <= {limit:.3g} m/s with quadratic drag and "
+                             f"solver.method = 1: the sticking drag rate 2 (B + B_s) |flow.u| / "
+                             f"(m + M) = {drag:.3g} 1/s must stay <= {TAYLOR_RATE_MAX:g} 1/s "
+                             f"(B + B_s = {B:.6g} kg/m, m + M = {total:.6g} kg): {why}")
+    raise ParameterError(
+        STICKING_RATE, rate,
+        f"<= {TAYLOR_RATE_MAX:g} 1/s with quadratic drag and solver.method = 1 (here "
+        f"sqrt(structure.k / (m + M)) = {stiffness:.3g} rad/s, structure.c / (m + M) = "
+        f"{damping:.3g} 1/s, 2 (B + B_s) speed / (m + M) = {drag:.3g} 1/s with B + B_s = "
+        f"{B:.6g} kg/m, m + M = {total:.6g} kg, speed = {_SPEED_BOUND} = {speed:.6g} m/s): "
+        f"{why}; use drag.model = 1, whose sticking phase is closed form")
 
 
 def _integrator_text(scene: Scene) -> str:
@@ -411,18 +467,6 @@ def _check_work(scene: Scene) -> None:
         if _drag_rate(s, speed) > rate_limit(s):
             limit = rate_limit(s) * s.ice_M / (2.0 * s.drag_B)
             raise ParameterError(_SPEED_BOUND, speed, _drag_rate_text(s, limit, "speed"))
-    if s.solver_method == METHOD_EXACT and s.drag_model == QUADRATIC_DRAG and not s.external:
-        # method 1's quadratic-drag sticking phase is integrated by explicit Taylor steps of
-        # about one period of the bodies together, or 1 / (c / (m + M)) when over-damped
-        total = s.structure_mass + s.ice_M
-        rate = max(math.sqrt(s.structure_k / total), s.structure_c / total)
-        if rate > DRAG_RATE_MAX:
-            raise ParameterError(
-                "max(sqrt(structure.k / (m + M)), structure.c / (m + M))", rate,
-                f"<= {DRAG_RATE_MAX:g} 1/s with quadratic drag and solver.method = 1: the "
-                "sticking phase is integrated by explicit Taylor steps of about 1 / rate, "
-                "~3e-5 s of CPU x rate per simulated second; use drag.model = 1, whose "
-                "sticking phase is closed form")
     if s.solver_method == METHOD_ODE and s.structure_c / s.structure_m > rate_limit(s):
         # an over-damped structure relaxes at up to c / m: the same step bound as a drag rate
         raise ParameterError("structure.c / structure.m", s.structure_c / s.structure_m,
@@ -439,6 +483,8 @@ def _check_work(scene: Scene) -> None:
     if s.structure_drag_on:
         _check_structure_drag_rate(s, max(abs(s.flow_u), abs(s.flow_u - s.structure_v0)),
                                    "max(|flow.u|, |flow.u - structure.v0|)")
+    if _integrates_taylor_sticking(s):  # after the rules of its parts, the flight's included
+        _check_sticking_rate(s, _speed_bound(s, s.flow_u))
 
 
 #: The relative speed bound of the quadratic-drag rate rule (_check_work), as a user reads it.
@@ -470,10 +516,30 @@ OMEGA_MAX_EXACT = 2.0 * math.pi * 1e-2 / (TIME_RESOLUTION * RESOLVED_HORIZON)  #
 OMEGA_MAX_ODE = 1e4
 #: Largest relaxation rate of the drag (1/s) for the integrated phases: the ice's flight in
 #: method 3 (b/M, or 2 B |w - u| / M) and the quadratic-drag sticking phase of method 1
-#: (2 B |v - u| / (m + M) <= 2 B |v - u| / M). Their explicit integrators (DOP853, RK45) are
-#: stable only for steps below ~3.3 / rate: at 1e6 1/s that is ~3e5 steps (about 10 s of wall
-#: time) per simulated second; flow.u = 1e12 m/s (rate 6e11 1/s) did not finish 20 ms in 60 s.
+#: (2 B |v - u| / (m + M) <= 2 B |v - u| / M; its own rule, TAYLOR_RATE_MAX, is lower). Their
+#: explicit integrators (DOP853, RK45) are stable only for steps below ~3.3 / rate: at 1e6 1/s
+#: that is ~3e5 steps (about 10 s of wall time) per simulated second; flow.u = 1e12 m/s (rate
+#: 6e11 1/s) did not finish 20 ms in 60 s.
 DRAG_RATE_MAX = 1e6
+#: Largest rate (1/s) of method 1's quadratic-drag sticking phase (sticking_rates: the bodies'
+#: stiffness sqrt(k / (m + M)), damping c / (m + M) and drag 2 (B + B_s) speed / (m + M)). Its
+#: explicit Taylor steps (solvers/taylor.py, order 36 at a tolerance of 1e-16) are about
+#: 5 / rate long whatever the motion: their last terms (rate h)^36 / 36! must stay below 1e-16
+#: of it, and a higher order's longer steps would lose to cancellation (terms up to
+#: e^(rate h)) the digits they gain. Measured 0.1 to 0.3 steps and up to TAYLOR_COST s of CPU
+#: x rate per simulated second at 1e5 to 1e6 1/s (tests/taylor_rate_cost.py,
+#: docs/robustness.md), so that at this limit 1 s of simulated time costs at most ~2 s of CPU
+#: (at 1e6 1/s, the limit before, 4-11 s in those scenes; the random search's scenes at
+#: 3.7e5-5.4e5 1/s took 4.5-10 s).
+TAYLOR_RATE_MAX = 1e5
+#: CPU time per (1/s) of rate per simulated second of method 1's sticking Taylor steps (s), the
+#: largest measured at 1e5 1/s and above (1.1e-5 to 1.7e-5 s; up to 3e-5 s at 1e4 1/s, where
+#: the flow changes at every 1 ms step add a fixed cost), on a machine shared with other work.
+TAYLOR_COST = 2e-5
+#: The rate rule of method 1's quadratic-drag sticking phase (_check_sticking_rate), as a user
+#: reads it.
+STICKING_RATE = ("max(sqrt(structure.k / (m + M)), structure.c / (m + M), "
+                 "2 (B + B_s) speed / (m + M))")
 #: solver.ode_method values whose integrators are explicit (method 3), by name.
 EXPLICIT_ODE_METHODS = {1: "RK45", 2: "DOP853"}
 #: Largest relaxation rate (1/s) of method 3 with an explicit integrator (RK45, DOP853): the
