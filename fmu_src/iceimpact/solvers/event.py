@@ -134,7 +134,8 @@ class Flight(_SearchedSegment):
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
-        self.osc = osc = solver.structure_osc(u)
+        # (structure_osc called only with a Morison drag: a flight starts at each impact)
+        self.osc = osc = solver.structure_osc(u) if solver.structure_b else solver.osc
         self.drag = drag = solver.drag
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
@@ -163,7 +164,8 @@ class Flight(_SearchedSegment):
         return last
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
-        _, dx, v, dz, w = self._motion(tau)
+        last = self._last  # (the state at a root: the point the search tested last)
+        _, dx, v, dz, w = last if last[0] == tau else self._motion(tau)
         return self.x0 + dx, v, self.z0 + dz, w
 
     def state_array(self, anchor, tau):
@@ -177,13 +179,17 @@ class Flight(_SearchedSegment):
         return self.gap0 + (dx - dz)
 
     def gap_and_rate(self, tau: float) -> tuple[float, float]:
-        """Gap and its rate v - w."""
-        _, dx, v, dz, w = self._motion(tau)
+        """Gap and its rate v - w. (Newton's method asks at new points only: the motion is
+        evaluated at once, and kept as :meth:`_motion` keeps it.)"""
+        dx, v = self._x_motion(tau)
+        dz, w = self._z_motion(tau)
+        self._last = (tau, dx, v, dz, w)
         return self.gap0 + (dx - dz), v - w
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
-        _, dx, v, dz, w = self._motion(tau)
+        last = self._last
+        _, dx, v, dz, w = last if last[0] == tau else self._motion(tau)
         a_x, a_x_max, j_x_max = self.osc.bounds(self.x0 + dx, v)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
         return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
@@ -209,7 +215,8 @@ class Flight(_SearchedSegment):
         offset = self.osc.offset
         if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
             return 0.0
-        _, dx, v, dz, w = self._motion(tau)
+        last = self._last  # (the search asks right after its probe at tau)
+        _, dx, v, dz, w = last if last[0] == tau else self._motion(tau)
         z = self.z0 + dz
         if z >= offset:  # the margin below is <= 0 for any reach >= 0 (most calls: ice at contact)
             return 0.0
@@ -887,7 +894,9 @@ class EventSolver(Solver):
 
     def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
         self.seg = self._flight_cls(self, t, x, v, z, w, u, start)
-        self._set_sticking(False, t)
+        if self.sticking:  # (apart already: nothing to change)
+            self._set_sticking(False, t)
+
 
     def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
                           lam: float) -> None:

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from math import sqrt
 from typing import Any
 
 from scipy.optimize import brentq
@@ -56,6 +57,9 @@ BRACKET_STEPS = 1100
 
 #: Relative tolerance on a located root, as brentq's ``rtol`` (4 ulps).
 ROOT_RTOL = 8.9e-16
+
+#: Absolute tolerance on a located root (s), as brentq's ``xtol``.
+ROOT_XTOL = 1e-15
 
 #: A root-free stretch longer than this (s) is the whole future: no run reaches its end, and the
 #: closed forms overflow there (a clearance of 6e306 s, a margin over an ice speed of 1e-308
@@ -87,7 +91,7 @@ class RootSearch:
     """
 
     __slots__ = ("probe", "value", "value_and_rate", "clearance", "a", "root", "time_eps",
-                 "iterations", "xtol", "creep", "max_step")
+                 "iterations", "creep", "max_step", "_probed_at", "_probed")
 
     def __init__(self, start: float, time_eps: float, max_step: float = math.inf):
         # the signal, during a call
@@ -97,8 +101,11 @@ class RootSearch:
         self.time_eps = time_eps  # smallest meaningful time increment
         self.iterations = 0
         self.creep = 0
-        self.xtol = 1e-15
         self.max_step = max_step  # longest step (s): a shorter root-free stretch is still one
+        # the probe at the end of the last step, which its sign test evaluated: the next step
+        # starts there (the point and its values; a frontier moved elsewhere asks again)
+        self._probed_at = math.nan
+        self._probed: tuple[float, float, float, float, float] | None = None
 
     def frontier(self) -> dict[str, Any]:
         """Where the search stands, as plain data: with the same signal and start,
@@ -143,12 +150,22 @@ class RootSearch:
 
     def _step(self) -> None:
         a = self.a
-        f, df, d2, bound, jerk = self.probe(a)
+        if a == self._probed_at:  # the last step's sign test probed its end, here
+            f, df, d2, bound, jerk = self._probed
+        else:
+            f, df, d2, bound, jerk = self.probe(a)
         self.iterations += 1
         if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
             return
-        size = max(abs(f), abs(df), abs(d2), bound, jerk)
+        # the scale of the probe (f >= 0 here): max(|f|, |f'|, |f''|, K, J), written out
+        size = bound if bound > jerk else jerk
+        if f > size:
+            size = f
+        if df > size or -df > size:
+            size = df if df > 0.0 else -df
+        if d2 > size or -d2 > size:
+            size = d2 if d2 > 0.0 else -d2
         if 0.0 < size < SCALED_BELOW or 1.0 / SCALED_BELOW < size < math.inf:
             # the squares below would underflow (or overflow): every step length is
             # homogeneous of degree 0 in (f, f', f'', K, J), so scale them by a power of 2 (exact)
@@ -160,16 +177,18 @@ class RootSearch:
             else:
                 self.a = math.inf
             return
-        disc = math.sqrt(df * df + 2.0 * bound * f)
+        disc = sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
-        if self.clearance is not None:
-            cleared = self.clearance(a)
+        max_step = self.max_step
+        clearance = self.clearance
+        if clearance is not None:
+            cleared = clearance(a)
             if cleared > h_free:  # max(), written out (this runs at every step)
                 h_free = cleared
         if df >= 0.0:
             # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
             if jerk > 0.0:
-                h_rise = (d2 + math.sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
+                h_rise = (d2 + sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
             else:
                 h_rise = math.inf if d2 >= 0.0 else df / -d2
             if h_rise > h_free:
@@ -178,7 +197,7 @@ class RootSearch:
             # f' <= df + d2 s + jerk s^2 / 2 stays < 0 up to h_mono: at most one root there
             h_mono = -df / bound
             if jerk > 0.0:
-                root = math.sqrt(d2 * d2 - 2.0 * jerk * df)
+                root = sqrt(d2 * d2 - 2.0 * jerk * df)
                 if d2 < 0.0:
                     h_jerk = (root - d2) / jerk
                     if h_jerk > h_mono:
@@ -191,8 +210,8 @@ class RootSearch:
                 h_mono = math.inf
             if h_mono > h_free:
                 span = FOREVER if FOREVER < h_mono else h_mono  # min(h_mono, FOREVER, max_step)
-                if self.max_step < span:
-                    span = self.max_step
+                if max_step < span:
+                    span = max_step
                 b = a + span
                 if b > a:
                     if self.value_and_rate is not None:
@@ -203,10 +222,10 @@ class RootSearch:
                         return
                     self.a = b
                     return
-        if h_free > FOREVER and self.max_step == math.inf:
+        if h_free > FOREVER and max_step == math.inf:
             self.a = math.inf
             return
-        step = self.max_step if self.max_step < h_free else h_free  # min(h_free, max_step)
+        step = max_step if max_step < h_free else h_free  # min(h_free, max_step)
         eps = self.time_eps + 8.9e-16 * a  # a few ulps of the absolute time
         if step < eps:
             if df < 0.0 or self.iterations > MAX_ITERATIONS:
@@ -220,10 +239,13 @@ class RootSearch:
         else:
             self.creep = 0
         b = a + step
-        if self.value(b) < 0.0:  # rounding at the frontier: root-free before b, so it is b
+        # the sign test at b by the full probe, which the next step starts from
+        probed = self.probe(b)
+        if probed[0] < 0.0:  # rounding at the frontier: root-free before b, so it is b
             self.root = self._bracketed_root(a, b)
             return
-        self.a = b
+        self.a = self._probed_at = b
+        self._probed = probed
 
     def _descend(self, a: float, f: float, df: float, d2: float, b: float) -> None:
         """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0, f''(a) = d2) on the monotone
@@ -237,14 +259,14 @@ class RootSearch:
         t, f_t, df_t = a, f, df
         disc = df * df - 2.0 * f * d2
         # first step: root of f + df h + d2 h^2 / 2 (cancellation-free form), else Newton's
-        step = 2.0 * f / (math.sqrt(disc) - df) if disc >= 0.0 else f / -df
+        step = 2.0 * f / (sqrt(disc) - df) if disc >= 0.0 else f / -df
         for _ in range(DESCENT_STEPS):
             if not df_t < 0.0:  # f' vanishing to rounding inside the stretch
                 break
             nxt = t + step
             if nxt >= b:  # any root is close to b: the sign test there decides
                 break
-            if step <= self.xtol + ROOT_RTOL * abs(t):  # converged from above, to tolerance
+            if step <= ROOT_XTOL + ROOT_RTOL * abs(t):  # converged from above, to tolerance
                 self.root = t
                 return
             f_n, df_n = value_and_rate(nxt)
@@ -266,11 +288,12 @@ class RootSearch:
         """The crossing in [a, b] (f(a) >= 0 > f(b)), to near machine precision: safeguarded
         Newton from t (with f(t) = f_t, f'(t) = df_t, else from b) if rates are given, else
         brentq."""
-        if self.value_and_rate is None:
+        value_and_rate = self.value_and_rate
+        if value_and_rate is None:
             return self._brentq(a, b)
         if t is None:
             t = b
-            f_t, df_t = self.value_and_rate(b)
+            f_t, df_t = value_and_rate(b)
         lo, hi = a, b
         step = step_before = hi - lo
         for _ in range(BRACKET_STEPS):
@@ -278,11 +301,12 @@ class RootSearch:
             if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
                 nxt = lo + 0.5 * (hi - lo)  # bisection when Newton leaves or stalls
             step_before, step = step, abs(nxt - t)
-            if step <= self.xtol + ROOT_RTOL * abs(nxt) or not lo < nxt < hi:
+            converged = step <= ROOT_XTOL + ROOT_RTOL * abs(nxt)
+            if converged or not lo < nxt < hi:
                 # converged: the last point evaluated is within the tolerance of the root
-                return t if step <= self.xtol + ROOT_RTOL * abs(nxt) else nxt
+                return t if converged else nxt
             t = nxt
-            f_t, df_t = self.value_and_rate(t)
+            f_t, df_t = value_and_rate(t)
             if f_t < 0.0:
                 hi = t
             elif f_t > 0.0:
@@ -296,6 +320,6 @@ class RootSearch:
 
         Where rounding makes f noisy near its root brentq may not meet its tolerance; its best
         bracketed estimate is then kept (disp=False) instead of failing the run."""
-        root, _ = brentq(self.value, a, b, xtol=self.xtol, rtol=ROOT_RTOL, maxiter=200,
+        root, _ = brentq(self.value, a, b, xtol=ROOT_XTOL, rtol=ROOT_RTOL, maxiter=200,
                          full_output=True, disp=False)
         return root
