@@ -3,11 +3,12 @@ closed-form roots and against the brentq path, close roots, convex and concave c
 
 from __future__ import annotations
 
+import gc
 import math
 
 import pytest
 
-from iceimpact.solvers.rootfind import RootSearch
+from iceimpact.solvers.rootfind import RootSearch, Signal
 
 
 def _polynomial(coefficients):
@@ -124,5 +125,6 @@ def test_the_search_holds_its_signal_only_during_a_call():
     f, probe, rate = _exponential(0.5)
     search = RootSearch(0.0, 1e-16)
     assert search.next_root_before(0.1, probe, f, rate) is None
-    assert search.probe is search.value is search.value_and_rate is None
+    held = [r for r in gc.get_referents(search) if r is not RootSearch]  # (and its class)
+    assert not any(callable(r) or isinstance(r, Signal) for r in held)
     assert search.next_root_before(10.0, probe, f, rate) == pytest.approx(math.log(2.0))

@@ -186,6 +186,9 @@ class Flight(_SearchedSegment):
         self._last = (tau, dx, v, dz, w)
         return self.gap0 + (dx - dz), v - w
 
+    # the root search's signal: the gap (a subclass with its own gap names them again)
+    value, value_and_rate = gap, gap_and_rate
+
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
         last = self._last
@@ -231,8 +234,10 @@ class Flight(_SearchedSegment):
         return math.inf if speed == 0.0 else (lowest - rounding) / speed
 
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate,
-                                            self.clearance)
+        """The next impact (the gap's first root) if at or before tau_end: the segment is the
+        root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`), its ``value`` the
+        gap."""
+        return self.search.next_root_of(tau_end, self)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
@@ -334,6 +339,8 @@ class DraggedFlight(Flight):
         dx, v = self._structure(tau)
         dz, w = self._z_motion(tau)
         return self.gap0 + (dx - dz), v - w
+
+    value, value_and_rate = gap, gap_and_rate  # the root search's signal, as Flight's
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         dx, v = self._structure(tau)
@@ -484,9 +491,14 @@ class LinearStick(_SearchedSegment):
         rounding = GAP_ULPS * (abs(push) + abs(q) + reach + abs(self._lam0) + abs(dq))
         return math.inf if push - reach - rounding > 0.0 else 0.0
 
+    # the root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`): the contact force
+    value, value_and_rate = force, force_and_rate
+
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end, self.probe, self.force, self.force_and_rate,
-                                            self.clearance)
+        """The separation (the contact force's first root) if at or before tau_end."""
+        return self.search.next_root_of(tau_end, self)
+
+
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""

@@ -73,7 +73,23 @@ FOREVER = 1e300
 SCALED_BELOW = 1e-100
 
 
+class Signal:
+    """A signal for :class:`RootSearch` given as functions (see there): ``probe``, ``value``,
+    ``value_and_rate`` and ``clearance`` (the last two may be None). A segment of the motion
+    serves as its own signal, with methods of these names."""
+
+    __slots__ = ("probe", "value", "value_and_rate", "clearance")
+
+    def __init__(self, probe: Callable[[float], tuple[float, float, float, float, float]],
+                 value: Callable[[float], float],
+                 value_and_rate: Callable[[float], tuple[float, float]] | None = None,
+                 clearance: Callable[[float], float] | None = None):
+        self.probe, self.value = probe, value
+        self.value_and_rate, self.clearance = value_and_rate, clearance
+
+
 class RootSearch:
+
     """Incremental search for the first time after a start point where f goes below zero.
 
     A zero that f only touches (f = f' = 0, then f >= 0) is not a root: a gap closing with no
@@ -82,20 +98,19 @@ class RootSearch:
 
     ``probe(t) -> (f, f', f'', K, J)`` gives value, slope, curvature and the bounds K, J;
     ``value(t) -> f`` is the cheap value alone, ``value_and_rate(t) -> (f, f')`` (optional) the
-    value and slope for Newton's method. They are given with each call of
-    :meth:`next_root_before` and held only during it, so that a segment holding its search
-    makes no reference cycle (it is freed at once, without the cyclic garbage collector, which
-    took a fifth of an impact-heavy run). The search keeps its frontier (root-free up to ``a``)
-    between calls, so a sequence of horizons visits the same points as one long call: results
-    do not depend on how the caller chops time.
+    value and slope for Newton's method, ``clearance(t)`` (optional) a root-free span. They are
+    the attributes of a :class:`Signal` (a segment is one: :meth:`next_root_of`), or given as
+    functions (:meth:`next_root_before`), with each call and held only during it, so that a
+    segment holding its search makes no reference cycle (it is freed at once, without the
+    cyclic garbage collector, which took a fifth of an impact-heavy run). The search keeps its
+    frontier (root-free up to ``a``) between calls, so a sequence of horizons visits the same
+    points as one long call: results do not depend on how the caller chops time.
     """
 
-    __slots__ = ("probe", "value", "value_and_rate", "clearance", "a", "root", "time_eps",
-                 "iterations", "creep", "max_step", "_probed_at", "_probed")
+    __slots__ = ("a", "root", "time_eps", "iterations", "creep", "max_step", "_probed_at",
+                 "_probed")
 
     def __init__(self, start: float, time_eps: float, max_step: float = math.inf):
-        # the signal, during a call
-        self.probe = self.value = self.value_and_rate = self.clearance = None
         self.a = start          # f(a) >= 0 and [start, a) is root-free
         self.root: float | None = None
         self.time_eps = time_eps  # smallest meaningful time increment
@@ -130,30 +145,29 @@ class RootSearch:
                          value: Callable[[float], float],
                          value_and_rate: Callable[[float], tuple[float, float]] | None = None,
                          clearance: Callable[[float], float] | None = None) -> float | None:
-        """The first root of the signal (see the class) if it is at or before ``horizon``, else
-        None (frontier moved past)."""
+        """The first root of the signal given as functions (see the class) if it is at or
+        before ``horizon``, else None (frontier moved past)."""
+        return self.next_root_of(horizon, Signal(probe, value, value_and_rate, clearance))
+
+    def next_root_of(self, horizon: float, signal: Any) -> float | None:
+        """The first root of ``signal`` (any object with the attributes of a :class:`Signal`,
+        such as a segment) if it is at or before ``horizon``, else None (frontier moved past)."""
         root = self.root
         if root is not None:
             return root if root <= horizon else None
-        if self.a > horizon:
-            return None
-        self.probe, self.value, self.value_and_rate = probe, value, value_and_rate
-        self.clearance = clearance
-        try:
-            while self.a <= horizon:
-                self._step()
-                if self.root is not None:
-                    return self.root if self.root <= horizon else None
-            return None
-        finally:
-            self.probe = self.value = self.value_and_rate = self.clearance = None
+        while self.a <= horizon:
+            self._step(signal)
+            root = self.root
+            if root is not None:
+                return root if root <= horizon else None
+        return None
 
-    def _step(self) -> None:
+    def _step(self, signal: Any) -> None:
         a = self.a
         if a == self._probed_at:  # the last step's sign test probed its end, here
             f, df, d2, bound, jerk = self._probed
         else:
-            f, df, d2, bound, jerk = self.probe(a)
+            f, df, d2, bound, jerk = signal.probe(a)
         self.iterations += 1
         if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
@@ -180,9 +194,8 @@ class RootSearch:
         disc = sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
         max_step = self.max_step
-        clearance = self.clearance
-        if clearance is not None:
-            cleared = clearance(a)
+        if signal.clearance is not None:
+            cleared = signal.clearance(a)
             if cleared > h_free:  # max(), written out (this runs at every step)
                 h_free = cleared
         if df >= 0.0:
@@ -214,11 +227,11 @@ class RootSearch:
                     span = max_step
                 b = a + span
                 if b > a:
-                    if self.value_and_rate is not None:
-                        self._descend(a, f, df, d2, b)
+                    if signal.value_and_rate is not None:
+                        self._descend(signal, a, f, df, d2, b)
                         return
-                    if self.value(b) < 0.0:  # exactly one crossing in (a, b)
-                        self.root = self._bracketed_root(a, b)
+                    if signal.value(b) < 0.0:  # exactly one crossing in (a, b)
+                        self.root = self._bracketed_root(signal, a, b)
                         return
                     self.a = b
                     return
@@ -240,14 +253,14 @@ class RootSearch:
             self.creep = 0
         b = a + step
         # the sign test at b by the full probe, which the next step starts from
-        probed = self.probe(b)
+        probed = signal.probe(b)
         if probed[0] < 0.0:  # rounding at the frontier: root-free before b, so it is b
-            self.root = self._bracketed_root(a, b)
+            self.root = self._bracketed_root(signal, a, b)
             return
         self.a = self._probed_at = b
         self._probed = probed
 
-    def _descend(self, a: float, f: float, df: float, d2: float, b: float) -> None:
+    def _descend(self, signal: Any, a: float, f: float, df: float, d2: float, b: float) -> None:
         """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0, f''(a) = d2) on the monotone
         stretch [a, b]: set the root if it is in [a, b], else move the frontier to b.
 
@@ -255,7 +268,6 @@ class RootSearch:
         frontier moves on), and one with f(t) < 0 brackets the only root in (a, t). The first
         point is the root of the second-order Taylor polynomial at a (one Newton step fewer),
         the next ones Newton points."""
-        value_and_rate = self.value_and_rate
         t, f_t, df_t = a, f, df
         disc = df * df - 2.0 * f * d2
         # first step: root of f + df h + d2 h^2 / 2 (cancellation-free form), else Newton's
@@ -269,28 +281,28 @@ class RootSearch:
             if step <= ROOT_XTOL + ROOT_RTOL * abs(t):  # converged from above, to tolerance
                 self.root = t
                 return
-            f_n, df_n = value_and_rate(nxt)
+            f_n, df_n = signal.value_and_rate(nxt)
             if f_n < 0.0:  # the root is in (t, nxt)
-                self.root = self._bracketed_root(t, nxt, nxt, f_n, df_n)
+                self.root = self._bracketed_root(signal, t, nxt, nxt, f_n, df_n)
                 return
             if f_n == 0.0:
                 self.root = nxt
                 return
             t, f_t, df_t = nxt, f_n, df_n
             step = f_t / -df_t if df_t < 0.0 else math.inf
-        if self.value(b) < 0.0:  # exactly one crossing in (t, b)
-            self.root = self._bracketed_root(t, b)
+        if signal.value(b) < 0.0:  # exactly one crossing in (t, b)
+            self.root = self._bracketed_root(signal, t, b)
         else:
             self.a = b
 
-    def _bracketed_root(self, a: float, b: float, t: float | None = None,
+    def _bracketed_root(self, signal: Any, a: float, b: float, t: float | None = None,
                         f_t: float = 0.0, df_t: float = 0.0) -> float:
         """The crossing in [a, b] (f(a) >= 0 > f(b)), to near machine precision: safeguarded
         Newton from t (with f(t) = f_t, f'(t) = df_t, else from b) if rates are given, else
         brentq."""
-        value_and_rate = self.value_and_rate
+        value_and_rate = signal.value_and_rate
         if value_and_rate is None:
-            return self._brentq(a, b)
+            return self._brentq(signal.value, a, b)
         if t is None:
             t = b
             f_t, df_t = value_and_rate(b)
@@ -315,11 +327,12 @@ class RootSearch:
                 return t
         return t
 
-    def _brentq(self, a: float, b: float) -> float:
+    def _brentq(self, value: Callable[[float], float], a: float, b: float) -> float:
         """The crossing in [a, b] (f(a) >= 0 > f(b)) by brentq, to near machine precision.
 
         Where rounding makes f noisy near its root brentq may not meet its tolerance; its best
         bracketed estimate is then kept (disp=False) instead of failing the run."""
-        root, _ = brentq(self.value, a, b, xtol=ROOT_XTOL, rtol=ROOT_RTOL, maxiter=200,
+        root, _ = brentq(value, a, b, xtol=ROOT_XTOL, rtol=ROOT_RTOL, maxiter=200,
+
                          full_output=True, disp=False)
         return root
