@@ -883,8 +883,11 @@ class EventSolver(Solver):
         if self.dragged_structure is not None:
             a_x = self.dragged_structure.acceleration(x, v, u)
         else:
-            a_x = self.structure_osc(u).acceleration(x, v)
+            # (structure_osc called only with a Morison drag: this runs at every impact)
+            osc = self.structure_osc(u) if self.structure_b else self.osc
+            a_x = osc.acceleration(x, v)
         return a_x, self.drag.accel_bounds(w, u)[0]
+
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
                reanchor: bool = False) -> None:

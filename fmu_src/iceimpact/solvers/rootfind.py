@@ -71,6 +71,10 @@ FOREVER = 1e300
 #: underflowed at contact forces of 1e-286 N, and a discriminant of 0 gave a Taylor stretch of
 #: 1e14 s that stepped over the separation.
 SCALED_BELOW = 1e-100
+_SCALED_ABOVE = 1.0 / SCALED_BELOW
+#: a sum of the five magnitudes at or above this has its largest at or above SCALED_BELOW
+_SUM_NEAR_1_LOW = 5.0 * SCALED_BELOW
+
 
 
 class Signal:
@@ -172,19 +176,18 @@ class RootSearch:
         if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
             return
-        # the scale of the probe (f >= 0 here): max(|f|, |f'|, |f''|, K, J), written out
-        size = bound if bound > jerk else jerk
-        if f > size:
-            size = f
-        if df > size or -df > size:
-            size = df if df > 0.0 else -df
-        if d2 > size or -d2 > size:
-            size = d2 if d2 > 0.0 else -d2
-        if 0.0 < size < SCALED_BELOW or 1.0 / SCALED_BELOW < size < math.inf:
-            # the squares below would underflow (or overflow): every step length is
-            # homogeneous of degree 0 in (f, f', f'', K, J), so scale them by a power of 2 (exact)
-            scale = math.ldexp(1.0, max(-1000, min(1000, -math.frexp(size)[1])))
-            f, df, d2, bound, jerk = f * scale, df * scale, d2 * scale, bound * scale, jerk * scale
+        # the sum of the magnitudes (f >= 0 here) is within a factor 5 of the largest one: far
+        # from 1 (or NaN), the largest decides whether to scale
+        total = f + bound + jerk + (df if df >= 0.0 else -df) + (d2 if d2 >= 0.0 else -d2)
+        if not _SUM_NEAR_1_LOW <= total <= _SCALED_ABOVE:
+            size = max(f, abs(df), abs(d2), bound, jerk)
+            if 0.0 < size < SCALED_BELOW or _SCALED_ABOVE < size < math.inf:
+                # the squares below would underflow (or overflow): every step length is
+                # homogeneous of degree 0 in (f, f', f'', K, J), so scale them by a power of 2
+                # (exact)
+                scale = math.ldexp(1.0, max(-1000, min(1000, -math.frexp(size)[1])))
+                f, df, d2 = f * scale, df * scale, d2 * scale
+                bound, jerk = bound * scale, jerk * scale
         if bound <= 0.0:  # f is linear from here on
             if df < 0.0:
                 self.root = a + f / -df
