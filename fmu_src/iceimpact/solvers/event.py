@@ -782,13 +782,14 @@ class _SampleGroup:
         A segment with a contact force adds one impulse piece per sample (from the previous
         sample, or ``tau_from``, to it) and one to its event, in the order the scalar march adds
         them; their values are filled in by :meth:`evaluate`."""
-        k = len(self.anchors)
         self.anchors.append(seg.anchor())
         self.t0.append(seg.t0)
         self.first.append(i)
         self.stop.append(j)
         if not seg.PUSHES:
             return
+        k = len(self.anchors) - 1
+
         self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
                             len(values)))
         targets.extend(range(i, j))
@@ -1026,7 +1027,13 @@ class EventSolver(Solver):
                 continue
             t0 = seg.t0
             tau_event = seg.next_event(horizon - t0)
-            j = n if tau_event is None else _first_sample_after(t_list, i, t0, tau_event)
+            if tau_event is None:
+                j = n
+            elif t_list[i] - t0 >= tau_event:  # (several events before one sample: no call)
+                j = i
+            else:
+                j = _first_sample_after(t_list, i, t0, tau_event)
+
             if kind is _STEPPED:
                 self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
             else:
