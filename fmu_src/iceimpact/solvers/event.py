@@ -192,7 +192,12 @@ class Flight(_SearchedSegment):
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
         last = self._last
-        _, dx, v, dz, w = last if last[0] == tau else self._motion(tau)
+        if last[0] == tau:  # (at the anchor)
+            _, dx, v, dz, w = last
+        else:  # (the end of a search step: a new point) as _motion
+            dx, v = self._x_motion(tau)
+            dz, w = self._z_motion(tau)
+            self._last = (tau, dx, v, dz, w)
         a_x, a_x_max, j_x_max = self.osc.bounds(self.x0 + dx, v)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
         return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
@@ -219,10 +224,12 @@ class Flight(_SearchedSegment):
         if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
             return 0.0
         last = self._last  # (the search asks right after its probe at tau)
-        _, dx, v, dz, w = last if last[0] == tau else self._motion(tau)
-        z = self.z0 + dz
+        if last[0] != tau:
+            last = self._motion(tau)
+        z = self.z0 + last[3]
         if z >= offset:  # the margin below is <= 0 for any reach >= 0 (most calls: ice at contact)
             return 0.0
+        _, dx, v, _, w = last
         x = self.x0 + dx
         reach = self.osc.amplitude_bound(x - offset, v)
         lowest = offset - reach - z  # the envelope's lowest gap, now
