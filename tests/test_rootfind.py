@@ -3,11 +3,12 @@ closed-form roots and against the brentq path, close roots, convex and concave c
 
 from __future__ import annotations
 
+import gc
 import math
 
 import pytest
 
-from iceimpact.solvers.rootfind import RootSearch
+from iceimpact.solvers.rootfind import RootSearch, Signal
 
 
 def _polynomial(coefficients):
@@ -124,7 +125,8 @@ def test_the_search_holds_its_signal_only_during_a_call():
     f, probe, rate = _exponential(0.5)
     search = RootSearch(0.0, 1e-16)
     assert search.next_root_before(0.1, probe, f, rate) is None
-    assert search.probe is search.value is search.value_and_rate is None
+    held = [r for r in gc.get_referents(search) if r is not RootSearch]  # (and its class)
+    assert not any(callable(r) or isinstance(r, Signal) for r in held)
     assert search.next_root_before(10.0, probe, f, rate) == pytest.approx(math.log(2.0))
 
 
@@ -200,3 +202,29 @@ def test_the_rescaling_is_exact_and_balances_the_exponents():
     assert len(ratios) == 1 and math.frexp(ratios.pop())[0] == 0.5  # one power of 2
     nonzero = [abs(value) for value in values if value]
     assert max(nonzero) <= 1.0 and min(nonzero) >= 2.0 ** -20
+
+
+def test_each_point_is_evaluated_once_and_a_segment_is_its_own_signal():
+    """The sign test at the end of a search step is the full probe, which the next step starts
+    from: no point is evaluated twice (before, the step's end was asked for its value and then
+    probed). A segment-like object with the Signal's methods gives the same root as the
+    functions."""
+    f, probe, rate = _cosine(0.25)
+    asked = []
+
+    def counted(fn):
+        def wrapped(t):
+            asked.append(t)
+            return fn(t)
+        return wrapped
+
+    class Segment:  # a signal as a segment gives it: methods named as Signal's attributes
+        clearance = None
+
+    segment = Segment()
+    segment.probe, segment.value = counted(probe), counted(f)
+    segment.value_and_rate = counted(rate)
+    root = RootSearch(0.0, 1e-16).next_root_of(10.0, segment)
+    assert root == pytest.approx(math.acos(0.25), abs=1e-14)
+    assert len(asked) == len(set(asked))
+    assert root == RootSearch(0.0, 1e-16).next_root_before(10.0, probe, f, rate)

@@ -199,8 +199,17 @@ class Oscillator:
         if regime == UNDER:
             def under(t: float, neg_sigma=neg_sigma, omega=omega, y0=y0, p=p, q=q,
                       v0=v0) -> tuple[float, float]:
-                decay, decay_m1 = _decay_pair(neg_sigma * t)
+                # _decay_pair(neg_sigma * t), written out: the free structure's form, evaluated
+                # several times per impact
+                arg = neg_sigma * t
+                if arg < -0.7:
+                    decay = exp(arg)
+                    decay_m1 = decay - 1.0
+                else:
+                    decay_m1 = expm1(arg)
+                    decay = 1.0 + decay_m1
                 wt = omega * t
+
                 cos_wt = cos(wt)
                 half = sin(0.5 * wt)
                 s = decay * sin(wt) / omega

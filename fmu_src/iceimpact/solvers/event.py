@@ -138,7 +138,8 @@ class Flight(_SearchedSegment):
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
-        self.osc = osc = solver.structure_osc(u)
+        # (structure_osc called only with a Morison drag: a flight starts at each impact)
+        self.osc = osc = solver.structure_osc(u) if solver.structure_b else solver.osc
         self.drag = drag = solver.drag
         self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
         self.start = start
@@ -167,7 +168,8 @@ class Flight(_SearchedSegment):
         return last
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
-        _, dx, v, dz, w = self._motion(tau)
+        last = self._last  # (the state at a root: the point the search tested last)
+        _, dx, v, dz, w = last if last[0] == tau else self._motion(tau)
         return self.x0 + dx, v, self.z0 + dz, w
 
     def state_array(self, anchor, tau):
@@ -181,13 +183,25 @@ class Flight(_SearchedSegment):
         return self.gap0 + (dx - dz)
 
     def gap_and_rate(self, tau: float) -> tuple[float, float]:
-        """Gap and its rate v - w."""
-        _, dx, v, dz, w = self._motion(tau)
+        """Gap and its rate v - w. (Newton's method asks at new points only: the motion is
+        evaluated at once, and kept as :meth:`_motion` keeps it.)"""
+        dx, v = self._x_motion(tau)
+        dz, w = self._z_motion(tau)
+        self._last = (tau, dx, v, dz, w)
         return self.gap0 + (dx - dz), v - w
+
+    # the root search's signal: the gap (a subclass with its own gap names them again)
+    value, value_and_rate = gap, gap_and_rate
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
-        _, dx, v, dz, w = self._motion(tau)
+        last = self._last
+        if last[0] == tau:  # (at the anchor)
+            _, dx, v, dz, w = last
+        else:  # (the end of a search step: a new point) as _motion
+            dx, v = self._x_motion(tau)
+            dz, w = self._z_motion(tau)
+            self._last = (tau, dx, v, dz, w)
         a_x, a_x_max, j_x_max = self.osc.bounds(self.x0 + dx, v)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
         return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
@@ -213,10 +227,13 @@ class Flight(_SearchedSegment):
         offset = self.osc.offset
         if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
             return 0.0
-        _, dx, v, dz, w = self._motion(tau)
-        z = self.z0 + dz
+        last = self._last  # (the search asks right after its probe at tau)
+        if last[0] != tau:
+            last = self._motion(tau)
+        z = self.z0 + last[3]
         if z >= offset:  # the margin below is <= 0 for any reach >= 0 (most calls: ice at contact)
             return 0.0
+        _, dx, v, _, w = last
         x = self.x0 + dx
         reach = self.osc.amplitude_bound(x - offset, v)
         lowest = offset - reach - z  # the envelope's lowest gap, now
@@ -313,8 +330,10 @@ class Flight(_SearchedSegment):
         return to_trough + (lo + 0.5) * period  # to the crest after trough lo
 
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end, self.probe, self.gap, self.gap_and_rate,
-                                            self.clearance)
+        """The next impact (the gap's first root) if at or before tau_end: the segment is the
+        root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`), its ``value`` the
+        gap."""
+        return self.search.next_root_of(tau_end, self)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
@@ -416,6 +435,8 @@ class DraggedFlight(Flight):
         dx, v = self._structure(tau)
         dz, w = self._z_motion(tau)
         return self.gap0 + (dx - dz), v - w
+
+    value, value_and_rate = gap, gap_and_rate  # the root search's signal, as Flight's
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         dx, v = self._structure(tau)
@@ -566,9 +587,14 @@ class LinearStick(_SearchedSegment):
         rounding = GAP_ULPS * (abs(push) + abs(q) + reach + abs(self._lam0) + abs(dq))
         return math.inf if push - reach - rounding > 0.0 else 0.0
 
+    # the root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`): the contact force
+    value, value_and_rate = force, force_and_rate
+
     def next_event(self, tau_end: float) -> float | None:
-        return self.search.next_root_before(tau_end, self.probe, self.force, self.force_and_rate,
-                                            self.clearance)
+        """The separation (the contact force's first root) if at or before tau_end."""
+        return self.search.next_root_of(tau_end, self)
+
+
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
@@ -852,13 +878,14 @@ class _SampleGroup:
         A segment with a contact force adds one impulse piece per sample (from the previous
         sample, or ``tau_from``, to it) and one to its event, in the order the scalar march adds
         them; their values are filled in by :meth:`evaluate`."""
-        k = len(self.anchors)
         self.anchors.append(seg.anchor())
         self.t0.append(seg.t0)
         self.first.append(i)
         self.stop.append(j)
         if not seg.PUSHES:
             return
+        k = len(self.anchors) - 1
+
         self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
                             len(values)))
         targets.extend(range(i, j))
@@ -953,8 +980,11 @@ class EventSolver(Solver):
         if self.dragged_structure is not None:
             a_x = self.dragged_structure.acceleration(x, v, u)
         else:
-            a_x = self.structure_osc(u).acceleration(x, v)
+            # (structure_osc called only with a Morison drag: this runs at every impact)
+            osc = self.structure_osc(u) if self.structure_b else self.osc
+            a_x = osc.acceleration(x, v)
         return a_x, self.drag.accel_bounds(w, u)[0]
+
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
                reanchor: bool = False) -> None:
@@ -976,7 +1006,9 @@ class EventSolver(Solver):
 
     def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
         self.seg = self._flight_cls(self, t, x, v, z, w, u, start)
-        self._set_sticking(False, t)
+        if self.sticking:  # (apart already: nothing to change)
+            self._set_sticking(False, t)
+
 
     def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
                           lam: float) -> None:
@@ -1091,7 +1123,13 @@ class EventSolver(Solver):
                 continue
             t0 = seg.t0
             tau_event = seg.next_event(horizon - t0)
-            j = n if tau_event is None else _first_sample_after(t_list, i, t0, tau_event)
+            if tau_event is None:
+                j = n
+            elif t_list[i] - t0 >= tau_event:  # (several events before one sample: no call)
+                j = i
+            else:
+                j = _first_sample_after(t_list, i, t0, tau_event)
+
             if kind is _STEPPED:
                 self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
             else:

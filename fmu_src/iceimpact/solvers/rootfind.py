@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from math import sqrt
 from typing import Any
 
 from scipy.optimize import brentq
@@ -56,6 +57,9 @@ BRACKET_STEPS = 1100
 
 #: Relative tolerance on a located root, as brentq's ``rtol`` (4 ulps).
 ROOT_RTOL = 8.9e-16
+
+#: Absolute tolerance on a located root (s), as brentq's ``xtol``.
+ROOT_XTOL = 1e-15
 
 #: A root-free stretch longer than this (s) is the whole future: no run reaches its end, and the
 #: closed forms overflow there (a clearance of 6e306 s, a margin over an ice speed of 1e-308
@@ -113,7 +117,27 @@ def balanced(f: float, df: float, d2: float, bound: float,
     return (*scaled, math.ldexp(1.0, p))
 
 
+#: a sum of the five magnitudes at or above this has its largest at or above SCALED_BELOW
+_SUM_NEAR_1_LOW = 5.0 * SCALED_BELOW
+
+
+class Signal:
+    """A signal for :class:`RootSearch` given as functions (see there): ``probe``, ``value``,
+    ``value_and_rate`` and ``clearance`` (the last two may be None). A segment of the motion
+    serves as its own signal, with methods of these names."""
+
+    __slots__ = ("probe", "value", "value_and_rate", "clearance")
+
+    def __init__(self, probe: Callable[[float], tuple[float, float, float, float, float]],
+                 value: Callable[[float], float],
+                 value_and_rate: Callable[[float], tuple[float, float]] | None = None,
+                 clearance: Callable[[float], float] | None = None):
+        self.probe, self.value = probe, value
+        self.value_and_rate, self.clearance = value_and_rate, clearance
+
+
 class RootSearch:
+
     """Incremental search for the first time after a start point where f goes below zero.
 
     A zero that f only touches (f = f' = 0, then f >= 0) is not a root: a gap closing with no
@@ -122,27 +146,29 @@ class RootSearch:
 
     ``probe(t) -> (f, f', f'', K, J)`` gives value, slope, curvature and the bounds K, J;
     ``value(t) -> f`` is the cheap value alone, ``value_and_rate(t) -> (f, f')`` (optional) the
-    value and slope for Newton's method. They are given with each call of
-    :meth:`next_root_before` and held only during it, so that a segment holding its search
-    makes no reference cycle (it is freed at once, without the cyclic garbage collector, which
-    took a fifth of an impact-heavy run). The search keeps its frontier (root-free up to ``a``)
-    between calls, so a sequence of horizons visits the same points as one long call: results
-    do not depend on how the caller chops time.
+    value and slope for Newton's method, ``clearance(t)`` (optional) a root-free span. They are
+    the attributes of a :class:`Signal` (a segment is one: :meth:`next_root_of`), or given as
+    functions (:meth:`next_root_before`), with each call and held only during it, so that a
+    segment holding its search makes no reference cycle (it is freed at once, without the
+    cyclic garbage collector, which took a fifth of an impact-heavy run). The search keeps its
+    frontier (root-free up to ``a``) between calls, so a sequence of horizons visits the same
+    points as one long call: results do not depend on how the caller chops time.
     """
 
-    __slots__ = ("probe", "value", "value_and_rate", "clearance", "a", "root", "time_eps",
-                 "iterations", "xtol", "creep", "max_step")
+    __slots__ = ("a", "root", "time_eps", "iterations", "creep", "max_step", "_probed_at",
+                 "_probed")
 
     def __init__(self, start: float, time_eps: float, max_step: float = math.inf):
-        # the signal, during a call
-        self.probe = self.value = self.value_and_rate = self.clearance = None
         self.a = start          # f(a) >= 0 and [start, a) is root-free
         self.root: float | None = None
         self.time_eps = time_eps  # smallest meaningful time increment
         self.iterations = 0
         self.creep = 0
-        self.xtol = 1e-15
         self.max_step = max_step  # longest step (s): a shorter root-free stretch is still one
+        # the probe at the end of the last step, which its sign test evaluated: the next step
+        # starts there (the point and its values; a frontier moved elsewhere asks again)
+        self._probed_at = math.nan
+        self._probed: tuple[float, float, float, float, float] | None = None
 
     def frontier(self) -> dict[str, Any]:
         """Where the search stands, as plain data: with the same signal and start,
@@ -167,40 +193,47 @@ class RootSearch:
                          value: Callable[[float], float],
                          value_and_rate: Callable[[float], tuple[float, float]] | None = None,
                          clearance: Callable[[float], float] | None = None) -> float | None:
-        """The first root of the signal (see the class) if it is at or before ``horizon``, else
-        None (frontier moved past)."""
+        """The first root of the signal given as functions (see the class) if it is at or
+        before ``horizon``, else None (frontier moved past)."""
+        return self.next_root_of(horizon, Signal(probe, value, value_and_rate, clearance))
+
+    def next_root_of(self, horizon: float, signal: Any) -> float | None:
+        """The first root of ``signal`` (any object with the attributes of a :class:`Signal`,
+        such as a segment) if it is at or before ``horizon``, else None (frontier moved past)."""
         root = self.root
         if root is not None:
             return root if root <= horizon else None
-        if self.a > horizon:
-            return None
-        self.probe, self.value, self.value_and_rate = probe, value, value_and_rate
-        self.clearance = clearance
-        try:
-            while self.a <= horizon:
-                self._step()
-                if self.root is not None:
-                    return self.root if self.root <= horizon else None
-            return None
-        finally:
-            self.probe = self.value = self.value_and_rate = self.clearance = None
+        while self.a <= horizon:
+            self._step(signal)
+            root = self.root
+            if root is not None:
+                return root if root <= horizon else None
+        return None
 
-    def _step(self) -> None:
+    def _step(self, signal: Any) -> None:
         a = self.a
-        f, df, d2, bound, jerk = self.probe(a)
+        if a == self._probed_at:  # the last step's sign test probed its end, here
+            f, df, d2, bound, jerk = self._probed
+        else:
+            f, df, d2, bound, jerk = signal.probe(a)
         self.iterations += 1
         if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
             self.root = a
             return
-        f_size, df_size, d2_size = abs(f), abs(df), abs(d2)
-        size = max(f_size, df_size, d2_size, bound, jerk)
-        floor = SPREAD * size
+        # the common path: the sum of the magnitudes (f >= 0 here, within a factor 5 of the
+        # largest) near 1 and every value within SPREAD of it; otherwise the exact test
+        df_size = df if df >= 0.0 else -df
+        d2_size = d2 if d2 >= 0.0 else -d2
+        total = f + df_size + d2_size + bound + jerk
+        floor = SPREAD * total
         unit = 1.0  # the time unit of the step lengths below (s)
-        if (f_size < floor or df_size < floor or d2_size < floor or bound < floor
-                or jerk < floor or not SCALED_BELOW <= size <= SCALED_ABOVE):
+        if (f < floor or df_size < floor or d2_size < floor or bound < floor or jerk < floor
+                or not _SUM_NEAR_1_LOW <= total <= SCALED_ABOVE):
             # (rarely: a value is 0 or far below the largest, or all are tiny or huge)
+            size = max(f, df_size, d2_size, bound, jerk)
+            floor = SPREAD * size
             if 0.0 < size < math.inf and (
-                    not SCALED_BELOW <= size <= SCALED_ABOVE or 0.0 < f_size < floor
+                    not SCALED_BELOW <= size <= SCALED_ABOVE or 0.0 < f < floor
                     or 0.0 < df_size < floor or 0.0 < d2_size < floor or 0.0 < bound < floor
                     or 0.0 < jerk < floor):
                 # the squares below would underflow (or overflow), or the values are too far
@@ -213,16 +246,17 @@ class RootSearch:
             else:
                 self.a = math.inf
             return
-        disc = math.sqrt(df * df + 2.0 * bound * f)
+        disc = sqrt(df * df + 2.0 * bound * f)
         h_free = unit * ((df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df))
-        if self.clearance is not None:
-            cleared = self.clearance(a)
+        max_step = self.max_step
+        if signal.clearance is not None:
+            cleared = signal.clearance(a)
             if cleared > h_free:  # max(), written out (this runs at every step)
                 h_free = cleared
         if df >= 0.0:
             # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
             if jerk > 0.0:
-                h_rise = unit * ((d2 + math.sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk)
+                h_rise = unit * ((d2 + sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk)
             else:
                 h_rise = math.inf if d2 >= 0.0 else unit * (df / -d2)
             if h_rise > h_free:
@@ -231,7 +265,7 @@ class RootSearch:
             # f' <= df + d2 s + jerk s^2 / 2 stays < 0 up to h_mono: at most one root there
             h_mono = -df / bound
             if jerk > 0.0:
-                root = math.sqrt(d2 * d2 - 2.0 * jerk * df)
+                root = sqrt(d2 * d2 - 2.0 * jerk * df)
                 if d2 < 0.0:
                     h_jerk = (root - d2) / jerk
                     if h_jerk > h_mono:
@@ -245,22 +279,22 @@ class RootSearch:
             h_mono *= unit
             if h_mono > h_free:
                 span = FOREVER if FOREVER < h_mono else h_mono  # min(h_mono, FOREVER, max_step)
-                if self.max_step < span:
-                    span = self.max_step
+                if max_step < span:
+                    span = max_step
                 b = a + span
                 if b > a:
-                    if self.value_and_rate is not None:
-                        self._descend(a, f, df, d2, b, unit)
+                    if signal.value_and_rate is not None:
+                        self._descend(signal, a, f, df, d2, b, unit)
                         return
-                    if self.value(b) < 0.0:  # exactly one crossing in (a, b)
-                        self.root = self._bracketed_root(a, b)
+                    if signal.value(b) < 0.0:  # exactly one crossing in (a, b)
+                        self.root = self._bracketed_root(signal, a, b)
                         return
                     self.a = b
                     return
-        if h_free > FOREVER and self.max_step == math.inf:
+        if h_free > FOREVER and max_step == math.inf:
             self.a = math.inf
             return
-        step = self.max_step if self.max_step < h_free else h_free  # min(h_free, max_step)
+        step = max_step if max_step < h_free else h_free  # min(h_free, max_step)
         eps = self.time_eps + 8.9e-16 * a  # a few ulps of the absolute time
         if step < eps:
             if df < 0.0 or self.iterations > MAX_ITERATIONS:
@@ -274,12 +308,15 @@ class RootSearch:
         else:
             self.creep = 0
         b = a + step
-        if self.value(b) < 0.0:  # rounding at the frontier: root-free before b, so it is b
-            self.root = self._bracketed_root(a, b)
+        # the sign test at b by the full probe, which the next step starts from
+        probed = signal.probe(b)
+        if probed[0] < 0.0:  # rounding at the frontier: root-free before b, so it is b
+            self.root = self._bracketed_root(signal, a, b)
             return
-        self.a = b
+        self.a = self._probed_at = b
+        self._probed = probed
 
-    def _descend(self, a: float, f: float, df: float, d2: float, b: float,
+    def _descend(self, signal: Any, a: float, f: float, df: float, d2: float, b: float,
                  unit: float = 1.0) -> None:
         """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0, f''(a) = d2, in the time
         ``unit`` of :func:`balanced`) on the monotone stretch [a, b]: set the root if it is in
@@ -289,44 +326,44 @@ class RootSearch:
         frontier moves on), and one with f(t) < 0 brackets the only root in (a, t). The first
         point is the root of the second-order Taylor polynomial at a (one Newton step fewer),
         the next ones Newton points."""
-        value_and_rate = self.value_and_rate
         t, f_t, df_t = a, f, df
         disc = df * df - 2.0 * f * d2
         # first step: root of f + df h + d2 h^2 / 2 (cancellation-free form), else Newton's
-        step = unit * (2.0 * f / (math.sqrt(disc) - df) if disc >= 0.0 else f / -df)
+        step = unit * (2.0 * f / (sqrt(disc) - df) if disc >= 0.0 else f / -df)
         for _ in range(DESCENT_STEPS):
             if not df_t < 0.0:  # f' vanishing to rounding inside the stretch
                 break
             nxt = t + step
             if nxt >= b:  # any root is close to b: the sign test there decides
                 break
-            if step <= self.xtol + ROOT_RTOL * abs(t):  # converged from above, to tolerance
+            if step <= ROOT_XTOL + ROOT_RTOL * abs(t):  # converged from above, to tolerance
                 self.root = t
                 return
-            f_n, df_n = value_and_rate(nxt)
+            f_n, df_n = signal.value_and_rate(nxt)
             if f_n < 0.0:  # the root is in (t, nxt)
-                self.root = self._bracketed_root(t, nxt, nxt, f_n, df_n)
+                self.root = self._bracketed_root(signal, t, nxt, nxt, f_n, df_n)
                 return
             if f_n == 0.0:
                 self.root = nxt
                 return
             t, f_t, df_t = nxt, f_n, df_n
             step = f_t / -df_t if df_t < 0.0 else math.inf
-        if self.value(b) < 0.0:  # exactly one crossing in (t, b)
-            self.root = self._bracketed_root(t, b)
+        if signal.value(b) < 0.0:  # exactly one crossing in (t, b)
+            self.root = self._bracketed_root(signal, t, b)
         else:
             self.a = b
 
-    def _bracketed_root(self, a: float, b: float, t: float | None = None,
+    def _bracketed_root(self, signal: Any, a: float, b: float, t: float | None = None,
                         f_t: float = 0.0, df_t: float = 0.0) -> float:
         """The crossing in [a, b] (f(a) >= 0 > f(b)), to near machine precision: safeguarded
         Newton from t (with f(t) = f_t, f'(t) = df_t, else from b) if rates are given, else
         brentq."""
-        if self.value_and_rate is None:
-            return self._brentq(a, b)
+        value_and_rate = signal.value_and_rate
+        if value_and_rate is None:
+            return self._brentq(signal.value, a, b)
         if t is None:
             t = b
-            f_t, df_t = self.value_and_rate(b)
+            f_t, df_t = value_and_rate(b)
         lo, hi = a, b
         step = step_before = hi - lo
         for _ in range(BRACKET_STEPS):
@@ -334,11 +371,12 @@ class RootSearch:
             if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
                 nxt = lo + 0.5 * (hi - lo)  # bisection when Newton leaves or stalls
             step_before, step = step, abs(nxt - t)
-            if step <= self.xtol + ROOT_RTOL * abs(nxt) or not lo < nxt < hi:
+            converged = step <= ROOT_XTOL + ROOT_RTOL * abs(nxt)
+            if converged or not lo < nxt < hi:
                 # converged: the last point evaluated is within the tolerance of the root
-                return t if step <= self.xtol + ROOT_RTOL * abs(nxt) else nxt
+                return t if converged else nxt
             t = nxt
-            f_t, df_t = self.value_and_rate(t)
+            f_t, df_t = value_and_rate(t)
             if f_t < 0.0:
                 hi = t
             elif f_t > 0.0:
@@ -347,11 +385,11 @@ class RootSearch:
                 return t
         return t
 
-    def _brentq(self, a: float, b: float) -> float:
+    def _brentq(self, value: Callable[[float], float], a: float, b: float) -> float:
         """The crossing in [a, b] (f(a) >= 0 > f(b)) by brentq, to near machine precision.
 
         Where rounding makes f noisy near its root brentq may not meet its tolerance; its best
         bracketed estimate is then kept (disp=False) instead of failing the run."""
-        root, _ = brentq(self.value, a, b, xtol=self.xtol, rtol=ROOT_RTOL, maxiter=200,
+        root, _ = brentq(value, a, b, xtol=ROOT_XTOL, rtol=ROOT_RTOL, maxiter=200,
                          full_output=True, disp=False)
         return root
