@@ -481,7 +481,7 @@ class LinearStick(_SearchedSegment):
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
-        self.M = M = solver.M
+        self.M = solver.M
         self.drag = solver.drag
         self.b = b = solver.drag.b
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
