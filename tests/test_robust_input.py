@@ -1534,7 +1534,7 @@ def test_a_pair_sticking_to_rest_without_flow_keeps_exact_impulses_in_bounded_wo
     lam0 dt), alternately tensile, and the contact force lam0 + (q - q0) as its rounding,
     1.5e-8 N, along which the separation search crawled, 2e4 steps per 0.01 s. Each step's
     impulse now matches the closed form in decimal arithmetic (>= 0, 0 at rest), and the
-    force's two modes prove it compressive for ever once both are >= 0."""
+    force's two modes prove it compressive for ever (Q1 >= 0, Q1 + Q2 >= 0, no flow)."""
     x0, v0 = 0.24483121483815284, 0.09148875304197258
     scene = Scene(structure_m=2.929723032384046e-05, structure_c=0.0,
                   structure_k=555219947.5965517, structure_x0=x0, structure_v0=v0,

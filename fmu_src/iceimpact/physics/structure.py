@@ -268,28 +268,25 @@ class Oscillator:
         cancellation (a series where |s t| < 0.01), so that the integral stays accurate when y0
         is far larger than the motion (a sticking phase's contact force: lam0 plus the
         increments of a free response of 4e4 N that moves by 1e-11 N)."""
-        a, b = self.modes(y0, v0)
-        return a * _expm1_minus_x(self._s_slow, t) + b * _expm1_minus_x(self._s_fast, t)
+        slow, fast = self.deviation_integral_terms(*self.modes(y0, v0), t)
+        return slow + fast
 
-    def deviation_integral_rounding(self, y0, v0, t):
-        """The sum of the magnitudes of the two terms of :meth:`deviation_integral` at t (what
-        its rounding is proportional to: eps times this)."""
-        a, b = self.modes(y0, v0)
-        return (np.abs(a * _expm1_minus_x(self._s_slow, t))
-                + np.abs(b * _expm1_minus_x(self._s_fast, t)))
+    def deviation_integral_terms(self, a, b, t):
+        """The two terms of :meth:`deviation_integral` at t from the modes (A, B) of the
+        response (:meth:`modes`); its rounding is a few ulps of the sum of their magnitudes."""
+        return a * _expm1_minus_x(self._s_slow, t), b * _expm1_minus_x(self._s_fast, t)
 
-    def mode_steps(self, y0, v0, t_a, t_b):
-        """The change of each mode of the well over-damped response from (y0, v0) between t_a
-        and t_b (floats or arrays): ``(A (e^{s1 t_b} - e^{s1 t_a}), B (e^{s2 t_b} - e^{s2 t_a}))``,
-        each as ``A e^{s t_a} (e^{s (t_b - t_a)} - 1)``, to a few ulps of itself: the change of y
-        is their sum, that of y' the sum of each times its exponent. (y(t_b) - y0 minus
-        y(t_a) - y0 carries the rounding of the anchor's scale, |A| + |B|, however far the
-        motion has decayed since.)"""
-        a, b = self.modes(y0, v0)
+    def mode_steps(self, a, b, t_a, t_b, exp=np.exp, expm1=np.expm1):
+        """The change of each mode of the well over-damped response with modes (A, B)
+        (:meth:`modes`) between t_a and t_b: ``(A (e^{s1 t_b} - e^{s1 t_a}),
+        B (e^{s2 t_b} - e^{s2 t_a}))``, each as ``A e^{s t_a} (e^{s (t_b - t_a)} - 1)``, to a
+        few ulps of itself: the change of y is their sum, that of y' the sum of each times its
+        exponent. (y(t_b) - y0 minus y(t_a) - y0 carries the rounding of the anchor's scale,
+        |A| + |B|, however far the motion has decayed since.) Floats with ``exp``, ``expm1``
+        from :mod:`math`, or arrays with numpy's."""
         slow, fast = self._s_slow, self._s_fast
-        dt = np.subtract(t_b, t_a)
-        return (a * np.exp(np.multiply(slow, t_a)) * np.expm1(slow * dt),
-                b * np.exp(np.multiply(fast, t_a)) * np.expm1(fast * dt))
+        dt = t_b - t_a
+        return (a * exp(slow * t_a) * expm1(slow * dt), b * exp(fast * t_a) * expm1(fast * dt))
 
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
         """x(t) - x0 (free of the rounding of x0) and v(t): :meth:`increment` at one time."""

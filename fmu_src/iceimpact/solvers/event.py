@@ -474,7 +474,8 @@ class LinearStick(_SearchedSegment):
     increments from (q0, lam0')."""
 
     __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search", "_increment",
-                 "_lam0", "_q0", "_q_increment", "_last", "_b_all", "_c", "_push", "_q_modes")
+                 "_lam0", "_q0", "_q_increment", "_last", "_b_all", "_c", "_push", "_q_modes",
+                 "_y_modes")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
     PUSHES = True
@@ -497,6 +498,7 @@ class LinearStick(_SearchedSegment):
         self._push = b * u
         # well over-damped: q's two modes at the anchor (see _force)
         self._q_modes = osc.modes(self._q0, rate0) if osc.two_modes else None
+        self._y_modes = osc.modes(x0 - osc.offset, v0) if osc.two_modes else None
         lam0 = self._lam0
         self._last: tuple[float, float, float, float, float] = (
             0.0, lam0, self._q0, rate0, abs(lam0))
@@ -627,8 +629,10 @@ class LinearStick(_SearchedSegment):
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
         if tau_b <= tau_a:
             return 0.0
-        if self.osc.two_modes:
-            return float(self._better((self.x0, self.v0), tau_a, tau_b))
+        if self._q_modes is not None:
+            balance, integral, smaller = self._two_forms(
+                self._lam0, self._q_modes, self._y_modes, tau_a, tau_b, math.exp, math.expm1)
+            return float(balance if smaller else integral)
         # displacement increments from the anchor: positions about an equilibrium b u / k far
         # away carry its rounding, which b (xb - xa) would multiply
         dxa, va = self._increment(tau_a)
@@ -636,8 +640,14 @@ class LinearStick(_SearchedSegment):
         return self._impulse(dxa, va, dxb, vb, tau_b - tau_a)
 
     def impulse_array(self, anchor, tau_a, tau_b):
-        if self.osc.two_modes:
-            return np.where(tau_b > tau_a, self._better(anchor, tau_a, tau_b), 0.0)
+        osc = self.osc
+        if osc.two_modes:
+            x0, v0 = anchor
+            lam0, q0, rate0 = self._anchor_force(x0, v0)
+            balance, integral, smaller = self._two_forms(
+                lam0, osc.modes(q0, rate0), osc.modes(x0 - osc.offset, v0), tau_a, tau_b,
+                np.exp, np.expm1)
+            return np.where(tau_b > tau_a, np.where(smaller, balance, integral), 0.0)
         dxa, va = self.osc.displacement_change_array(*anchor, tau_a)
         dxb, vb = self.osc.displacement_change_array(*anchor, tau_b)
         return np.where(tau_b > tau_a, self._impulse(dxa, va, dxb, vb, tau_b - tau_a), 0.0)
@@ -647,53 +657,44 @@ class LinearStick(_SearchedSegment):
         displacements from the anchor)."""
         return -self.b * ((dxb - dxa) - self.u * duration) - self.M * (vb - va)
 
-    def _integral(self, anchor, tau_a, tau_b):
-        """The contact force's integral as ``lam0 (tau_b - tau_a)`` plus that of q - q0
-        (:meth:`Oscillator.deviation_integral`), well over-damped: far from the equilibrium,
-        b (dx - u dt) is a difference of displacements whose rounding (b ulp(dx), 5e-15 N.s
-        for 1e-4 m under b = 4e5 kg/s) exceeds an impulse of 1e-11 N over 1 ms. Anchors are
-        floats or arrays (the samples of :meth:`impulse_array`)."""
-        lam0, q0, rate0 = self._anchor_force(*anchor)
-        integral = self.osc.deviation_integral
-        return (lam0 * (tau_b - tau_a) + (integral(q0, rate0, tau_b)
-                                          - integral(q0, rate0, tau_a)))
+    def _two_forms(self, lam0, q_modes, y_modes, tau_a, tau_b, exp, expm1):
+        """Well over-damped, the impulse from tau_a to tau_b in two forms, and whether the
+        first has the smaller rounding (floats with :mod:`math`'s exp and expm1, or arrays with
+        numpy's): (balance, integral, balance's rounding < integral's). Each form is a sum of
+        terms, its rounding eps times the sum of their magnitudes.
 
-    def _better(self, anchor, tau_a, tau_b):
-        """Well over-damped, the impulse from tau_a to tau_b (floats or arrays) in whichever of
-        two forms has the smaller rounding; each is a sum of terms, its rounding eps times the
-        sum of their magnitudes.
-
-        - The integral from the anchor's force (:meth:`_integral`): ``|lam0| (tau_b - tau_a)``
-          and the two modes' terms of the integral of q - q0 at either end. Exact where the
-          equilibrium b u / k is far (fix 21), but lam0 is the anchor's force, and its
-          rounding stays while the motion decays: a 29 mg pair sticking from 0.24 m on
-          k = 5.6e8 N/m (no flow) was at rest by t = 0.03 s, where a 0.01 s step's impulse came
-          out as +-2.3e-10 N.s, one ulp of lam0 dt = 1.5e6 N.s, alternately tensile; an
-          over-damped pair (zeta 50) decaying to 1e-14 m/s gave steps of 3e-14, 1.4e-13 and
-          -8.3e-14 N.s for a true 6e-20.
-        - The step's momentum balance on its own modes: the drag impulse on the ice
+        - integral: the contact force's integral as ``lam0 (tau_b - tau_a)`` plus that of
+          q - q0 (:meth:`Oscillator.deviation_integral`, from the modes of the anchor's
+          (q0, q0')). Far from the equilibrium (fix 21), b (dx - u dt) is a difference of
+          displacements whose rounding (b ulp(dx), 5e-15 N.s for 1e-4 m under b = 4e5 kg/s)
+          exceeds an impulse of 1e-11 N over 1 ms; this form has none. But lam0 is the
+          anchor's force, and its rounding stays while the motion decays: a 29 mg pair sticking
+          from 0.24 m on k = 5.6e8 N/m (no flow) was at rest by t = 0.03 s, where a 0.01 s
+          step's impulse came out as +-2.3e-10 N.s, one ulp of lam0 dt = 1.5e6 N.s, alternately
+          tensile; an over-damped pair (zeta 50) decaying at 1e-14 m/s gave steps of 3e-14,
+          1.4e-13 and -8.3e-14 N.s for a true 6e-20.
+        - balance: the step's momentum balance on its own modes, the drag impulse on the ice
           ``b (u dt - dy)`` minus its momentum change ``M dy'``, with dy = d1 + d2 and
           dy' = s1 d1 + s2 d2 the changes of the two modes over the step
-          (:meth:`Oscillator.mode_steps`): ``b u dt - (b + M s1) d1 - (b + M s2) d2``, whose
-          rounding decays with the motion (b |u| dt aside, large where the equilibrium is far).
-          From the displacement increments of the anchor instead, dy_b - dy_a carries the
-          rounding of the anchor's scale: the same pair's steps were 6e-20 N.s, or -3e-23.
-        """
-        osc, b, M, u = self.osc, self.b, self.M, self.u
-        x0, v0 = anchor
+          (:meth:`Oscillator.mode_steps`, from the modes of the anchor's deviation):
+          ``b u dt - (b + M s1) d1 - (b + M s2) d2``, whose rounding decays with the motion
+          (b |u| dt aside, large where the equilibrium is far). From the displacement
+          increments of the anchor instead, dy_b - dy_a carries the rounding of the anchor's
+          scale: the zeta 50 pair's steps were 6e-20 N.s, or -3e-23."""
+        osc, b, M = self.osc, self.b, self.M
         duration = tau_b - tau_a
-        d_slow, d_fast = osc.mode_steps(x0 - osc.offset, v0, tau_a, tau_b)
-        push = b * u * duration
+        i_slow_b, i_fast_b = osc.deviation_integral_terms(*q_modes, tau_b)
+        i_slow_a, i_fast_a = osc.deviation_integral_terms(*q_modes, tau_a)
+        integral = lam0 * duration + ((i_slow_b + i_fast_b) - (i_slow_a + i_fast_a))
+        integral_rounding = (abs(lam0) * duration + abs(i_slow_b) + abs(i_fast_b)
+                             + abs(i_slow_a) + abs(i_fast_a))
+        d_slow, d_fast = osc.mode_steps(*y_modes, tau_a, tau_b, exp, expm1)
+        push = b * self.u * duration
         slow_part = (b + M * osc._s_slow) * d_slow
         fast_part = (b + M * osc._s_fast) * d_fast
         balance = push - slow_part - fast_part
-        balance_rounding = np.abs(push) + np.abs(slow_part) + np.abs(fast_part)
-        lam0, q0, rate0 = self._anchor_force(*anchor)
-        integral_rounding = (np.abs(lam0) * duration
-                             + osc.deviation_integral_rounding(q0, rate0, tau_a)
-                             + osc.deviation_integral_rounding(q0, rate0, tau_b))
-        integral = self._integral(anchor, tau_a, tau_b)
-        return np.where(balance_rounding < integral_rounding, balance, integral)
+        balance_rounding = abs(push) + abs(slow_part) + abs(fast_part)
+        return balance, integral, balance_rounding < integral_rounding
 
 class QuadraticStick:
     """Bodies together under quadratic drag: Taylor steps (:mod:`.taylor`) from the anchor, each
