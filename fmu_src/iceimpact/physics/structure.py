@@ -31,6 +31,10 @@ import numpy as np
 
 UNDER, CRITICAL, OVER = "under-damped", "critically damped", "over-damped"
 
+#: A well over-damped velocity is v0 plus its increments while the fast mode's exponent s2 t
+#: is above this (e^{s2 t} > 1/2), the sum of its two modes after (:meth:`Oscillator.modes`).
+MODE_VELOCITY_SWITCH = -0.7
+
 
 def _expm1_minus_x(s, t):
     """(e^{s t} - 1 - s t) / s (s < 0; t a float or an array), without cancellation: its
@@ -182,15 +186,17 @@ class Oscillator:
         regime, omega = self.regime, self.omega
         if regime == OVER and omega > 0.5 * self.sigma:
             slow, fast = self._s_slow, self._s_fast
-            gap = slow - fast  # 2 wo
-            a = (v0 - fast * y0) / gap
-            b = (slow * y0 - v0) / gap
+            a, b = self.modes(y0, v0)
             a_rate, b_rate = a * slow, b * fast
 
             def over_modes(t: float, a=a, b=b, slow=slow, fast=fast, a_rate=a_rate,
-                           b_rate=b_rate) -> tuple[float, float]:
-                return (a * expm1(slow * t) + b * expm1(fast * t),
-                        a_rate * exp(slow * t) + b_rate * exp(fast * t))
+                           b_rate=b_rate, v0=v0) -> tuple[float, float]:
+                fast_t = fast * t
+                slow_m1, fast_m1 = expm1(slow * t), expm1(fast_t)
+                if fast_t > MODE_VELOCITY_SWITCH:  # v0 plus its increments (see modes)
+                    return a * slow_m1 + b * fast_m1, v0 + (a_rate * slow_m1 + b_rate * fast_m1)
+                return (a * slow_m1 + b * fast_m1,
+                        a_rate * exp(slow * t) + b_rate * exp(fast_t))
             return over_modes
 
         neg_sigma = -self.sigma
@@ -243,6 +249,22 @@ class Oscillator:
             return y0 * cm1 + p * s, v0 * c - q * s
         return over
 
+    def modes(self, y0, v0):
+        """(A, B) of the well over-damped response ``y = A e^{s1 t} + B e^{s2 t}`` from (y0, v0)
+        (floats or arrays; s1 the slow exponent, s2 the fast one, s1 - s2 = 2 wo).
+
+        Its rate ``A s1 e^{s1 t} + B s2 e^{s2 t}`` is at t = 0 the difference of two terms of
+        about |y0| omega_n^2 / (2 wo) each, so it misses v0 by their rounding: 2.2e-16 m/s for a
+        pair at rest 4,300 m from its equilibrium (a sticking phase under a flow the next step
+        set to 0, which re-anchored its flight on that speed: energy from rest). While the fast
+        mode is above half its start (s2 t > ``MODE_VELOCITY_SWITCH``) the rate is therefore
+        v0 plus its increments, ``v0 + A s1 (e^{s1 t} - 1) + B s2 (e^{s2 t} - 1)``: exactly v0 at
+        t = 0, and rounding of the order of the increments; once the fast mode has decayed, the
+        sum of the two modes, whose rounding decays with them (fix 3)."""
+        slow, fast = self._s_slow, self._s_fast
+        gap = slow - fast  # 2 wo
+        return (v0 - fast * y0) / gap, (slow * y0 - v0) / gap
+
     @property
     def two_modes(self) -> bool:
         """Well over-damped (wo > sigma / 2): the response is written on its two exponents."""
@@ -255,11 +277,25 @@ class Oscillator:
         cancellation (a series where |s t| < 0.01), so that the integral stays accurate when y0
         is far larger than the motion (a sticking phase's contact force: lam0 plus the
         increments of a free response of 4e4 N that moves by 1e-11 N)."""
+        slow, fast = self.deviation_integral_terms(*self.modes(y0, v0), t)
+        return slow + fast
+
+    def deviation_integral_terms(self, a, b, t):
+        """The two terms of :meth:`deviation_integral` at t from the modes (A, B) of the
+        response (:meth:`modes`); its rounding is a few ulps of the sum of their magnitudes."""
+        return a * _expm1_minus_x(self._s_slow, t), b * _expm1_minus_x(self._s_fast, t)
+
+    def mode_steps(self, a, b, t_a, t_b, exp=np.exp, expm1=np.expm1):
+        """The change of each mode of the well over-damped response with modes (A, B)
+        (:meth:`modes`) between t_a and t_b: ``(A (e^{s1 t_b} - e^{s1 t_a}),
+        B (e^{s2 t_b} - e^{s2 t_a}))``, each as ``A e^{s t_a} (e^{s (t_b - t_a)} - 1)``, to a
+        few ulps of itself: the change of y is their sum, that of y' the sum of each times its
+        exponent. (y(t_b) - y0 minus y(t_a) - y0 carries the rounding of the anchor's scale,
+        |A| + |B|, however far the motion has decayed since.) Floats with ``exp``, ``expm1``
+        from :mod:`math`, or arrays with numpy's."""
         slow, fast = self._s_slow, self._s_fast
-        gap = slow - fast  # 2 wo
-        a = (v0 - fast * y0) / gap
-        b = (slow * y0 - v0) / gap
-        return a * _expm1_minus_x(slow, t) + b * _expm1_minus_x(fast, t)
+        dt = t_b - t_a
+        return (a * exp(slow * t_a) * expm1(slow * dt), b * exp(fast * t_a) * expm1(fast * dt))
 
     def displacement_change(self, x0: float, v0: float, t: float) -> tuple[float, float]:
         """x(t) - x0 (free of the rounding of x0) and v(t): :meth:`increment` at one time."""
@@ -272,11 +308,14 @@ class Oscillator:
         if self.regime == OVER and self.omega > 0.5 * self.sigma:
             t = np.asarray(t, dtype=float)
             slow, fast = self._s_slow, self._s_fast
-            gap = slow - fast  # 2 wo
-            a = (v0 - fast * y0) / gap
-            b = (slow * y0 - v0) / gap
-            return (a * np.expm1(slow * t) + b * np.expm1(fast * t),
-                    a * slow * np.exp(slow * t) + b * fast * np.exp(fast * t))
+            a, b = self.modes(y0, v0)
+            a_rate, b_rate = a * slow, b * fast
+            fast_t = fast * t
+            slow_m1, fast_m1 = np.expm1(slow * t), np.expm1(fast_t)
+            return (a * slow_m1 + b * fast_m1,
+                    np.where(fast_t > MODE_VELOCITY_SWITCH,
+                             v0 + (a_rate * slow_m1 + b_rate * fast_m1),
+                             a_rate * np.exp(slow * t) + b_rate * np.exp(fast_t)))
         c, cm1, s = self.basis_parts_array(t)
         return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)

@@ -495,14 +495,15 @@ class LinearStick(_SearchedSegment):
     increments from (q0, lam0')."""
 
     __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search", "_increment",
-                 "_lam0", "_q0", "_q_increment", "_last", "_b_all", "_c")
+                 "_lam0", "_q0", "_q_increment", "_last", "_b_all", "_c", "_push", "_q_modes",
+                 "_y_modes")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
     PUSHES = True
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
-        self.M = M = solver.M
+        self.M = solver.M
         self.drag = solver.drag
         self.b = b = solver.drag.b
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
@@ -515,7 +516,13 @@ class LinearStick(_SearchedSegment):
         self._b_all = b + b_s
         self._lam0, self._q0, rate0 = self._anchor_force(x0, v0)
         self._q_increment = osc.deviation_increment(self._q0, rate0)
-        self._last: tuple[float, float, float] = (0.0, 0.0, rate0)
+        self._push = b * u
+        # well over-damped: q's two modes at the anchor (see _force)
+        self._q_modes = osc.modes(self._q0, rate0) if osc.two_modes else None
+        self._y_modes = osc.modes(x0 - osc.offset, v0) if osc.two_modes else None
+        lam0 = self._lam0
+        self._last: tuple[float, float, float, float, float] = (
+            0.0, lam0, self._q0, rate0, abs(lam0))
         self.search = RootSearch(start, _time_eps(t0))
 
     def _anchor_force(self, x0, v0):
@@ -539,34 +546,57 @@ class LinearStick(_SearchedSegment):
         x = x0 + dx
         return x, v, x, v
 
-    def _force(self, tau: float) -> tuple[float, float, float]:
-        """(tau, q - q0, lam') at tau; the last one is kept (the search asks again for it)."""
+    def _force(self, tau: float) -> tuple[float, float, float, float, float]:
+        """(tau, lam, q, lam', scale) at tau, scale the sum of the magnitudes of the terms lam
+        is made of (its rounding is a few ulps of it); the last one is kept (the search asks
+        again for it).
+
+        lam is ``lam0 + (q - q0)``, whose rounding is that of the anchor's force lam0 however
+        far the motion has decayed since. Well over-damped, q is also ``Q1 e^{s1 t} +
+        Q2 e^{s2 t}`` (the modes of (q0, q0'), :meth:`Oscillator.modes`), and
+        ``lam = b u + Q1 e^{s1 t} + Q2 e^{s2 t}`` has a rounding that decays with the modes
+        (b u aside, large where the equilibrium is far): whichever is smaller is taken. An
+        over-damped pair (zeta 50, 18 mg on 0.6 kg) decaying at 1e-14 m/s has a force of
+        3e-11 N; from lam0 = 5e4 N its rounding, 1e-11 N, made a sign change the search took
+        for a separation."""
         last = self._last
         if last[0] == tau:
             return last
         dq, rate = self._q_increment(tau)
-        self._last = last = (tau, dq, rate)
+        lam0 = self._lam0
+        lam, q, scale = lam0 + dq, self._q0 + dq, abs(lam0) + abs(dq)
+        modes = self._q_modes
+        if modes is not None:
+            osc = self.osc
+            slow = modes[0] * math.exp(osc._s_slow * tau)
+            fast = modes[1] * math.exp(osc._s_fast * tau)
+            push = self._push
+            by_modes = abs(push) + abs(slow) + abs(fast)
+            if by_modes < scale:
+                q = slow + fast
+                lam, scale = push + q, by_modes
+        self._last = last = (tau, lam, q, rate, scale)
         return last
 
     def force(self, tau: float) -> float:
         """Contact force on the structure, N: drag on the ice minus its inertia."""
-        return self._lam0 + self._force(tau)[1]
+        return self._force(tau)[1]
 
     def force_and_rate(self, tau: float) -> tuple[float, float]:
         """Contact force (N) and its rate (N/s): -b a - M j, a and j the acceleration and jerk."""
-        _, dq, rate = self._force(tau)
-        return self._lam0 + dq, rate
+        _, lam, _, rate, _ = self._force(tau)
+        return lam, rate
 
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
         """Contact force, its two derivatives, bounds on |lam''| and |lam'''| from here on: the
         higher derivatives of q from its equation of motion, mass q'' + damping q' + k q = 0."""
-        _, dq, rate = self._force(tau)
+        _, lam, q, rate, _ = self._force(tau)
         osc = self.osc
         mass, damping, stiffness = osc.mass, osc.damping, osc.stiffness
-        curvature = -(damping * rate + stiffness * (self._q0 + dq)) / mass
+        curvature = -(damping * rate + stiffness * q) / mass
         q3 = -(damping * curvature + stiffness * rate) / mass
         q4 = -(damping * q3 + stiffness * curvature) / mass
-        return (self._lam0 + dq, rate, curvature, osc.amplitude_bound(curvature, q3),
+        return (lam, rate, curvature, osc.amplitude_bound(curvature, q3),
                 osc.amplitude_bound(q3, q4))
 
     def clearance(self, tau: float) -> float:
@@ -579,13 +609,38 @@ class LinearStick(_SearchedSegment):
         ``b u - R_q`` from here on (beyond the rounding of the terms it is made of). The
         bodies ringing stiffly in contact with an amplitude too small to part them (omega
         3.9e7 rad/s, 3e-13 m under a drag force b u of 5.7e6 N) cost the Taylor steps of the
-        search two evaluations per period; this spans the whole phase at once."""
-        _, dq, rate = self._force(tau)
-        push = self.b * self.u
-        q = self._q0 + dq
+        search two evaluations per period; this spans the whole phase at once.
+
+        Well over-damped, q is ``Q1 e^{s1 s} + Q2 e^{s2 s}`` from tau on (s2 < s1 < 0, the
+        modes of the anchor's (q0, q0') at tau, :meth:`Oscillator.modes`), and
+        ``q = e^{s1 s} (Q1 + Q2 e^{(s2 - s1) s}) >= L e^{s1 s}`` for all s >= 0 with
+        ``L = Q1 + min(Q2, 0)``. When L >= 0 (beyond its rounding), lam = b u + q stays >= 0
+        for ever if b u >= 0, and while ``L e^{s1 s} > -b u`` if not: for
+        ``s < ln(L / -b u) / -s1``. The amplitude bound cannot see it once the motion has
+        decayed: a 29 mg pair at rest under no flow, stuck at 6.8e7 N on k = 5.6e8 N/m, had a
+        force of 1.5e-8 N (the rounding of the anchor's), along which the search crawled, 2e4
+        steps per 0.01 s."""
+        _, lam, q, rate, scale = self._force(tau)
+        push = self._push
         reach = self.osc.amplitude_bound(q, rate)
-        rounding = GAP_ULPS * (abs(push) + abs(q) + reach + abs(self._lam0) + abs(dq))
-        return math.inf if push - reach - rounding > 0.0 else 0.0
+        rounding = GAP_ULPS * (abs(push) + abs(q) + reach + scale)
+        if push - reach - rounding > 0.0:
+            return math.inf
+        modes = self._q_modes
+        if modes is None:
+            return 0.0
+        osc = self.osc
+        slow = modes[0] * math.exp(osc._s_slow * tau)
+        fast = modes[1] * math.exp(osc._s_fast * tau)
+        lowest = slow + min(fast, 0.0)
+        if not (slow >= 0.0 and lowest >= GAP_ULPS * (abs(slow) + abs(fast))):
+            return 0.0
+        if push >= 0.0:
+            return math.inf
+        if lowest <= -push:
+            return 0.0
+        # (a few ulps short of the bound: its logarithm's rounding)
+        return math.log(lowest / -push) / -osc._s_slow * (1.0 - GAP_ULPS)
 
     # the root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`): the contact force
     value, value_and_rate = force, force_and_rate
@@ -600,8 +655,10 @@ class LinearStick(_SearchedSegment):
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
         if tau_b <= tau_a:
             return 0.0
-        if self.osc.two_modes:
-            return float(self._integral((self.x0, self.v0), tau_a, tau_b))
+        if self._q_modes is not None:
+            balance, integral, smaller = self._two_forms(
+                self._lam0, self._q_modes, self._y_modes, tau_a, tau_b, math.exp, math.expm1)
+            return float(balance if smaller else integral)
         # displacement increments from the anchor: positions about an equilibrium b u / k far
         # away carry its rounding, which b (xb - xa) would multiply
         dxa, va = self._increment(tau_a)
@@ -609,8 +666,14 @@ class LinearStick(_SearchedSegment):
         return self._impulse(dxa, va, dxb, vb, tau_b - tau_a)
 
     def impulse_array(self, anchor, tau_a, tau_b):
-        if self.osc.two_modes:
-            return np.where(tau_b > tau_a, self._integral(anchor, tau_a, tau_b), 0.0)
+        osc = self.osc
+        if osc.two_modes:
+            x0, v0 = anchor
+            lam0, q0, rate0 = self._anchor_force(x0, v0)
+            balance, integral, smaller = self._two_forms(
+                lam0, osc.modes(q0, rate0), osc.modes(x0 - osc.offset, v0), tau_a, tau_b,
+                np.exp, np.expm1)
+            return np.where(tau_b > tau_a, np.where(smaller, balance, integral), 0.0)
         dxa, va = self.osc.displacement_change_array(*anchor, tau_a)
         dxb, vb = self.osc.displacement_change_array(*anchor, tau_b)
         return np.where(tau_b > tau_a, self._impulse(dxa, va, dxb, vb, tau_b - tau_a), 0.0)
@@ -620,16 +683,44 @@ class LinearStick(_SearchedSegment):
         displacements from the anchor)."""
         return -self.b * ((dxb - dxa) - self.u * duration) - self.M * (vb - va)
 
-    def _integral(self, anchor, tau_a, tau_b):
-        """The contact force's integral as ``lam0 (tau_b - tau_a)`` plus that of q - q0
-        (:meth:`Oscillator.deviation_integral`), well over-damped: far from the equilibrium,
-        b (dx - u dt) is a difference of displacements whose rounding (b ulp(dx), 5e-15 N.s
-        for 1e-4 m under b = 4e5 kg/s) exceeds an impulse of 1e-11 N over 1 ms. Anchors are
-        floats or arrays (the samples of :meth:`impulse_array`)."""
-        lam0, q0, rate0 = self._anchor_force(*anchor)
-        integral = self.osc.deviation_integral
-        return (lam0 * (tau_b - tau_a) + (integral(q0, rate0, tau_b)
-                                          - integral(q0, rate0, tau_a)))
+    def _two_forms(self, lam0, q_modes, y_modes, tau_a, tau_b, exp, expm1):
+        """Well over-damped, the impulse from tau_a to tau_b in two forms, and whether the
+        first has the smaller rounding (floats with :mod:`math`'s exp and expm1, or arrays with
+        numpy's): (balance, integral, balance's rounding < integral's). Each form is a sum of
+        terms, its rounding eps times the sum of their magnitudes.
+
+        - integral: the contact force's integral as ``lam0 (tau_b - tau_a)`` plus that of
+          q - q0 (:meth:`Oscillator.deviation_integral`, from the modes of the anchor's
+          (q0, q0')). Far from the equilibrium (fix 21), b (dx - u dt) is a difference of
+          displacements whose rounding (b ulp(dx), 5e-15 N.s for 1e-4 m under b = 4e5 kg/s)
+          exceeds an impulse of 1e-11 N over 1 ms; this form has none. But lam0 is the
+          anchor's force, and its rounding stays while the motion decays: a 29 mg pair sticking
+          from 0.24 m on k = 5.6e8 N/m (no flow) was at rest by t = 0.03 s, where a 0.01 s
+          step's impulse came out as +-2.3e-10 N.s, one ulp of lam0 dt = 1.5e6 N.s, alternately
+          tensile; an over-damped pair (zeta 50) decaying at 1e-14 m/s gave steps of 3e-14,
+          1.4e-13 and -8.3e-14 N.s for a true 6e-20.
+        - balance: the step's momentum balance on its own modes, the drag impulse on the ice
+          ``b (u dt - dy)`` minus its momentum change ``M dy'``, with dy = d1 + d2 and
+          dy' = s1 d1 + s2 d2 the changes of the two modes over the step
+          (:meth:`Oscillator.mode_steps`, from the modes of the anchor's deviation):
+          ``b u dt - (b + M s1) d1 - (b + M s2) d2``, whose rounding decays with the motion
+          (b |u| dt aside, large where the equilibrium is far). From the displacement
+          increments of the anchor instead, dy_b - dy_a carries the rounding of the anchor's
+          scale: the zeta 50 pair's steps were 6e-20 N.s, or -3e-23."""
+        osc, b, M = self.osc, self.b, self.M
+        duration = tau_b - tau_a
+        i_slow_b, i_fast_b = osc.deviation_integral_terms(*q_modes, tau_b)
+        i_slow_a, i_fast_a = osc.deviation_integral_terms(*q_modes, tau_a)
+        integral = lam0 * duration + ((i_slow_b + i_fast_b) - (i_slow_a + i_fast_a))
+        integral_rounding = (abs(lam0) * duration + abs(i_slow_b) + abs(i_fast_b)
+                             + abs(i_slow_a) + abs(i_fast_a))
+        d_slow, d_fast = osc.mode_steps(*y_modes, tau_a, tau_b, exp, expm1)
+        push = b * self.u * duration
+        slow_part = (b + M * osc._s_slow) * d_slow
+        fast_part = (b + M * osc._s_fast) * d_fast
+        balance = push - slow_part - fast_part
+        balance_rounding = abs(push) + abs(slow_part) + abs(fast_part)
+        return balance, integral, balance_rounding < integral_rounding
 
 class QuadraticStick:
     """Bodies together under quadratic drag: Taylor steps (:mod:`.taylor`) from the anchor, each
