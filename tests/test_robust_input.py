@@ -1335,6 +1335,9 @@ DRIFTS = {
     "coasting at 1e-15 m/s": (dict(ice_Cd=0.0, flow_u=0.0), 1e-15, 5e-16),
     "at rest, linear drag, u = 1e-6 m/s": (dict(ice_Cd=1.0, drag_model=1, flow_u=1e-6), 0.0,
                                            1e-15),
+    # turned back by the flow after 2 |w| / (kappa u) = 0.64 s (4.2e6 periods at 4.1e7 rad/s)
+    "moving upstream at 1e-8 m/s, linear drag, u = 1e-6 m/s": (
+        dict(ice_Cd=1.0, drag_model=1, flow_u=1e-6), -1e-8, 1e-15),
 }
 
 
@@ -1607,3 +1610,48 @@ def test_a_well_over_damped_response_starts_at_its_anchor_exactly():
             v = osc.increment(0.0, 0.0)(t)[1]
             assert abs(float(Decimal(v) - exact)) <= 4e-16 * abs(float(exact)), t
             assert osc.displacement_change_array(0.0, 0.0, np.array([t]))[1][0] == v
+
+
+# --- a heavy ice the flow turns back, next to a stiff structure's envelope (method 1) ----------
+
+#: The random search's TIMEOUT (method 1, seed 12): a stiff undamped pair (omega_n 5.6e7 rad/s)
+#: released from rest at its lowest point -0.57 m, where the heavy ice (M = 3.4e11 kg, linear
+#: drag) starts at rest, the flow of 3340 m/s reversed at every 0.37 s step.
+HEAVY_ICE = dict(structure_m=1e9, structure_c=0.0, structure_k=3.11296231733161e+24,
+                 structure_x0=-0.5663221133377271, ice_M=336172133760.24585,
+                 ice_Cd=0.9616590278639208, ice_z0=-0.5663221133377271, ice_v0=0.0,
+                 drag_model=1, drag_v_lin=1.0, flow_u=-3339.8447649555183, solver_method=1)
+
+
+@pytest.mark.parametrize("e", [0.0, 1.0])
+def test_a_heavy_ice_the_flow_turns_back_is_proven_clear_of_a_stiff_envelope(e, monkeypatch):
+    """The first step's flow carries the ice upstream (to -1.8e-6 m/s, 3e-7 m below the
+    structure's lowest point), the second turns it back: the ice's downstream speed bound is
+    then the flow's 3340 m/s, and the envelope's margin over it (``Flight.clearance``) proved
+    1e-10 s at a time, a thousandth of a period, so the root search walked the 2e7 periods of
+    the step (no 0.37 s step in 10 s of CPU). The ice's acceleration bound (4.8e-6 m/s^2) now
+    proves the whole step at once. Exact answer: the ice's velocity is monotone within each
+    step (it relaxes towards +-u), so the ice is furthest downstream at a step's start or end,
+    and every step ends with it upstream of z0, the structure's lowest point: no impact, the
+    structure rings freely (x0 cos omega_n t) and the gap stays >= 0."""
+    scene = Scene(**HEAVY_ICE, impact_e=e)
+    sim = Simulator(scene)
+    calls = [0]
+    probe = Flight.probe
+
+    def counted(self, tau):
+        calls[0] += 1
+        assert calls[0] <= 10_000, "period by period"
+        return probe(self, tau)
+    monkeypatch.setattr(Flight, "probe", counted)
+    omega = math.sqrt(scene.structure_k / scene.structure_m)
+    x0 = scene.structure_x0
+    for i in range(8):  # 2.96 s
+        r = sim.advance(0.37, scene.flow_u if i % 2 == 0 else -scene.flow_u)
+        assert r.z < scene.ice_z0  # the exact answer's premise (above)
+        assert r.gap >= 0.0 and r.impulse == 0.0 and sim.impact_count == 0
+        # free ringing, to the rounding of the phase omega_n t (2e7 rad per step)
+        phase_rounding = 4.0 * omega * r.t * 2.0 ** -53 * abs(x0)
+        assert abs(r.x - x0 * math.cos(omega * r.t)) <= 2.0 * phase_rounding
+        assert abs(r.v + x0 * omega * math.sin(omega * r.t)) <= 2.0 * omega * phase_rounding
+    assert calls[0] <= 100  # a few probes a step, however many periods

@@ -64,6 +64,10 @@ GAP_ULPS = 16.0 * 2.0 ** -52
 #: nears a degree.
 DRIFT_PHASE_LIMIT = 2.0 ** 46
 
+#: The ice's acceleration bound proves a stretch of the flight open (Flight.clearance) only when
+#: it spans at least this much of the structure's phase omega_n t (rad), 256 periods.
+ACCEL_CLEARANCE_PHASE = 512.0 * math.pi
+
 #: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
 #: (those the future can ask for: one, or two at a step boundary).
 _MAX_STEPS = 8
@@ -223,7 +227,16 @@ class Flight(_SearchedSegment):
         dip below zero by at most twice that rounding, and never by more than GAP_ROUNDING
         (1e-12 m): no impact, and nothing a root search could resolve (it located a touch at
         each period, to its time resolution, and took the structure's speed there, curvature x
-        resolution, for a closing speed). The whole future is proven free of impacts."""
+        resolution, for a closing speed). The whole future is proven free of impacts.
+
+        The ice's downstream displacement over a time s is also at most ``w s + A s^2 / 2``, A
+        its acceleration bound for all later times (|w - u| only decays, eq. 5, 32), which is
+        what bounds it when the flow speed u is large but the ice is slow to follow it: a heavy
+        ice moving upstream (w < 0 < u) that the flow turns back takes about ``2 |w| / A`` to
+        return to where it is, and longer to cross the margin, a time ``margin / u`` would cut
+        into pieces far shorter than a period. The stretch is the longer of the two, and the
+        tangent ringing above with the ice moving upstream (w < 0) is proven for the time
+        ``2 |w| / A`` during which the ice stays upstream of where it is now."""
         offset = self.osc.offset
         if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
             return 0.0
@@ -239,12 +252,41 @@ class Flight(_SearchedSegment):
         lowest = offset - reach - z  # the envelope's lowest gap, now
         rounding = GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
         speed = downstream_speed_bound(w, self.u, self.drag.drags)
-        if lowest - rounding <= 0.0:
-            if speed == 0.0:
-                touch = lowest >= -rounding and lowest - rounding >= -GAP_ROUNDING
-                return math.inf if touch else 0.0
+        margin = lowest - rounding
+        if margin <= 0.0:
+            if speed == 0.0 or w < 0.0:
+                touch = lowest >= -rounding and margin >= -GAP_ROUNDING
+                if not touch:
+                    return 0.0
+                return math.inf if speed == 0.0 else self._accel_clearance(w, 0.0)
             return self._drift_clearance(tau, x - offset, v, w, reach, lowest, speed)
-        return math.inf if speed == 0.0 else (lowest - rounding) / speed
+        if speed == 0.0:
+            return math.inf
+        cleared = margin / speed
+        if w < 0.5 * speed:  # the ice is slow to follow the flow: the longer bound may win
+            by_accel = self._accel_clearance(w, margin)
+            if by_accel > cleared:
+                return by_accel
+        return cleared
+
+    def _accel_clearance(self, w: float, margin: float) -> float:
+        """The time (s) during which the ice's downstream displacement stays within ``margin``
+        (m, >= 0) by the bound ``w s + A s^2 / 2`` on it (``clearance``), A the ice's
+        acceleration bound for all later times: the positive root of ``A s^2 / 2 + w s =
+        margin``, taken 1e-12 short of it (the rounding of the root). 0 (nothing proven) when
+        that spans less than ``ACCEL_CLEARANCE_PHASE`` of the structure's phase: the root search
+        crosses a few periods in a few steps by itself, and its path (so every impact time of
+        an ordinary scene) stays as it was."""
+        _, accel_bound, _ = self.drag.accel_bounds(w, self.u)
+        if not accel_bound > 0.0:
+            root = margin / w if w > 0.0 else math.inf
+        else:
+            disc = math.sqrt(w * w + 2.0 * accel_bound * margin)
+            root = (2.0 * margin / (w + disc) if w > 0.0 else (disc - w) / accel_bound)
+            root *= 1.0 - 1e-12
+        if root * math.sqrt(self.osc.omega2) < ACCEL_CLEARANCE_PHASE:
+            return 0.0
+        return root
 
     def _drift_clearance(self, tau: float, y: float, v: float, w: float, reach: float,
                          lowest: float, speed: float) -> float:
