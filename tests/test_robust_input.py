@@ -1322,6 +1322,20 @@ def test_sticking_far_from_its_equilibrium_keeps_its_positions_exact():
             assert abs(float(Decimal(r.x) - exact)) < 1e-16
 
 
+
+def count_probes(monkeypatch, segment: type, limit: int, why: str) -> list[int]:
+    """Count the calls of ``segment.probe`` (the root search's evaluations) into the returned
+    one-element list, failing with ``why`` past ``limit`` (a search that walks without end)."""
+    calls = [0]
+    probe = segment.probe
+
+    def counted(self, tau):
+        calls[0] += 1
+        assert calls[0] <= limit, why
+        return probe(self, tau)
+    monkeypatch.setattr(segment, "probe", counted)
+    return calls
+
 # --- a drifting ice at the lowest point of the envelope (method 1) -----------------------------
 
 #: pi to 60 digits, for the exact impact times below
@@ -1417,14 +1431,7 @@ def test_a_drifting_ice_meets_the_envelope_exactly_in_bounded_work(name, omega, 
     to the search's time resolution."""
     flow, w, below = DRIFTS[name]
     sim = _drifting(omega, flow, w, below, swinging)
-    calls = [0]
-    probe = Flight.probe
-
-    def counted(self, tau):
-        calls[0] += 1
-        assert calls[0] <= 10_000, "period by period"
-        return probe(self, tau)
-    monkeypatch.setattr(Flight, "probe", counted)
+    calls = count_probes(monkeypatch, Flight, 10_000, "period by period")
     while sim.impact_count == 0:
         sim.advance(0.01)
         assert sim.t < 2.0
@@ -1462,14 +1469,7 @@ def test_an_ice_stopping_short_of_the_envelope_is_proven_clear_at_once(monkeypat
     stop = Decimal(sim.scene.ice_z0) + Decimal(sim.scene.ice_v0) / (
         Decimal(sim.scene.drag_b) / Decimal(sim.scene.ice_M))
     assert stop < Decimal(TANGENT_X0)
-    calls = [0]
-    probe = Flight.probe
-
-    def counted(self, tau):
-        calls[0] += 1
-        assert calls[0] <= 10_000, "period by period"
-        return probe(self, tau)
-    monkeypatch.setattr(Flight, "probe", counted)
+    calls = count_probes(monkeypatch, Flight, 10_000, "period by period")
     for _ in range(100):
         r = sim.advance(0.01)
         assert r.gap >= 0.0 and r.impulse == 0.0
@@ -1547,14 +1547,7 @@ def test_a_pair_sticking_to_rest_without_flow_keeps_exact_impulses_in_bounded_wo
                   ice_M=2.929723032384046e-05, ice_A=208.22135853441782,
                   ice_Cd=0.14689286517096625, ice_z0=x0, ice_v0=v0, impact_e=0.09,
                   drag_model=1, flow_u=0.0, solver_method=1)
-    calls = [0]
-    probe = LinearStick.probe
-
-    def counted(self, tau):
-        calls[0] += 1
-        assert calls[0] <= 20_000, "the search crawls along the force's rounding"
-        return probe(self, tau)
-    monkeypatch.setattr(LinearStick, "probe", counted)
+    calls = count_probes(monkeypatch, LinearStick, 20_000, "the search crawls along the force's rounding")
     sim = Simulator(scene)
     h, steps = 0.01, 300
     exact = _decimal_sticking_impulses(scene, x0, v0, 0.0, h, steps)
@@ -1636,14 +1629,7 @@ def test_a_heavy_ice_the_flow_turns_back_is_proven_clear_of_a_stiff_envelope(e, 
     structure rings freely (x0 cos omega_n t) and the gap stays >= 0."""
     scene = Scene(**HEAVY_ICE, impact_e=e)
     sim = Simulator(scene)
-    calls = [0]
-    probe = Flight.probe
-
-    def counted(self, tau):
-        calls[0] += 1
-        assert calls[0] <= 10_000, "period by period"
-        return probe(self, tau)
-    monkeypatch.setattr(Flight, "probe", counted)
+    calls = count_probes(monkeypatch, Flight, 10_000, "period by period")
     omega = math.sqrt(scene.structure_k / scene.structure_m)
     x0 = scene.structure_x0
     for i in range(8):  # 2.96 s
