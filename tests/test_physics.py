@@ -218,7 +218,7 @@ def test_deviation_integral_matches_quadrature(y0, v0):
     assert osc.two_modes
     for t in (1e-4, 0.05, 0.7, 30.0):
         increment = osc.deviation_increment(y0, v0)
-        exact, err = quad(lambda s: increment(s)[0], 0.0, t, epsabs=0.0, epsrel=1e-13,
-                          limit=200)
+        exact, err = quad(lambda s, increment=increment: increment(s)[0], 0.0, t,
+                          epsabs=0.0, epsrel=1e-13, limit=200)
         assert float(osc.deviation_integral(y0, v0, t)) == pytest.approx(exact, rel=1e-10,
                                                                          abs=1e-300)

@@ -1547,7 +1547,8 @@ def test_a_pair_sticking_to_rest_without_flow_keeps_exact_impulses_in_bounded_wo
                   ice_M=2.929723032384046e-05, ice_A=208.22135853441782,
                   ice_Cd=0.14689286517096625, ice_z0=x0, ice_v0=v0, impact_e=0.09,
                   drag_model=1, flow_u=0.0, solver_method=1)
-    calls = count_probes(monkeypatch, LinearStick, 20_000, "the search crawls along the force's rounding")
+    calls = count_probes(monkeypatch, LinearStick, 20_000,
+                         "the search crawls along the force's rounding")
     sim = Simulator(scene)
     h, steps = 0.01, 300
     exact = _decimal_sticking_impulses(scene, x0, v0, 0.0, h, steps)

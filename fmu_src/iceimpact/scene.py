@@ -548,9 +548,9 @@ EXPLICIT_ODE_METHODS = {1: "RK45", 2: "DOP853"}
 #: 3e-5 s of CPU x rate per simulated second (measured 2.6e-5 to 3.5e-5 s at 2.9e5 1/s in
 #: the four stiff scene kinds of docs/robustness.md, with the flow reversed every 1 ms step:
 #: 3.3-10.1 s per simulated second at 2.9e5 1/s, 28 s at 1e6; tests/ode_rate_cost.py), so that
-#: 1 s of simulated time costs at most ~10 s of CPU. LSODA (solver.ode_method = 3) switches to an implicit method when stiff:
-#: at most 7.6 s per simulated second at 9.9e5 1/s in the same scenes; it and Radau keep
-#: DRAG_RATE_MAX.
+#: 1 s of simulated time costs at most ~10 s of CPU. LSODA (solver.ode_method = 3) switches to
+#: an implicit method when stiff: at most 7.6 s per simulated second at 9.9e5 1/s in the same
+#: scenes; it and Radau keep DRAG_RATE_MAX.
 ODE_EXPLICIT_RATE_MAX = 3e5
 #: solver.ode_method of Radau (method 3).
 RADAU_ODE_METHOD = 4

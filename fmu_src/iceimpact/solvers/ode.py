@@ -31,11 +31,12 @@ article's steady-state thresholds (eq. 27-29):
 Each ``solve_ivp`` call covers at most a chunk of :data:`CHUNK_PERIODS` structure periods (and
 :data:`CHUNK_MAX` seconds, and :data:`CHUNK_RATE` / rate for the stiffest rate integrated, so
 that a chunk costs a bounded number of steps) from the start of the segment, and its dense
-output answers the communication steps inside it, so the result does not depend on the communication step (unless the flow speed changes, which restarts
-the integration at the change). A segment's first call spans one period of the structure (after
-a flow change: the step being taken, if shorter), and each next one twice the previous, up to
-the chunk: a segment that an impact ends early, or a flow changing at every step, costs work in
-proportion to its own length, not a whole chunk. The explicit integrators' steps are bounded
+output answers the communication steps inside it, so the result does not depend on the
+communication step (unless the flow speed changes, which restarts the integration at the
+change). A segment's first call spans one period of the structure (after a flow change: the
+step being taken, if shorter), and each next one twice the previous, up to the chunk: a segment
+that an impact ends early, or a flow changing at every step, costs work in proportion to its own
+length, not a whole chunk. The explicit integrators' steps are bounded
 by :data:`STABLE_STEP` / rate, inside their stability intervals, so that states far below the
 absolute tolerance do not ring through the ice. Work is bounded: every impact either
 lasts a resolvable bounce or ends the bouncing, and repeated events at one instant (a degenerate
