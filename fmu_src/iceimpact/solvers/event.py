@@ -1241,7 +1241,7 @@ class EventSolver(Solver):
 
             if kind is _STEPPED:
                 self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
-            else:
+            elif i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
                 kind.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
             if tau_event is None:
                 self.tau = horizon - t0
