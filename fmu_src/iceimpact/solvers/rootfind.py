@@ -249,8 +249,9 @@ class RootSearch:
         disc = sqrt(df * df + 2.0 * bound * f)
         h_free = unit * ((df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df))
         max_step = self.max_step
-        if signal.clearance is not None:
-            cleared = signal.clearance(a)
+        clearance = signal.clearance  # (one lookup: a method is bound anew at each)
+        if clearance is not None:
+            cleared = clearance(a)
             if cleared > h_free:  # max(), written out (this runs at every step)
                 h_free = cleared
         if df >= 0.0:
