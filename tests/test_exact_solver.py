@@ -336,3 +336,37 @@ def test_degenerate_contacts_finish(params):
     assert np.all(np.isfinite(values))
     assert min(r.x - r.z for r in reports) >= -1e-12
     assert all(i.w_minus - i.v_minus >= 0.0 for i in sim.impacts)
+
+
+@pytest.mark.parametrize("e", [1.0, 0.6, 0.0])
+def test_impact_at_contact_decides_as_at_contact_then_impact(e):
+    """The one-call contact of a flight's end gives at_contact's decisions to the bit: an impact
+    exactly when at_contact says IMPACT (never at a closing speed at rounding level), the same
+    impact step, and ``parts`` exactly when at_contact, asked after it, says FLIGHT with an
+    opening speed (not after a plastic or chatter-closing impact, nor a rounding-level one)."""
+    from iceimpact.solvers.contact_rules import Outcome
+    from iceimpact.solvers.event import EventSolver
+    solver = EventSolver(Scene())
+    rules = solver.rules
+    u = solver.u
+    rng = np.random.default_rng(7)
+    x_values = [0.0, 1e-4, -3e-3, 0.02]
+    cases = [(x, v, w) for x in x_values
+             for v, w in [(0.0, 0.5), (-0.2, 0.3), (0.1, 0.1), (0.1, 0.1 + 1e-17),
+                          (0.1, 0.1 - 1e-17), (0.3, -0.1), (0.0, 1e-13), (0.0, 3e-9)]]
+    cases += [tuple(rng.normal(0.0, [0.01, 0.3, 0.3])) for _ in range(200)]
+    seen = set()
+    for x, v, w in cases:
+        impact, parts = rules.impact_at_contact(1.0, x, v, w, e, u)
+        before = rules.at_contact(1.0, x, v, w, u)
+        assert (impact is not None) == (before.outcome is Outcome.IMPACT)
+        if impact is None:
+            assert not parts
+            seen.add("none")
+            continue
+        assert impact == rules.impact(1.0, x, before.v, before.w, e, u)
+        after = rules.at_contact(1.0, x, impact.v_plus, impact.w_plus, u)
+        assert parts == (after.outcome is Outcome.FLIGHT and after.v - after.w > 0.0)
+        seen.add(parts)
+    assert {"none", e > 0.0} <= seen  # (e > 0: chatter closure gives False cases as well)
+    assert e > 0.0 or True not in seen

@@ -6,6 +6,7 @@ from __future__ import annotations
 import gc
 import math
 
+import numpy as np
 import pytest
 
 from iceimpact.solvers.rootfind import RootSearch, Signal
@@ -228,3 +229,31 @@ def test_each_point_is_evaluated_once_and_a_segment_is_its_own_signal():
     assert root == pytest.approx(math.acos(0.25), abs=1e-14)
     assert len(asked) == len(set(asked))
     assert root == RootSearch(0.0, 1e-16).next_root_before(10.0, probe, f, rate)
+
+
+def test_bracketed_newton_stops_when_its_step_rounds_to_the_point():
+    """Newton's method inside a bracket, approaching the root from one end: where its last step
+    is below half an ulp of the point it stands on, the next point rounds to that point, the end
+    of the bracket. It is then converged (the step is within the tolerance); the search had
+    bisected the whole bracket again (26 and 29 evaluations for 3 of these roots, up to 49 per
+    impact in Figure 2's chatter), each root now takes at most 10, located as accurately."""
+    rng = np.random.default_rng(1)
+    counts = []
+    for _ in range(2000):
+        r, w, size = rng.uniform(0.05, 0.5), rng.uniform(5.0, 40.0), rng.uniform(5e-4, 2e-3)
+        c, sign = math.cos(w * r), (1.0 if math.sin(w * r) > 0.0 else -1.0)
+        calls = [0]
+
+        def value_and_rate(t, w=w, size=size, c=c, sign=sign, calls=calls):
+            calls[0] += 1
+            return size * sign * (math.cos(w * t) - c), -size * w * abs(math.sin(w * t))
+        lo, hi = r - rng.uniform(0.01, 0.3) / w, r + rng.uniform(0.01, 0.3) / w
+        if not value_and_rate(lo)[0] > 0.0 > value_and_rate(hi)[0]:
+            continue
+        calls[0] = 0
+        signal = Signal(lambda t: None, lambda t, f=value_and_rate: f(t)[0], value_and_rate)
+        root = RootSearch(0.0, 1e-16)._bracketed_root(signal, lo, hi)
+        assert abs(root - r) < 1e-13
+        counts.append(calls[0])
+    assert len(counts) > 1500
+    assert max(counts) <= 10

@@ -381,6 +381,26 @@ class ContactRules:
         return _new(Impact, (t, x, v_minus, w_minus, v_plus, w_plus,
                              impact_impulse(v_minus, v_plus, m), e))
 
+    def impact_at_contact(self, t: float, x: float, v: float, w: float, e: float,
+                          u: float) -> tuple[Impact | None, bool]:
+        """:meth:`at_contact` and :meth:`impact` in one for the common contact, a flight ending
+        in an approach: (the Impact, whether the bodies then part) if at_contact decides an
+        impact at (x, v, w), else (None, False), with nothing changed (at_contact decides then).
+
+        ``parts``: at the velocities after the impact at_contact would decide a flight with an
+        opening speed beyond rounding (e > 0, a bounce): the flight starts at the contact, its
+        search from 0 (the solver's ``_fly_from_contact``), and at_contact is not asked again.
+        Its other outcomes (a plastic impact, an opening at rounding level) are left to it.
+        The decisions are at_contact's, to the bit: the same rounding test on the same values
+        (no counter of :class:`DegenerateContacts` moves when the speed is beyond rounding)."""
+        closing = w - v
+        if not closing > 0.0 or self.is_rounding(closing, x, v, w, u):
+            return None, False
+        result = self.impact(t, x, v, w, e, u)
+        v_plus, w_plus = result[4], result[5]
+        closing = w_plus - v_plus
+        return result, closing < 0.0 and not self.is_rounding(closing, x, v_plus, w_plus, u)
+
     def plastic_merge(self, v: float, w: float) -> tuple[float, float]:
         """Common velocity of a plastic impact (eq. 16-17, e = 0), m/s, and its impulse on the
         structure, N.s: how the bodies start sticking under ``plastic_entry``."""

@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 from bisect import bisect_left
 from collections.abc import Callable
-from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -996,7 +995,9 @@ class _SampleGroup:
 
     def __init__(self, representative: _SearchedSegment):
         self.rep = representative
-        self.anchors: list[tuple[float, ...]] = []  # per segment
+        # per segment its anchor's values, flat (floats: no tuple per segment for the cyclic
+        # garbage collector to track)
+        self.anchors: list[float] = []
         self.t0: list[float] = []
         self.first: list[int] = []                  # its samples: first..stop-1
         self.stop: list[int] = []
@@ -1011,13 +1012,14 @@ class _SampleGroup:
         A segment with a contact force adds one impulse piece per sample (from the previous
         sample, or ``tau_from``, to it) and one to its event, in the order the scalar march adds
         them; their values are filled in by :meth:`evaluate`."""
-        self.anchors.append(seg.anchor())
-        self.t0.append(seg.t0)
+        self.anchors.extend(seg.anchor())
+        t0 = self.t0
+        t0.append(seg.t0)
         self.first.append(i)
         self.stop.append(j)
         if not seg.PUSHES:
             return
-        k = len(self.anchors) - 1
+        k = len(t0) - 1
 
         self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
                             len(values)))
@@ -1034,8 +1036,7 @@ class _SampleGroup:
         # sample indices: each segment's run first..stop-1, concatenated
         index = np.arange(len(rows)) + np.repeat(first - (np.cumsum(counts) - counts), counts)
         width = len(self.rep.ANCHOR)
-        anchors = np.fromiter(chain.from_iterable(self.anchors), dtype=float,
-                              count=width * len(self.anchors)).reshape(len(self.anchors), width)
+        anchors = np.array(self.anchors, dtype=float).reshape(len(self.t0), width)
         t0 = np.array(self.t0)
         tau = times[index] - t0[rows]
         x, v, z, w = self.rep.state_array(tuple(anchors[rows].T), tau)
@@ -1179,6 +1180,23 @@ class EventSolver(Solver):
         self.pending_impulse += impact.impulse
         self._begin(t, x, impact.v_plus, x, impact.w_plus, u)
 
+    def _flight_end(self, t: float, x: float, v: float, w: float, u: float) -> None:
+        """A flight's gap closing at time t, position x: :meth:`_begin` at zero gap, with the
+        common case, an impact after which the bodies part (a bounce), decided in one call
+        (:meth:`ContactRules.impact_at_contact`: the same decisions, the same flight)."""
+        impact, parts = self.rules.impact_at_contact(t, x, v, w, self.e, u)
+        if impact is None:
+            self._begin(t, x, v, x, w, u)
+            return
+        self._record(impact)
+        self.pending_impulse += impact.impulse
+        if parts:  # at_contact's FLIGHT with an opening speed: the search from 0
+            self.u = u
+            self.tau = 0.0
+            self._fly(t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
+        else:
+            self._begin(t, x, impact.v_plus, x, impact.w_plus, u)
+
     # marching -----------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
         if u != self.u:  # zero-order hold: a new flow speed re-anchors the closed forms here
@@ -1211,7 +1229,7 @@ class EventSolver(Solver):
         x, v, z, w = seg.state(tau_event)
         t_event = seg.t0 + tau_event
         if seg.phase is _FLIGHT:
-            self._begin(t_event, x, v, x, w, u)  # impact, or a touch without speed
+            self._flight_end(t_event, x, v, w, u)  # impact, or a touch without speed
         else:  # contact force turns tensile: separate with equal velocities
             self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
         impulse, self.pending_impulse = self.pending_impulse, 0.0
@@ -1265,7 +1283,7 @@ class EventSolver(Solver):
 
             if kind is _STEPPED:
                 self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
-            else:
+            elif i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
                 kind.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
             if tau_event is None:
                 self.tau = horizon - t0

@@ -230,6 +230,10 @@ class ExternalSolver(EventSolver):
         self._structure_at(t)
         super()._fly_from_contact(t, x, v, w, u, lam)
 
+    def _flight_end(self, t: float, x: float, v: float, w: float, u: float) -> None:
+        self._structure_at(t)
+        super()._flight_end(t, x, v, w, u)
+
     def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
         self.seg = ExternalStick(self, t, x, v, u, start=hold)
         self._set_sticking(True, t)

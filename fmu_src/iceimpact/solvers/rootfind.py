@@ -249,8 +249,9 @@ class RootSearch:
         disc = sqrt(df * df + 2.0 * bound * f)
         h_free = unit * ((df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df))
         max_step = self.max_step
-        if signal.clearance is not None:
-            cleared = signal.clearance(a)
+        clearance = signal.clearance  # (one lookup: a method is bound anew at each)
+        if clearance is not None:
+            cleared = clearance(a)
             if cleared > h_free:  # max(), written out (this runs at every step)
                 h_free = cleared
         if df >= 0.0:
@@ -369,6 +370,21 @@ class RootSearch:
         for _ in range(BRACKET_STEPS):
             nxt = t - f_t / df_t if df_t != 0.0 else math.nan
             if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
+                if abs(nxt - t) <= ROOT_XTOL + ROOT_RTOL * abs(t):
+                    # Newton's step from t is within the tolerance but rounds to t itself (a
+                    # step below half an ulp of t) or past the bracket's end at t: the root is
+                    # within the tolerance of t (bisection here halved the whole bracket again,
+                    # some 40 evaluations, to land as close). Below zero at t: t is the first
+                    # point below zero. Above (t = lo): the next float, if f is not above zero
+                    # there (else bisection goes on from it).
+                    if f_t < 0.0:
+                        return t
+                    after = math.nextafter(t, math.inf)
+                    if after < hi:
+                        f_after, _ = value_and_rate(after)
+                        if f_after <= 0.0:
+                            return after
+                        lo = after
                 nxt = lo + 0.5 * (hi - lo)  # bisection when Newton leaves or stalls
             step_before, step = step, abs(nxt - t)
             converged = step <= ROOT_XTOL + ROOT_RTOL * abs(nxt)
