@@ -663,7 +663,11 @@ class LinearStick(_SearchedSegment):
         ``s < ln(L / -b u) / -s1``. The amplitude bound cannot see it once the motion has
         decayed: a 29 mg pair at rest under no flow, stuck at 6.8e7 N on k = 5.6e8 N/m, had a
         force of 1.5e-8 N (the rounding of the anchor's), along which the search crawled, 2e4
-        steps per 0.01 s."""
+        steps per 0.01 s.
+
+        Under-damped with b u > 0, a force that does turn tensile, but every time too slightly
+        to part the bodies resolvably, is held through its tension for the whole phase
+        (:meth:`_tension_unresolvable`)."""
         _, lam, q, rate, scale = self._force(tau)
         push = self._push
         reach = self.osc.amplitude_bound(q, rate)
