@@ -35,6 +35,7 @@ from ..scene import Scene
 from .base import GAP_ROUNDING, Solver, SolverError, State
 from .contact_rules import (
     EXACT_POLICY,
+    ROUNDING_SPEED,
     ContactRules,
     Outcome,
     Phase,
@@ -537,7 +538,7 @@ class LinearStick(_SearchedSegment):
 
     __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search", "_increment",
                  "_lam0", "_q0", "_q_increment", "_last", "_b_all", "_c", "_push", "_q_modes",
-                 "_y_modes")
+                 "_y_modes", "_mu")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
     PUSHES = True
@@ -558,6 +559,7 @@ class LinearStick(_SearchedSegment):
         self._lam0, self._q0, rate0 = self._anchor_force(x0, v0)
         self._q_increment = osc.deviation_increment(self._q0, rate0)
         self._push = b * u
+        self._mu = solver.m * solver.M / (solver.m + solver.M)  # reduced mass, kg
         # well over-damped: q's two modes at the anchor (see _force)
         self._q_modes = osc.modes(self._q0, rate0) if osc.two_modes else None
         self._y_modes = osc.modes(x0 - osc.offset, v0) if osc.two_modes else None
@@ -660,12 +662,18 @@ class LinearStick(_SearchedSegment):
         ``s < ln(L / -b u) / -s1``. The amplitude bound cannot see it once the motion has
         decayed: a 29 mg pair at rest under no flow, stuck at 6.8e7 N on k = 5.6e8 N/m, had a
         force of 1.5e-8 N (the rounding of the anchor's), along which the search crawled, 2e4
-        steps per 0.01 s."""
+        steps per 0.01 s.
+
+        Under-damped with b u > 0, a force that does turn tensile, but every time too slightly
+        to part the bodies resolvably, is held through its tension for the whole phase
+        (:meth:`_tension_unresolvable`)."""
         _, lam, q, rate, scale = self._force(tau)
         push = self._push
         reach = self.osc.amplitude_bound(q, rate)
         rounding = GAP_ULPS * (abs(push) + abs(q) + reach + scale)
         if push - reach - rounding > 0.0:
+            return math.inf
+        if self._tension_unresolvable(push, reach + rounding):
             return math.inf
         modes = self._q_modes
         if modes is None:
@@ -682,6 +690,42 @@ class LinearStick(_SearchedSegment):
             return 0.0
         # (a few ulps short of the bound: its logarithm's rounding)
         return math.log(lowest / -push) / -osc._s_slow * (1.0 - GAP_ULPS)
+
+    def _tension_unresolvable(self, push: float, reach: float) -> bool:
+        """Whether every tensile stretch of the contact force from here on is too slight to
+        part the bodies resolvably, so that they are held together through it (fix 28).
+
+        Under-damped, q = -b y' - M y'' is a free response (see :meth:`clearance`); in its
+        phase plane ``q = rho cos(theta)``, ``q' = -omega0 rho sin(theta)`` (omega0^2 =
+        k / (m + M)) the energy radius rho never grows (it starts at most ``reach``) and
+        ``theta' = omega0 - sigma sin(2 theta) >= omega0 - sigma > 0``. The force
+        ``lam = b u + q`` (b u = ``push`` > 0) is tensile only where ``cos(theta) < -push / rho
+        <= -push / reach``: once per turn of theta, for at most
+        ``T = 2 arccos(push / reach) / (omega0 - sigma)``, and never below
+        ``-D = push - reach``. The tension of one stretch has an impulse of at most D T, and
+        the relative speed it can give the bodies, ``s = D T / mu`` (mu the reduced mass), is
+        held to be unresolvable when it is within the rounding of the speeds at which a
+        contact merges a closing speed (ROUNDING_SPEED |u|, below the speed scale
+        :meth:`ContactRules.is_rounding` uses) and the gap it can open over a whole turn,
+        ``s 2 pi / (omega0 - sigma)``, is within the gap tolerance GAP_ROUNDING. A flight
+        from such a separation re-contacts at a closing speed the contact merges: what
+        holding the bodies gives, without a flight the positions cannot resolve. The step
+        impulse stays >= -s mu >= -ROUNDING_SPEED mu |u|, below 1e-12 of the phase's momentum
+        scale (m + M) |u|.
+
+        Fix 14's stiff pair (omega0 3.9e7 rad/s, b u = 2.1e4 N) rang 23 N beyond b u: a
+        tension of 2.4e-9 s a period (s = 3e-11 m/s against 6.5e-9 m/s, a gap of ~2e-19 m);
+        the exact motion parted and re-contacted once a period, and the step never ended."""
+        osc = self.osc
+        if not (push > 0.0 and osc.regime == UNDER):
+            return False
+        turn = math.sqrt(osc.omega2) - osc.sigma  # theta' >= turn
+        if not turn > 0.0:
+            return False
+        duration = 2.0 * math.acos(min(push / reach, 1.0)) / turn
+        speed = (reach - push) * duration / self._mu
+        return (speed <= ROUNDING_SPEED * self.u
+                and speed * (2.0 * math.pi / turn) <= GAP_ROUNDING)
 
     # the root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`): the contact force
     value, value_and_rate = force, force_and_rate
