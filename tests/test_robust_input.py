@@ -1252,7 +1252,20 @@ def test_method_3_at_rest_below_its_tolerance_does_not_ring_through_the_ice():
                       ice_A=0.049139914759806544, ice_Cd=7.439588730544905e-235, ice_z0=0.0,
                       ice_v0=0.0, impact_e=0.0, drag_model=1, drag_v_lin=1.0,
                       flow_u=4509.90874376061, solver_method=3), 0.37, "zero", [True, False]),
-], ids=["at-rest-u0-quadratic", "light-floe-random-signs", "decay-to-underflow"])
+    # the bodies at zero gap, the ice parting at 6.9e-213 m/s (2e-200 of the velocities'
+    # tolerance) while the drag presses it back: method 3 takes the parting for integration
+    # noise and sticks them with a plastic entry, -6.8e-213 N.s; the search flagged the step's
+    # -1.7e-215 N.s against a momentum scale of 2e-212 until its impulse check took method 3's
+    # absolute tolerance, mu PARTING_NOISE atol (1e-10 N.s), as its gap check does
+    _search_case(dict(structure_m=1.0, structure_c=0.0, structure_k=4.718601971181243,
+                      structure_x0=-2.2250738585e-313, structure_v0=-2.1061441388102723e-255,
+                      ice_M=126.90283035995253, ice_A=3.781832400600783,
+                      ice_Cd=0.654572658341806, ice_z0=-2.2250738585e-313,
+                      ice_v0=-6.880602889092191e-213, impact_e=0.0, drag_model=1,
+                      drag_v_lin=9.53930163557974, flow_u=0.0, solver_method=3),
+                 10.0, "zero", [True]),
+], ids=["at-rest-u0-quadratic", "light-floe-random-signs", "decay-to-underflow",
+        "parting-below-tolerance"])
 def test_method_3_search_cases_run_soundly(case):
     """Replayed exactly as the random search ran them (its checks are the independent ones:
     finite, gap >= -10 atol, impulse >= -1e-5 of the momentum scale, no energy created at
