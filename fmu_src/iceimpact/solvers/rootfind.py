@@ -203,8 +203,9 @@ class RootSearch:
         root = self.root
         if root is not None:
             return root if root <= horizon else None
+        step = self._step  # (one lookup: a method is bound anew at each)
         while self.a <= horizon:
-            self._step(signal)
+            step(signal)
             root = self.root
             if root is not None:
                 return root if root <= horizon else None
