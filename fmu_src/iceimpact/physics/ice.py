@@ -116,10 +116,11 @@ class LinearDrag(_DragLaw):
 
         |r| only decays, so |w'| = kappa |r| and |w''| = kappa^2 |r| are bounded by today's values.
         """
-        r = w - u
-        a = -self.kappa * r
-        size = abs(a)
-        return a, size, self.kappa * size
+        kappa = self.kappa
+        a = -kappa * (w - u)
+        size = a if a > 0.0 else 0.0 - a  # |a| (abs() written out: a root search asks at each
+        # step; 0.0 - a gives +0.0 for either zero, as abs does)
+        return a, size, kappa * size
 
 
 class QuadraticDrag(_DragLaw):

@@ -203,8 +203,9 @@ class RootSearch:
         root = self.root
         if root is not None:
             return root if root <= horizon else None
+        step = self._step  # (one lookup: a method is bound anew at each)
         while self.a <= horizon:
-            self._step(signal)
+            step(signal)
             root = self.root
             if root is not None:
                 return root if root <= horizon else None
@@ -221,13 +222,15 @@ class RootSearch:
             self.root = a
             return
         # the common path: the sum of the magnitudes (f >= 0 here, within a factor 5 of the
-        # largest) near 1 and every value within SPREAD of it; otherwise the exact test
+        # largest) near 1 and every value within SPREAD of it, f also where it is 0 (the start
+        # of each bounce, at contact; the exact test below never rescales for f = 0); otherwise
+        # the exact test
         df_size = df if df >= 0.0 else -df
         d2_size = d2 if d2 >= 0.0 else -d2
         total = f + df_size + d2_size + bound + jerk
         floor = SPREAD * total
         unit = 1.0  # the time unit of the step lengths below (s)
-        if (f < floor or df_size < floor or d2_size < floor or bound < floor or jerk < floor
+        if (0.0 < f < floor or df_size < floor or d2_size < floor or bound < floor or jerk < floor
                 or not _SUM_NEAR_1_LOW <= total <= SCALED_ABOVE):
             # (rarely: a value is 0 or far below the largest, or all are tiny or huge)
             size = max(f, df_size, d2_size, bound, jerk)
@@ -327,6 +330,7 @@ class RootSearch:
         frontier moves on), and one with f(t) < 0 brackets the only root in (a, t). The first
         point is the root of the second-order Taylor polynomial at a (one Newton step fewer),
         the next ones Newton points."""
+        value_and_rate = signal.value_and_rate  # (one lookup: a method is bound anew at each)
         t, f_t, df_t = a, f, df
         disc = df * df - 2.0 * f * d2
         # first step: root of f + df h + d2 h^2 / 2 (cancellation-free form), else Newton's
@@ -337,10 +341,11 @@ class RootSearch:
             nxt = t + step
             if nxt >= b:  # any root is close to b: the sign test there decides
                 break
-            if step <= ROOT_XTOL + ROOT_RTOL * abs(t):  # converged from above, to tolerance
+            # converged from above, to tolerance (|t| written out: a call of abs() costs more)
+            if step <= ROOT_XTOL + ROOT_RTOL * (t if t >= 0.0 else -t):
                 self.root = t
                 return
-            f_n, df_n = signal.value_and_rate(nxt)
+            f_n, df_n = value_and_rate(nxt)
             if f_n < 0.0:  # the root is in (t, nxt)
                 self.root = self._bracketed_root(signal, t, nxt, nxt, f_n, df_n)
                 return
