@@ -860,27 +860,12 @@ def test_the_sticking_clearance_agrees_with_the_written_out_contact_force(fracti
     touches zero: below it the clearance proves the force compressive for ever (checked on 50
     periods of the damped closed form written out here), above it proves nothing and the
     search finds the separation where the written-out force crosses zero."""
-    scene = Scene(**RINGING_IN_CONTACT)
+    scene, x_eq, v0, lam, period = _ringing_pair(fraction, RINGING_IN_CONTACT)  # sigma ~ 0.06 1/s
     solver = Simulator(scene).solver
-    b, u, M, k = scene.drag_b, scene.flow_u, scene.ice_M, scene.structure_k
-    total, damping = scene.structure_m + M, scene.structure_c + b
-    sigma, omega2 = damping / (2.0 * total), k / total
-    wd = math.sqrt(omega2 - sigma ** 2)
-    # lam = b u - b v - M a, with a = -omega2 y - 2 sigma v: its oscillating part has the
-    # amplitude A sqrt((M omega2)^2 + (b omega)^2) for y = A sin(omega t) (sigma ~ 0.06 1/s)
-    touching = b * u / math.hypot(M * omega2, b * math.sqrt(omega2))
-    v0 = -fraction * touching * math.sqrt(omega2)
-
-    def lam(t):
-        decay, cos, sin = np.exp(-sigma * t), np.cos(wd * t), np.sin(wd * t)
-        y = decay * v0 / wd * sin
-        v = decay * (v0 * cos - sigma * v0 / wd * sin)
-        return b * (u - v) - M * (-(damping * v + k * y) / total)
-
-    period = 2.0 * math.pi / wd
+    u = scene.flow_u
     t = np.linspace(0.0, 50.0 * period, 200_001)
     values = lam(t)
-    seg = LinearStick(solver, 0.0, b * u / k, v0, u)
+    seg = LinearStick(solver, 0.0, x_eq, v0, u)
     root = seg.next_event(50.0 * period)
     if fraction < 1.0:
         assert seg.clearance(0.0) == math.inf and root is None
@@ -960,12 +945,13 @@ def test_a_stiff_pair_ringing_barely_beyond_its_drag_is_held_through_its_tension
     assert sim.t == pytest.approx(3.0)
 
 
-def _ringing_pair(fraction: float):
-    """STICK_PART_CYCLE's pair together at its equilibrium b u / k, moving at ``fraction``
-    times the speed at which its contact force first touches zero (see
-    test_the_sticking_clearance_agrees_with_the_written_out_contact_force); the written-out
-    force lam(t) and its period."""
-    scene = Scene(**STICK_PART_CYCLE)
+def _ringing_pair(fraction: float, fields: dict | None = None):
+    """A pair ringing in contact (``fields``, STICK_PART_CYCLE by default) together at its
+    equilibrium b u / k, moving at ``fraction`` times the speed at which its contact force
+    first touches zero; the written-out force lam(t) and its period. lam = b u - b v - M a, with
+    a = -omega2 y - 2 sigma v: its oscillating part has the amplitude
+    A sqrt((M omega2)^2 + (b omega)^2) for y = A sin(omega t)."""
+    scene = Scene(**(STICK_PART_CYCLE if fields is None else fields))
     b, u, M, k = scene.drag_b, scene.flow_u, scene.ice_M, scene.structure_k
     total, damping = scene.structure_m + M, scene.structure_c + b
     sigma, omega2 = damping / (2.0 * total), k / total
