@@ -1340,8 +1340,10 @@ class EventSolver(Solver):
                 j = n
             elif t_list[i] - t0 >= tau_event:  # (several events before one sample: no call)
                 j = i
+            elif i + 1 == n or t_list[i + 1] - t0 >= tau_event:  # (nor one: 3 in 4 of the
+                j = i + 1  # bounces with a sample in Figure 2)
             else:
-                j = _first_sample_after(t_list, i, t0, tau_event)
+                j = _first_sample_after(t_list, i + 2, t0, tau_event)
 
             if grouped:
                 if i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
