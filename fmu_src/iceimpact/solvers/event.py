@@ -153,7 +153,13 @@ class Flight(_SearchedSegment):
         # (structure_osc called only with a Morison drag: a flight starts at each impact)
         self.osc = osc = solver.structure_osc(u) if solver.structure_b else solver.osc
         self.drag = drag = solver.drag
-        self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
+        # (one store a statement: a multiple assignment of six builds and unpacks a tuple)
+        self.t0 = t0
+        self.x0 = x0
+        self.v0 = v0
+        self.z0 = z0
+        self.w0 = w0
+        self.u = u
         self.start = start
         self.gap0 = x0 - z0
         # the anchor itself: no increments, the anchor's velocities (the search starts there)
