@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from bisect import bisect_left
 from collections.abc import Callable
+from operator import attrgetter
 from typing import Any
 
 import numpy as np
@@ -99,6 +100,13 @@ class _SearchedSegment:
     def anchor(self) -> tuple[float, ...]:
         return tuple(getattr(self, name) for name in self.ANCHOR)
 
+    def next_event(self, tau_end: float) -> float | None:
+        """The segment's event if at or before tau_end: the first root of its ``value`` (a
+        flight's gap, its impact; a sticking phase's contact force, its separation). The
+        segment is its root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`);
+        :meth:`EventSolver.sample` calls the search directly, as here."""
+        return self.search.next_root_of(tau_end, self)
+
     def state_array(self, anchor: tuple[np.ndarray, ...],
                     tau: np.ndarray) -> tuple[np.ndarray, ...]:
         """Vectorised :meth:`state` for segments of this kind with the same parameters and flow
@@ -145,7 +153,13 @@ class Flight(_SearchedSegment):
         # (structure_osc called only with a Morison drag: a flight starts at each impact)
         self.osc = osc = solver.structure_osc(u) if solver.structure_b else solver.osc
         self.drag = drag = solver.drag
-        self.t0, self.x0, self.v0, self.z0, self.w0, self.u = t0, x0, v0, z0, w0, u
+        # (one store a statement: a multiple assignment of six builds and unpacks a tuple)
+        self.t0 = t0
+        self.x0 = x0
+        self.v0 = v0
+        self.z0 = z0
+        self.w0 = w0
+        self.u = u
         self.start = start
         self.gap0 = x0 - z0
         # the anchor itself: no increments, the anchor's velocities (the search starts there)
@@ -370,12 +384,6 @@ class Flight(_SearchedSegment):
                 else:
                     lo = mid
         return to_trough + (lo + 0.5) * period  # to the crest after trough lo
-
-    def next_event(self, tau_end: float) -> float | None:
-        """The next impact (the gap's first root) if at or before tau_end: the segment is the
-        root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`), its ``value`` the
-        gap."""
-        return self.search.next_root_of(tau_end, self)
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         return 0.0  # no contact force in flight
@@ -730,10 +738,6 @@ class LinearStick(_SearchedSegment):
     # the root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`): the contact force
     value, value_and_rate = force, force_and_rate
 
-    def next_event(self, tau_end: float) -> float | None:
-        """The separation (the contact force's first root) if at or before tau_end."""
-        return self.search.next_root_of(tau_end, self)
-
 
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
@@ -1048,22 +1052,27 @@ class _SampleGroup:
         # force-carrying pieces, one run per segment: anchor index, tau_from, samples i..j-1,
         # tau_event (nan: none), position of the first piece in the impulse values
         self.pieces: list[tuple[int, float, int, int, float, int]] = []
+        # the anchor's values of a segment of this kind (the ANCHOR fields, read at once), and
+        # the lists' appends, bound once (add runs for most segments of a sampled run)
+        self._anchor_of = attrgetter(*representative.ANCHOR)
+        self._add_anchor, self._add_t0 = self.anchors.extend, self.t0.append
+        self._add_first, self._add_stop = self.first.append, self.stop.append
+        self._pushes = representative.PUSHES
 
-    def add(self, seg: _SearchedSegment, tau_from: float, times: list[float], i: int, j: int,
+    def add(self, seg: _SearchedSegment, tau_from: float, i: int, j: int,
             tau_event: float | None, targets: list[int], values: list[float]) -> None:
         """Samples i..j-1 in ``seg`` (from ``tau_from``); its event, if any, before sample j.
 
         A segment with a contact force adds one impulse piece per sample (from the previous
         sample, or ``tau_from``, to it) and one to its event, in the order the scalar march adds
         them; their values are filled in by :meth:`evaluate`."""
-        self.anchors.extend(seg.anchor())
-        t0 = self.t0
-        t0.append(seg.t0)
-        self.first.append(i)
-        self.stop.append(j)
-        if not seg.PUSHES:
+        self._add_anchor(self._anchor_of(seg))
+        self._add_t0(seg.t0)
+        self._add_first(i)
+        self._add_stop(j)
+        if not self._pushes:
             return
-        k = len(t0) - 1
+        k = len(self.t0) - 1
 
         self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
                             len(values)))
@@ -1237,7 +1246,9 @@ class EventSolver(Solver):
         if parts:  # at_contact's FLIGHT with an opening speed: the search from 0
             self.u = u
             self.tau = 0.0
-            self._fly(t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
+            # _fly, from a flight (so not sticking: a flight and the sticking flag never
+            # coexist, as _read checks of a snapshot)
+            self.seg = self._flight_cls(self, t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
         else:
             self._begin(t, x, impact.v_plus, x, impact.w_plus, u)
 
@@ -1303,39 +1314,55 @@ class EventSolver(Solver):
         self.pending_impulse = 0.0
         # per kind of segment: _STEPPED, _MARCHED or the _SampleGroup of its samples
         kinds: dict[type, Any] = {}
+        # the kind of the last segment's type, and whether its segments go to a _SampleGroup
+        # (most segments follow one of their own type: a bounce's flight another flight)
+        last_type: type | None = None
+        kind: Any = None
+        grouped = False
+        event = self._event
+        add_target, add_value = targets.append, values.append
         i = 0
         horizon = t_list[-1]
         while i < n:
             seg = self.seg
-            kind = kinds.get(type(seg))
-            if kind is None:
-                kind = kinds[type(seg)] = _sampling_kind(seg)
+            if type(seg) is not last_type:
+                last_type = type(seg)
+                kind = kinds.get(last_type)
+                if kind is None:
+                    kind = kinds[last_type] = _sampling_kind(seg)
+                grouped = isinstance(kind, _SampleGroup)
             if kind is _MARCHED:  # march to the sample
-                targets.append(i)
-                values.append(self._march(t_list[i], u))
+                add_target(i)
+                add_value(self._march(t_list[i], u))
                 out.set(i, self.state, self.sticking)
                 i += 1
                 continue
             t0 = seg.t0
-            tau_event = seg.next_event(horizon - t0)
+            if grouped:  # a _SearchedSegment: its next_event, without that call
+                tau_event = seg.search.next_root_of(horizon - t0, seg)
+            else:
+                tau_event = seg.next_event(horizon - t0)
             if tau_event is None:
                 j = n
             elif t_list[i] - t0 >= tau_event:  # (several events before one sample: no call)
                 j = i
+            elif i + 1 == n or t_list[i + 1] - t0 >= tau_event:  # (nor one: 3 in 4 of the
+                j = i + 1  # bounces with a sample in Figure 2)
             else:
-                j = _first_sample_after(t_list, i, t0, tau_event)
+                j = _first_sample_after(t_list, i + 2, t0, tau_event)
 
-            if kind is _STEPPED:
+            if grouped:
+                if i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
+                    kind.add(seg, self.tau, i, j, tau_event, targets, values)
+            else:
                 self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
-            elif i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
-                kind.add(seg, self.tau, t_list, i, j, tau_event, targets, values)
             if tau_event is None:
                 self.tau = horizon - t0
                 x, v, z, w = seg.state(self.tau)
                 self.state = State(horizon, x, v, z, w)
                 break
-            targets.append(j)
-            values.append(self._event(seg, tau_event, u))
+            add_target(j)
+            add_value(event(seg, tau_event, u))
             i = j
         impulse = np.zeros(n)
         values_array = np.array(values)
