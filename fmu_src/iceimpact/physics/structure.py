@@ -215,7 +215,6 @@ class Oscillator:
                     decay_m1 = expm1(arg)
                     decay = 1.0 + decay_m1
                 wt = omega * t
-
                 cos_wt = cos(wt)
                 half = sin(0.5 * wt)
                 s = decay * sin(wt) / omega
@@ -264,6 +263,17 @@ class Oscillator:
         slow, fast = self._s_slow, self._s_fast
         gap = slow - fast  # 2 wo
         return (v0 - fast * y0) / gap, (slow * y0 - v0) / gap
+
+    @property
+    def exponents(self) -> tuple[float, float]:
+        """(s1, s2): the slow and the fast exponent of the well over-damped response (see
+        :meth:`modes`), 1/s."""
+        return self._s_slow, self._s_fast
+
+    def mode_values(self, a: float, b: float, t: float) -> tuple[float, float]:
+        """The two modes ``A e^{s1 t}``, ``B e^{s2 t}`` at time t (s, a float), from the (A, B)
+        of :meth:`modes`."""
+        return a * exp(self._s_slow * t), b * exp(self._s_fast * t)
 
     @property
     def two_modes(self) -> bool:

@@ -211,12 +211,17 @@ class Together:
         return [y[1], (f - self.c * y[1] - self.k * y[0]) / self.total, f]
 
     def jacobian(self, t: float, y) -> list[list[float]]:
-        """d(:meth:`__call__`)/dy, for method 3's implicit integrators: exact, the drag's dF/dv
-        from its ``force_rate``."""
+        """d(:meth:`__call__`)/dy, for method 3's implicit integrators: exact, the drags' dF/dv
+        from their ``force_rate``."""
         df = self.drag.force_rate(y[1], self.u)
         return [[0.0, 1.0, 0.0],
-                [-self.k / self.total, (df - self.c) / self.total, 0.0],
+                [-self.k / self.total, (df + self._structure_drag_rate(y[1]) - self.c)
+                 / self.total, 0.0],
                 [0.0, df, 0.0]]
+
+    def _structure_drag_rate(self, v: float) -> float:
+        """dF_s/dv of the Morison drag on the structure, kg/s (none here)."""
+        return 0.0
 
     @property
     def structure_drag_B(self) -> float:
@@ -265,12 +270,8 @@ class TogetherWithStructureDrag(Together):
         f_s = self.structure_drag.force(y[1], self.u)
         return [y[1], (f + f_s - self.c * y[1] - self.k * y[0]) / self.total, f]
 
-    def jacobian(self, t: float, y) -> list[list[float]]:
-        df = self.drag.force_rate(y[1], self.u)
-        df_s = self.structure_drag.force_rate(y[1], self.u)
-        return [[0.0, 1.0, 0.0],
-                [-self.k / self.total, (df + df_s - self.c) / self.total, 0.0],
-                [0.0, df, 0.0]]
+    def _structure_drag_rate(self, v: float) -> float:
+        return self.structure_drag.force_rate(v, self.u)
 
     def contact_force(self, y) -> float:
         x, v = y[0], y[1]

@@ -618,9 +618,7 @@ class LinearStick(_SearchedSegment):
         lam, q, scale = lam0 + dq, self._q0 + dq, abs(lam0) + abs(dq)
         modes = self._q_modes
         if modes is not None:
-            osc = self.osc
-            slow = modes[0] * math.exp(osc._s_slow * tau)
-            fast = modes[1] * math.exp(osc._s_fast * tau)
+            slow, fast = self.osc.mode_values(*modes, tau)
             push = self._push
             by_modes = abs(push) + abs(slow) + abs(fast)
             if by_modes < scale:
@@ -687,8 +685,7 @@ class LinearStick(_SearchedSegment):
         if modes is None:
             return 0.0
         osc = self.osc
-        slow = modes[0] * math.exp(osc._s_slow * tau)
-        fast = modes[1] * math.exp(osc._s_fast * tau)
+        slow, fast = osc.mode_values(*modes, tau)
         lowest = slow + min(fast, 0.0)
         if not (slow >= 0.0 and lowest >= GAP_ULPS * (abs(slow) + abs(fast))):
             return 0.0
@@ -697,7 +694,7 @@ class LinearStick(_SearchedSegment):
         if lowest <= -push:
             return 0.0
         # (a few ulps short of the bound: its logarithm's rounding)
-        return math.log(lowest / -push) / -osc._s_slow * (1.0 - GAP_ULPS)
+        return math.log(lowest / -push) / -osc.exponents[0] * (1.0 - GAP_ULPS)
 
     def _tension_unresolvable(self, push: float, reach: float) -> bool:
         """Whether every tensile stretch of the contact force from here on is too slight to
@@ -737,8 +734,6 @@ class LinearStick(_SearchedSegment):
 
     # the root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`): the contact force
     value, value_and_rate = force, force_and_rate
-
-
 
     def impulse(self, tau_a: float, tau_b: float) -> float:
         """Integral of the contact force: drag impulse on the ice minus its momentum change."""
@@ -805,8 +800,9 @@ class LinearStick(_SearchedSegment):
                              + abs(i_slow_a) + abs(i_fast_a))
         d_slow, d_fast = osc.mode_steps(*y_modes, tau_a, tau_b, exp, expm1)
         push = b * self.u * duration
-        slow_part = (b + M * osc._s_slow) * d_slow
-        fast_part = (b + M * osc._s_fast) * d_fast
+        s_slow, s_fast = osc.exponents
+        slow_part = (b + M * s_slow) * d_slow
+        fast_part = (b + M * s_fast) * d_fast
         balance = push - slow_part - fast_part
         balance_rounding = abs(push) + abs(slow_part) + abs(fast_part)
         return balance, integral, balance_rounding < integral_rounding
@@ -1073,7 +1069,6 @@ class _SampleGroup:
         if not self._pushes:
             return
         k = len(self.t0) - 1
-
         self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
                             len(values)))
         targets.extend(range(i, j))
@@ -1172,7 +1167,6 @@ class EventSolver(Solver):
             a_x = osc.acceleration(x, v)
         return a_x, self.drag.accel_bounds(w, u)[0]
 
-
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
                reanchor: bool = False) -> None:
         """Start the segment that follows time t from state (x, v, z, w) (``reanchor``: after a
@@ -1195,7 +1189,6 @@ class EventSolver(Solver):
         self.seg = self._flight_cls(self, t, x, v, z, w, u, start)
         if self.sticking:  # (apart already: nothing to change)
             self._set_sticking(False, t)
-
 
     def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
                           lam: float) -> None:
@@ -1350,7 +1343,6 @@ class EventSolver(Solver):
                 j = i + 1  # bounces with a sample in Figure 2)
             else:
                 j = _first_sample_after(t_list, i + 2, t0, tau_event)
-
             if grouped:
                 if i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
                     kind.add(seg, self.tau, i, j, tau_event, targets, values)
