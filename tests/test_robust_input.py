@@ -1816,3 +1816,57 @@ def test_a_heavy_ice_the_flow_turns_back_is_proven_clear_of_a_stiff_envelope(e, 
         assert abs(r.x - x0 * math.cos(omega * r.t)) <= 2.0 * phase_rounding
         assert abs(r.v + x0 * omega * math.sin(omega * r.t)) <= 2.0 * omega * phase_rounding
     assert calls[0] <= 100  # a few probes a step, however many periods
+
+
+# the search's seed-41 scene (method 1): a 1.4 kg ice at e = 1 pressed by its drag on a light,
+# undamped structure; here at omega_n = 1e4 rad/s instead of 1e6 (the work scales with omega_n)
+_ELASTIC_CHATTER = dict(structure_m=0.07943282347242814, structure_c=0.0,
+                        structure_k=0.07943282347242814 * 1e8, structure_x0=0.0,
+                        structure_v0=-0.7529424520614745, ice_M=1.3693257416386013,
+                        ice_A=1.784651848737171, ice_Cd=1.3957926554732534, ice_z0=0.0,
+                        ice_v0=-0.7529424520614745, impact_e=1.0, drag_model=1,
+                        drag_v_lin=1.0, solver_method=1)
+
+
+def test_an_elastic_chatter_at_a_stiff_structure_is_bounded_by_the_chatter_time():
+    """Pressed by the drag, an elastic (e = 1) ice makes ever shorter bounces on the structure
+    as the drag drains their energy: the exact method resolves each until a bounce would be
+    shorter than the chatter time (CHATTER_FRACTION of the structure's period), then the
+    bodies stick. So the impacts of any window are at most its length over the chatter time
+    (the rate reaches ~0.9 of it), the chatter ends, and its total is ~0.1 omega_n impacts
+    (9,894 at 1e4 rad/s, 107,737 at 1e5): the work docs/robustness.md bounds."""
+    from iceimpact.solvers.contact_rules import chatter_time
+
+    scene = Scene(**_ELASTIC_CHATTER)
+    cap = 0.01 / chatter_time(math.sqrt(scene.structure_k / scene.structure_m))
+    sim = Simulator(scene)
+    rates = []
+    while sim.t < 3.0 - 1e-12:
+        before = sim.impact_count
+        sim.advance(0.01, 0.1)
+        rates.append(sim.impact_count - before)
+    assert max(rates) <= cap + 1.0
+    assert max(rates) >= 0.5 * cap  # the bound is the one that binds
+    assert rates[-50:] == [0] * 50  # stuck: the chatter has ended
+    s = sim.solver.state
+    assert s.x == s.z and s.v == s.w
+    assert 5e3 < sim.impact_count < 2e4
+
+
+def test_the_search_tells_a_run_busy_with_impacts_from_a_stall():
+    """A run out of CPU time counts as busy, not as a TIMEOUT fault, only if its impacts keep
+    within one per chatter time and it spent at most IMPACT_WORK s of CPU per impact, over the
+    whole run and over its second half (a run stalled after many quick impacts is a fault)."""
+    from iceimpact.solvers.contact_rules import chatter_time
+    from random_search import IMPACT_WORK, busy_with_impacts
+
+    scene = Scene(**_ELASTIC_CHATTER)
+    t = 0.5
+    cap = 2 * int(t / chatter_time(1e4) / 2)  # even: the second half has cap / 2 of them
+    work, half = IMPACT_WORK * cap, cap // 2
+    assert busy_with_impacts(scene, t, cap, work, half, work / 2)
+    assert not busy_with_impacts(scene, t, 2 * cap + 2, work, half, work / 2)  # too many
+    assert not busy_with_impacts(scene, t, cap, 2 * work, half, work / 2)  # too slow
+    assert not busy_with_impacts(scene, t, cap, work, 0, work / 2)  # stalled late
+    assert not busy_with_impacts(scene, t, cap, work, 10, work / 2)  # nearly stalled late
+    assert not busy_with_impacts(scene, 0.0, 0, 0.0, 0, 0.0)
