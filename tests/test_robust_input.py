@@ -1870,3 +1870,44 @@ def test_the_search_tells_a_run_busy_with_impacts_from_a_stall():
     assert not busy_with_impacts(scene, t, cap, work, 0, work / 2)  # stalled late
     assert not busy_with_impacts(scene, t, cap, work, 10, work / 2)  # nearly stalled late
     assert not busy_with_impacts(scene, 0.0, 0, 0.0, 0, 0.0)
+
+
+def test_a_slow_mode_far_below_the_fast_one_still_parts_the_bodies():
+    """Method 1, linear drag, well over-damped sticking (the search with seed 48): a plastic
+    impact at 0.17 m/s sticks a 0.8 mg floe to a 0.45 g structure (omega_n 1e-3 rad/s) under
+    b = 217 kg/s, no flow. The fast mode (4.8e5 1/s) starts at 36 N of contact force; the
+    slow one, the spring pulling the pair back against the floe's drag, is a tension of
+    -1.6e-16 N, which the modes of the anchor's (q0, q0') gave as exactly 0: the bodies were
+    never parted and every 0.1 ms step had an impulse of -1.6e-20 N.s. The force's modes now
+    come from the deviation's (``Qk = -sk (b + M sk) Yk``): the bodies part where the two
+    modes balance, at the time a 50-digit closed form gives, and no step pulls."""
+    from decimal import Decimal, localcontext
+
+    scene = Scene(structure_m=0.00045338246088430967, structure_c=0.0,
+                  structure_k=4.533824608843097e-10, structure_x0=0.0,
+                  structure_v0=-0.1663099506821799, ice_M=7.895833311786706e-07, ice_A=1.0,
+                  ice_Cd=0.7718513369004822, ice_z0=0.0, ice_v0=7.589709039162833e-05,
+                  impact_e=0.0, drag_model=1, drag_v_lin=0.5630380684168985, flow_u=0.0,
+                  solver_method=1)
+    sim = Simulator(scene)
+    r = sim.advance(1e-4, 0.0)
+    assert not r.sticking and sim.impact_count == 1
+    impact = sim.impacts[0]
+    parted = sim.solver.seg.t0  # the flight from the separation
+    with localcontext() as ctx:
+        ctx.prec = 50
+        mass = Decimal(scene.structure_m) + Decimal(scene.ice_M)
+        b = Decimal(scene.drag_b)
+        k, M = Decimal(scene.structure_k), Decimal(scene.ice_M)
+        root = (b * b - 4 * mass * k).sqrt()
+        s1, s2 = (-b + root) / (2 * mass), (-b - root) / (2 * mass)
+        v0 = Decimal(impact.v_plus)  # from x = 0, no flow: y0 = 0
+        y1, y2 = v0 / (s1 - s2), -v0 / (s1 - s2)
+        q1, q2 = -s1 * (b + M * s1) * y1, -s2 * (b + M * s2) * y2
+        assert q1 < 0 < q2  # the slow mode pulls, the fast one pushes
+        exact = float((-q2 / q1).ln() / (s1 - s2))
+    assert parted == pytest.approx(exact, rel=1e-9)
+    for _ in range(20):
+        r = sim.advance(1e-4, 0.0)
+        assert r.impulse >= 0.0 and not r.sticking
+        assert sim.solver.state.x >= sim.solver.state.z

@@ -546,7 +546,7 @@ class LinearStick(_SearchedSegment):
 
     __slots__ = ("M", "drag", "b", "t0", "x0", "v0", "u", "start", "osc", "search", "_increment",
                  "_lam0", "_q0", "_q_increment", "_last", "_b_all", "_c", "_push", "_q_modes",
-                 "_y_modes", "_mu")
+                 "_y_modes", "_force_modes", "_mu")
     phase = Phase.STICK
     ANCHOR = ("x0", "v0")
     PUSHES = True
@@ -571,10 +571,29 @@ class LinearStick(_SearchedSegment):
         # well over-damped: q's two modes at the anchor (see _force)
         self._q_modes = osc.modes(self._q0, rate0) if osc.two_modes else None
         self._y_modes = osc.modes(x0 - osc.offset, v0) if osc.two_modes else None
+        self._force_modes = self._modes_of_force(self._y_modes) if osc.two_modes else None
         lam0 = self._lam0
         self._last: tuple[float, float, float, float, float] = (
             0.0, lam0, self._q0, rate0, abs(lam0))
         self.search = RootSearch(start, _time_eps(t0))
+
+    def _modes_of_force(self, y_modes):
+        """Well over-damped, the modes (Q1, Q2) of ``q = -b y' - M y''`` from those (Y1, Y2) of
+        the deviation y (:meth:`Oscillator.modes`): ``Qk = -sk (b + M sk) Yk``, each to a few
+        ulps of itself, for the contact force's form ``b u + Q1 e^{s1 t} + Q2 e^{s2 t}`` (see
+        :meth:`_force`) and its clearance.
+
+        Not from the anchor's (q0, q0') (``_q_modes``, which the impulse's integral form keeps:
+        their sum is q0 to the bit there): Q1 = (q0' - s2 q0) / (s1 - s2) is a difference of
+        terms of the fast mode's size, whose rounding swamps a slow mode far below it. A 0.45 g
+        structure (omega_n 1e-3 rad/s) stuck to a 0.8 mg floe by a plastic impact at 0.17 m/s
+        under b = 217 kg/s: the fast mode (4.8e5 1/s) starts at 36 N, the slow one, the spring
+        pulling the pair back against the floe's drag, is a tension of -1.6e-16 N, and came out
+        as exactly 0: the separation was never found, and the contact pulled at -1.6e-16 N, a
+        step impulse of -1.6e-20 N.s in every 0.1 ms step."""
+        s_slow, s_fast = self.osc.exponents
+        b, M = self.b, self.M
+        return -s_slow * (b + M * s_slow) * y_modes[0], -s_fast * (b + M * s_fast) * y_modes[1]
 
     def _anchor_force(self, x0, v0):
         """(lam0, q0, lam0') at an anchor (floats or arrays), lam = b u + q: the acceleration and
@@ -604,7 +623,7 @@ class LinearStick(_SearchedSegment):
 
         lam is ``lam0 + (q - q0)``, whose rounding is that of the anchor's force lam0 however
         far the motion has decayed since. Well over-damped, q is also ``Q1 e^{s1 t} +
-        Q2 e^{s2 t}`` (the modes of (q0, q0'), :meth:`Oscillator.modes`), and
+        Q2 e^{s2 t}`` (its modes from the deviation's, :meth:`_modes_of_force`), and
         ``lam = b u + Q1 e^{s1 t} + Q2 e^{s2 t}`` has a rounding that decays with the modes
         (b u aside, large where the equilibrium is far): whichever is smaller is taken. An
         over-damped pair (zeta 50, 18 mg on 0.6 kg) decaying at 1e-14 m/s has a force of
@@ -616,7 +635,7 @@ class LinearStick(_SearchedSegment):
         dq, rate = self._q_increment(tau)
         lam0 = self._lam0
         lam, q, scale = lam0 + dq, self._q0 + dq, abs(lam0) + abs(dq)
-        modes = self._q_modes
+        modes = self._force_modes
         if modes is not None:
             slow, fast = self.osc.mode_values(*modes, tau)
             push = self._push
@@ -681,7 +700,7 @@ class LinearStick(_SearchedSegment):
             return math.inf
         if self._tension_unresolvable(push, reach + rounding):
             return math.inf
-        modes = self._q_modes
+        modes = self._force_modes
         if modes is None:
             return 0.0
         osc = self.osc
