@@ -1343,6 +1343,81 @@ def test_method_3_work_per_simulated_second_is_proportional_to_the_rate(kind):
     assert sim.solver.nfev <= 12.0 * rate * sim.solver.chunk_hi
 
 
+#: The random search's slow method-3 scene (seed 46): a 0.34 mg floe on a 1.8 g structure
+#: (omega_n 0.16 rad/s, chatter time 0.39 s), linear drag b / M = 2.9e5 1/s (just inside the
+#: explicit limit), e = 0.7, 1 ms steps with the flow reversed one step in four.
+LIGHT_FLOE_NEAR_THE_RATE_LIMIT = _search_case(
+    dict(structure_m=0.0018329234721427574, structure_c=0.0005841447487010957,
+         structure_k=4.654109849934993e-05, structure_x0=4.177705884955332e-267,
+         structure_v0=1e-16, ice_M=3.3519054173469566e-07, ice_A=0.19282973629443662,
+         ice_Cd=0.5503080240880754, ice_z0=4.177705884955332e-267,
+         ice_v0=-0.00013118567765448426, impact_e=0.7045244644744516, drag_model=1,
+         drag_v_lin=0.0018488068422214442, flow_u=0.0, solver_method=3),
+    1e-3, "reversed 1 in 4", [False, True, False, False, True, True, False])
+
+
+def test_method_3_sticking_steps_are_bounded_by_the_rate_of_the_bodies_together():
+    """Stuck, the bodies integrate (m + M) x'' + (c + b) x' + k x = b u: their rate is
+    (c + b) / (m + M), 53 1/s for the light floe, not the floe's own b / M = 2.9e5 1/s in
+    flight, which bounded the sticking steps to 1.7e-5 s (6,094 evaluations for its first
+    3 ms, stuck from 9e-9 s). The rate of the bodies together is a mediant of the flight's:
+    never above the larger of (c + b_s) / (m + m_a) and b / M (or 2 B speed / M)."""
+    from iceimpact.scene import integrated_rate
+    from iceimpact.solvers.contact_rules import Phase
+    from iceimpact.solvers.ode import STABLE_STEP
+
+    scene = Scene(**LIGHT_FLOE_NEAR_THE_RATE_LIMIT["scene"])
+    sim = Simulator(scene)
+    for _ in range(3):
+        r = sim.advance(1e-3, 0.1)
+        assert r.gap >= 0.0 and r.impulse >= 0.0
+    assert sim.solver.phase is Phase.STICK
+    assert sim.solver.nfev < 500
+    together = (scene.structure_c + scene.drag_b) / (scene.structure_m + scene.ice_M)
+    assert sim.solver._max_step(sim.solver.y_now) == pytest.approx(STABLE_STEP["DOP853"]
+                                                                  / together)
+    assert integrated_rate(scene, 0.1, together=True) == pytest.approx(together, rel=1e-15)
+    for fields in [dict(), dict(drag_model=2, ice_A=2.0), dict(ice_M=6400.0, flow_u=2.0),
+                   dict(structure_c=3000.0), dict(structure_Cd=1.0, structure_A=1.0),
+                   dict(structure_Cd=1.0, structure_A=1.0, drag_model=2),
+                   LIGHT_FLOE_NEAR_THE_RATE_LIMIT["scene"]]:
+        sc = Scene(**{**fields, "solver_method": 3})
+        quadratic = sc.drag_model == 2
+        speed = 0.7
+        structure = (sc.structure_c + (2.0 * sc.structure_drag_B * speed if quadratic
+                                       else sc.structure_drag_b)) / sc.structure_mass
+        ice = 2.0 * sc.drag_B * speed / sc.ice_M if quadratic else sc.drag_b / sc.ice_M
+        assert integrated_rate(sc, 0.1, speed, together=True) <= max(structure, ice)
+
+
+def test_method_3_light_floe_near_the_rate_limit_costs_the_rate_rules_work():
+    """The search's slow scene ran at ~70 s of CPU per simulated second: each chatter-closed
+    impact (every 4 ms) counted as a degenerate contact, so that from the ninth on the bodies
+    were held for 2^n ns, doubling up to the chatter time, 0.39 s; each hold was integrated
+    whole in one call at the flight's step bound (345,842 evaluations for 0.39 s) and thrown
+    away at the flow change 1 ms later: 1.3e6 evaluations in the first 0.083 s, 91 % of them in
+    holds. A hold is now integrated in the segment's spans (never more than a chunk ahead) and
+    sticking steps are bounded by the bodies' own rate: the work stays within 4 evaluations x
+    b / M per simulated second, checked at every step (DOP853: 15 per step of at most
+    STABLE_STEP / rate = 1 / (5 rate) s, so 3 rate, plus the restarts at flow changes and
+    impacts); independent of CPU speed."""
+    from iceimpact.scene import integrated_rate
+    from random_search import flow_at
+
+    case = LIGHT_FLOE_NEAR_THE_RATE_LIMIT
+    scene = Scene(**case["scene"])
+    rate = integrated_rate(scene, 0.1)
+    assert rate == pytest.approx(scene.drag_b / scene.ice_M)  # 2.9e5 1/s
+    sim = Simulator(scene)
+    for i in range(150):
+        r = sim.advance(1e-3, flow_at(case["flow"], i, 0.1, case["signs"]))
+        assert r.gap >= -10.0 * sim.solver.atol and math.isfinite(r.impulse)
+        assert sim.solver.chunk_hi - sim.t <= sim.solver.chunk
+        assert sim.solver.nfev <= 4.0 * rate * sim.t + 2000
+    assert sim.impact_count >= 30
+    assert sim.solver.rules.degenerate.run > 20  # held, as before: the holds are what it pins
+
+
 def test_method_3_radau_has_limits_from_its_steps_per_period_and_tolerance():
     """Radau's error estimate is of order 3: its steps per period of the structure and per
     relaxation after a flow change grow as rtol^(-1/4), whatever the rate (~350 per period and

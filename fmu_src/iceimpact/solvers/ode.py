@@ -251,9 +251,13 @@ class OdeSolver(Solver):
         """Largest step of an explicit integrator for a call starting from y (s): STABLE_STEP
         over the fastest relaxation rate about the states the integration can fall below its
         tolerance at. The quadratic drags' rates are taken at the speeds relative to the flow at
-        the call's start: sticking, 2 B |v - u| / (m + M) (bodies pushed at a steady speed have
-        that rate however small their motion about it); the structure's Morison drag,
-        2 B_s |v - u| / (m + m_a). In flight the ice's quadratic drag is left out: its rate
+        the call's start: sticking, 2 B |v - u| / (m + m_a + M) (bodies pushed at a steady speed
+        have that rate however small their motion about it); the structure's Morison drag in
+        flight, 2 B_s |v - u| / (m + m_a). Sticking, the dampings add on the whole moving mass
+        m + m_a + M (``integrated_rate(..., together=True)``, (c + b + b_s) / (m + m_a + M)
+        with the linearised drags): the flight's rates bounded a light floe's sticking phases,
+        b / M = 2.9e5 1/s where they integrate b / (m + M) = 53 1/s, to steps of 1.7e-5 s
+        (docs/robustness.md, fix 30). In flight the ice's quadratic drag is left out: its rate
         2 B |w - u| / M vanishes where the ice meets the flow, the only place its motion falls
         below the tolerance, and above it the error control sees an unstable step (a bound at
         the speed after a flow reversal, 2 |u|, held whole steps to that peak rate, which the
@@ -264,10 +268,11 @@ class OdeSolver(Solver):
         its chunk again identically."""
         if self.method not in STABLE_STEP:
             return math.inf
-        structure_speed = abs(float(y[1]) - self.u)
-        ice_speed = (0.0 if self.phase is Phase.FLIGHT
-                     else structure_speed * self.M / (self.m + self.M))
-        rate = integrated_rate(self.scene, self.u, ice_speed, structure_speed)
+        speed = abs(float(y[1]) - self.u)
+        if self.phase is Phase.FLIGHT:
+            rate = integrated_rate(self.scene, self.u, 0.0, speed)
+        else:
+            rate = integrated_rate(self.scene, self.u, speed, together=True)
         return STABLE_STEP[self.method] / rate if rate > 0.0 else math.inf
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
@@ -315,10 +320,13 @@ class OdeSolver(Solver):
         return min(2.0 * (self.chunk_hi - self.t_lo), self.chunk)
 
     def _integrate(self, lo: float, y_lo: np.ndarray, hi: float):
-        """One solve_ivp call from (lo, y_lo) to hi, or up to the end of a forced hold."""
+        """One solve_ivp call from (lo, y_lo) to hi; within a forced hold, without the event
+        and at most to the hold's end. A hold is integrated in the segment's spans like any
+        other time: whole, a hold of up to the chatter time (0.39 s for a slow structure) was
+        integrated ahead of 1 ms steps whose flow change discarded it (fix 30)."""
         events = self.event_fn
         if lo < self.hold_until:
-            hi, events = self.hold_until, None
+            hi, events = min(hi, self.hold_until), None
         implicit = {} if self.method in STABLE_STEP else {"jac": self.rhs.jacobian}
         res = solve_ivp(self.rhs, (lo, hi), y_lo, method=self.method, rtol=self.rtol,
                         atol=self.atol, dense_output=True, events=events,
@@ -334,7 +342,8 @@ class OdeSolver(Solver):
         res, hi, events = self._integrate(lo, self.y_hi, lo + self._next_span())
         self.nfev += res.nfev
         self.sol, self.t_lo, self.y_lo, self.chunk_hi = res.sol, lo, self.y_hi, hi
-        if events is None:  # end of a forced hold: the contact logic decides again
+        if events is None and hi == self.hold_until:
+            # end of a forced hold: the contact logic decides again
             self.event = (hi, res.y[:, -1])
             self.t_hi, self.y_hi = hi, res.y[:, -1]
         elif res.status == 1:
