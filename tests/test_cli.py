@@ -189,9 +189,7 @@ def test_killed_sweep_resumes_to_the_complete_table(tmp_path):
 
 def test_interrupt_reports_how_to_resume(tmp_path):
     out = tmp_path / "sweep.csv"
-    # 400 runs: the sweep must still be running when the signal comes, even if this process
-    # is held off the CPU for a while after it saw the first row (a loaded machine)
-    proc = subprocess.Popen([str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:400", "--t-end",
+    proc = subprocess.Popen([str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:20", "--t-end",
                              "30", "--out", str(out), "--workers", "1", "--chunksize", "1",
                              "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
@@ -203,7 +201,7 @@ def test_interrupt_reports_how_to_resume(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130
     assert "rerun the same command to resume" in err
-    assert 1 <= len(read_table(out)) < 400
+    assert 1 <= len(read_table(out)) < 20
 
 
 # Bad input ---------------------------------------------------------------------------------------
