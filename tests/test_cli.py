@@ -187,12 +187,19 @@ def test_killed_sweep_resumes_to_the_complete_table(tmp_path):
         assert row["n_impacts"] == expected["n_impacts"]
 
 
+def _interruptible() -> None:
+    """In the child before it runs: SIGINT back to its default action. A shell starts a
+    background job with SIGINT ignored, which the child would inherit (Python then installs no
+    KeyboardInterrupt handler), and the sweep would run to its end."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_interrupt_reports_how_to_resume(tmp_path):
     out = tmp_path / "sweep.csv"
     proc = subprocess.Popen([str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:20", "--t-end",
                              "30", "--out", str(out), "--workers", "1", "--chunksize", "1",
                              "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, preexec_fn=_interruptible)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not (out.exists()
                                                and len(out.read_text().splitlines()) >= 2):
