@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import math
 import os
+import types
+import warnings
 from math import cos, exp, expm1, sin, sqrt
 from typing import Any
 
@@ -254,12 +256,22 @@ def _compiled():
         return None
     f8, i8 = numba.float64, numba.int64
 
-    def jit(signature, function):
-        return numba.njit(signature, cache=True, fastmath=False, error_model="python")(function)
-    global _motion, _bracketed
-    _motion = jit((f8,) * 10, _motion)
-    _bracketed = jit((f8,) * 15, _bracketed)
-    compiled = jit((f8, f8, i8, i8) + (f8,) * 25, flight_root)
+    def jit(signature, function, **callees):
+        # a copy of the function whose callees are their compiled forms (the module's names
+        # keep the pure ones)
+        copy = types.FunctionType(function.__code__, {**function.__globals__, **callees},
+                                  function.__name__)
+        copy.__qualname__ = function.__qualname__
+        return numba.njit(signature, cache=True, fastmath=False, error_model="python")(copy)
+    try:
+        motion = jit((f8,) * 10, _motion)
+        bracketed = jit((f8,) * 15, _bracketed, _motion=motion)
+        compiled = jit((f8, f8, i8, i8) + (f8,) * 25, flight_root, _motion=motion,
+                       _bracketed=bracketed)
+    except Exception as exc:  # (any failure of numba leaves the pure path)
+        warnings.warn(f"numba could not compile the flight search ({exc}); the pure path "
+                      "runs (the same results, slower)", RuntimeWarning, stacklevel=2)
+        return None
     compiled.disable_compile()  # (any other argument types are converted to these)
     return compiled
 
