@@ -112,8 +112,9 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
     neg_sigma, omega, y0, p, q, v0), ice from velocity w0 under the linear drag (kappa, r0 =
     w0 - u), gap0 = x0 - z0.
 
-    Returns (outcome, a, root, iterations, creep, probed_at, f, f', f'', K, J): PASSED, ROOT
-    (the root), or GENERIC with the frontier before the step RootSearch is to make."""
+    Returns (outcome, a, root, iterations, creep, probed_at, f, f', f'', K, J, x - x0, v,
+    z - z0, w): PASSED, ROOT (the root, and the motion there: the state of the event), or
+    GENERIC with the frontier before the step RootSearch is to make."""
     pdz = math.nan  # z - z0 at probed_at, when known
     outcome = PASSED
     while a <= horizon:
@@ -134,7 +135,9 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             bound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
             jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + kappa * size
         if f < 0.0 or (f == 0.0 and df < 0.0):
-            return ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk
+            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+            return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
+                    dx, v, dz, w)
         df_size = df if df >= 0.0 else -df
         d2_size = d2 if d2 >= 0.0 else -d2
         total = f + df_size + d2_size + bound + jerk
@@ -206,8 +209,10 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                     if stalled:
                         break  # (a bracket that stalled at an ulp: RootSearch's)
                     if found == found:
+                        dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, kappa,
+                                               w0, r0)
                         return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
-                                pbound, pjerk)
+                                pbound, pjerk, dx, v, dz, w)
                     dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
                     if gap0 + (dx - dz) < 0.0:
                         break  # (a crossing before b: RootSearch brackets it)
@@ -217,7 +222,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                     continue
         if h_free > _FOREVER:
             return (PASSED, math.inf, math.nan, iterations + 1, creep, probed_at, pf, pdf,
-                    pd2, pbound, pjerk)
+                    pd2, pbound, pjerk, math.nan, math.nan, math.nan, math.nan)
         if h_free < time_eps + 8.9e-16 * a:
             break  # (a tangent or degenerate start: RootSearch's creep)
         b = a + h_free
@@ -239,7 +244,8 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         iterations += 1
         creep = 0
         outcome = PASSED
-    return outcome, a, math.nan, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk
+    return (outcome, a, math.nan, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
+            math.nan, math.nan, math.nan, math.nan)
 
 
 def _compiled():
@@ -268,11 +274,13 @@ def _compiled():
         bracketed = jit((f8,) * 15, _bracketed, _motion=motion)
         compiled = jit((f8, f8, i8, i8) + (f8,) * 25, flight_root, _motion=motion,
                        _bracketed=bracketed)
+        # its compiled entry point, called without the dispatcher's matching of argument types
+        # (the arguments are the signature's, or converted as the dispatcher converts them)
+        compiled = compiled.overloads[compiled.signatures[0]].entry_point
     except Exception as exc:  # (any failure of numba leaves the pure path)
         warnings.warn(f"numba could not compile the flight search ({exc}); the pure path "
                       "runs (the same results, slower)", RuntimeWarning, stacklevel=2)
         return None
-    compiled.disable_compile()  # (any other argument types are converted to these)
     return compiled
 
 
@@ -305,13 +313,14 @@ class FlightSearch(RootSearch):
         kernel = self.kernel
         while self.a <= horizon:
             out = kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
-                          *(self._probed or _UNPROBED), self.time_eps, *constants)
+                         *(self._probed or _UNPROBED), self.time_eps, *constants)
             outcome, self.a, root, self.iterations, self.creep, probed_at = out[:6]
             if probed_at != self._probed_at:
                 self._probed_at = probed_at
-                self._probed = out[6:]
+                self._probed = out[6:11]
             if outcome == ROOT:
                 self.root = root
+                signal._last = (root, *out[11:])  # (the state there, as Flight._motion keeps it)
                 return root if root <= horizon else None
             if outcome == GENERIC:
                 self._step(signal)
