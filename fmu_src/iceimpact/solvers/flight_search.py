@@ -296,35 +296,41 @@ class FlightSearch(RootSearch):
     :class:`~iceimpact.solvers.event.Flight` itself (its anchor, its oscillator and the
     constants of its closed forms)."""
 
-    __slots__ = ()
+    __slots__ = ("handed_back",)
     #: the steps' function: the compiled one (the pure one serves the tests)
     kernel = staticmethod(flight_root if COMPILED is None else COMPILED)
+
+    def __init__(self, start: float, time_eps: float):
+        super().__init__(start, time_eps)
+        # a step was RootSearch's: the rest of the search is too (the ice upstream of the
+        # structure's rest position, mostly, where every step asks Flight.clearance)
+        self.handed_back = False
 
     def next_root_of(self, horizon: float, signal: Any) -> float | None:
         root = self.root
         if root is not None:
             return root if root <= horizon else None
+        if not self.a <= horizon:
+            return None
+        if self.handed_back:
+            return RootSearch.next_root_of(self, horizon, signal)
         osc = signal.osc
         # the constants of the flight's closed forms: the structure's (neg_sigma, omega, y0,
         # p, q, v0), the ice's (kappa, w0, r0), as their scalar functions hold them
-        constants = (signal.gap0, signal.x0, signal.z0, osc.offset, osc.mass, osc.damping,
-                     osc.stiffness, osc.omega2, *signal._x_motion.__defaults__,
-                     *signal._z_motion.__defaults__, signal.u)
-        kernel = self.kernel
-        while self.a <= horizon:
-            out = kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
-                         *(self._probed or _UNPROBED), self.time_eps, *constants)
-            outcome, self.a, root, self.iterations, self.creep, probed_at = out[:6]
-            if probed_at != self._probed_at:
-                self._probed_at = probed_at
-                self._probed = out[6:11]
-            if outcome == ROOT:
-                self.root = root
-                signal._last = (root, *out[11:])  # (the state there, as Flight._motion keeps it)
-                return root if root <= horizon else None
-            if outcome == GENERIC:
-                self._step(signal)
-                root = self.root
-                if root is not None:
-                    return root if root <= horizon else None
+        out = self.kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
+                          *(self._probed or _UNPROBED), self.time_eps, signal.gap0, signal.x0,
+                          signal.z0, osc.offset, osc.mass, osc.damping, osc.stiffness,
+                          osc.omega2, *signal._x_motion.__defaults__,
+                          *signal._z_motion.__defaults__, signal.u)
+        outcome, self.a, root, self.iterations, self.creep, probed_at = out[:6]
+        if probed_at != self._probed_at:
+            self._probed_at = probed_at
+            self._probed = out[6:11]
+        if outcome == ROOT:
+            self.root = root
+            signal._last = (root, *out[11:])  # (the state there, as Flight._motion keeps it)
+            return root if root <= horizon else None
+        if outcome == GENERIC:
+            self.handed_back = True
+            return RootSearch.next_root_of(self, horizon, signal)
         return None
