@@ -259,7 +259,7 @@ def _ensemble(e: dict) -> str:
 def markdown(rows: list[dict], base: str, members: int = 0, move: float = SPREAD_MOVE) -> str:
     spreads = any("spread" in r for r in rows)
     compiled = {r["after"].get("compiled") for r in rows}
-    after = ("its flight search compiled (numba)" if compiled == {True} else
+    after = ("its flight search compiled by numba" if compiled == {True} else
              "pure Python" if compiled == {False} else "compiled in some runs")
     lines = [f"Before: commit {base}; after: this tree ({after}). `run(scene, t_end, dt=1e-2)`, "
              "CPU time, best of the interleaved rounds, each in a fresh process (its import "

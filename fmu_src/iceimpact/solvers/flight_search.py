@@ -5,23 +5,23 @@ steps, specialised to an under-damped structure (eq. 9-10) and the ice under the
 A flight of Figure 2 spends most of its time in its root search: two probes of the gap and its
 bounds, a Taylor stretch, a monotone stretch and one or two Newton points, some 80 calls of small
 Python functions. :func:`flight_root` makes the same steps on plain floats, with the closed forms
-and bounds written out, so that it runs as one function; the solver calls it for each flight it
-applies to (:meth:`_FlightSearch.next_root_of`, :mod:`iceimpact.solvers.event`).
+and bounds written out, so that it compiles as one function; the solver calls it for each flight
+it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.event`).
 
 Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
 (``Oscillator.deviation_increment``'s under-damped form, ``LinearDrag.increment``, ``bounds``,
 ``accel_bounds``, ``Flight.probe``, ``gap_and_rate``, ``clearance``), operation for operation,
 so the points it visits and the root it returns are RootSearch's to the bit
 (tests/test_flight_search.py checks both against each other, and the runs with and without
-numba). Where a step leaves
-the common path (a probe to rescale, a clearance to compute, a degenerate or tangent start, a
-bracket whose Newton iteration stalls at an ulp) it returns the frontier as it was before that
-step, and RootSearch makes the step itself; the next step comes back here.
+numba). Where a step leaves the common path (a probe to rescale, a clearance to compute, a
+degenerate or tangent start, a bracket whose Newton iteration stalls at an ulp) it returns the
+frontier as it was before that step, and RootSearch makes that step and the rest of the search.
 
 numba compiles it without ``fastmath`` (no contraction of a product and a sum into one fused
 operation, no reordering), and its ``math`` functions call the same C library as CPython's, so the
-compiled function gives the same floats as the pure one. ``ICEIMPACT_PURE=1`` in the environment
-keeps the pure function even where numba is installed.
+compiled function gives the same floats as the pure one. Without numba, or with
+``ICEIMPACT_PURE=1`` in the environment, the solver keeps RootSearch for every flight (in pure
+Python that is faster than this function); the results are the same either way.
 """
 
 from __future__ import annotations
