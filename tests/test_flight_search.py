@@ -14,11 +14,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, seed, settings
+from hypothesis import strategies as st
 
-from iceimpact import Scene, Simulator, run
+from iceimpact import ParameterError, Scene, Simulator, SolverError, run
 from iceimpact.solvers import flight_search, rootfind
 from iceimpact.solvers.event import Flight
 from iceimpact.solvers.flight_search import GENERIC, PASSED, ROOT, FlightSearch, flight_root
+from random_search import FLOWS, flow_at, scale_scenes
 
 SRC = Path(__file__).resolve().parents[1] / "fmu_src"
 
@@ -232,3 +235,39 @@ def test_compiled_function_values_equal_pure():
             assert [float(v).hex() for v in compiled] == [float(v).hex() for v in pure]
             checked += 1
     assert checked > 100
+
+
+def _stepped_case(scene, h: float, flow: str, signs: list[bool], one_function: bool) -> tuple:
+    """random_search's stepping of a scene (3 s at most, its flow sequence), with or without
+    the flight search in one function; each step's state, or the refusal."""
+    kernel = flight_search.COMPILED or flight_root
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Flight, "_ONE_FUNCTION", one_function)
+        mp.setattr(FlightSearch, "kernel", staticmethod(kernel))
+        states = []
+        try:
+            sim = Simulator(scene)
+            u0 = scene.flow_u if scene.flow_u != 0.0 else 0.1
+            for i in range(max(1, min(300, round(3.0 / h)))):
+                report = sim.advance(h, flow_at(flow, i, u0, signs))
+                s = sim.solver.state
+                states.append((sim.t, s.x, s.v, s.z, s.w, sim.impact_count, report.impulse))
+        except (ParameterError, SolverError) as exc:
+            states.append(type(exc).__name__)
+        return tuple(states)
+
+
+def test_extreme_scenes_as_root_search():
+    """Scenes drawn as ``random_search.py --scales --flows`` draws them (masses 1e-6 to 1e9 kg,
+    omega_n up to the exact method's limit, every damping, flows reversing, zero, random),
+    stepped at 1 ms to 1 s: the flight search in one function (compiled where numba is
+    installed) gives RootSearch's states at every step."""
+    @seed(5)
+    @settings(max_examples=150, deadline=None, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(scene=scale_scenes(1), h=st.sampled_from([1e-3, 1e-2, 0.1, 1.0]),
+           flow=st.sampled_from(FLOWS), signs=st.lists(st.booleans(), min_size=1, max_size=8))
+    def case(scene, h, flow, signs):
+        assert (_stepped_case(scene, h, flow, signs, True)
+                == _stepped_case(scene, h, flow, signs, False))
+    case()
