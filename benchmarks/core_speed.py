@@ -70,7 +70,14 @@ SCENES: dict[str, tuple[dict, str]] = {
 #: What one subprocess runs: the scene over t_end, timed; JSON on stdout.
 _WORKER = """
 import json, sys, time
+import_cpu = time.process_time()
 from iceimpact import Scene, run
+import_cpu = time.process_time() - import_cpu
+try:  # the compiled flight search (numba, the fast extra) is on
+    from iceimpact.solvers.flight_search import COMPILED
+    compiled = COMPILED is not None
+except ImportError:  # (a tree without it)
+    compiled = False
 fields, t_end, dt = json.loads(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
 scene = Scene(**fields)
 start, cpu = time.perf_counter(), time.process_time()
@@ -78,7 +85,8 @@ result = run(scene, t_end, dt=dt)
 cpu, wall = time.process_time() - cpu, time.perf_counter() - start
 print(json.dumps({"cpu_s": cpu, "wall_s": wall, "impacts": int(len(result.impacts)),
                   "first10": result.impacts["t"][:10].tolist(),
-                  "sticking_fraction": float(result.sticking.mean())}))
+                  "sticking_fraction": float(result.sticking.mean()),
+                  "compiled": compiled, "import_cpu_s": import_cpu}))
 """
 
 
@@ -143,11 +151,17 @@ def extract(commit: str, dest: Path) -> Path:
     return dest / "fmu_src"
 
 
+#: --pure: the environment of the runs of this tree (its compiled flight search off)
+PURE_ENV: dict[str, str] = {}
+
+
 def measure(core: Path, fields: dict, t_end: float) -> dict:
     """One timed run in a fresh interpreter whose ``iceimpact`` is the one under ``core``."""
+    env = {"PYTHONPATH": str(core), "PATH": "/usr/bin:/bin"}
+    if core == ROOT / "fmu_src":
+        env.update(PURE_ENV)
     done = subprocess.run([sys.executable, "-c", _WORKER, json.dumps(fields), repr(t_end),
-                           repr(DT)], capture_output=True, text=True,
-                          env={"PYTHONPATH": str(core), "PATH": "/usr/bin:/bin"}, check=False)
+                           repr(DT)], capture_output=True, text=True, env=env, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"{core}: {done.stderr}")
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -172,7 +186,10 @@ def compare(cores: dict[str, Path], fields: dict, t_end: float, rounds: int) -> 
         row[name] = {"cpu_s": r["cpu_s"], "wall_s": r["wall_s"], "impacts": r["impacts"],
                      "us_per_impact": 1e6 * r["cpu_s"] / r["impacts"] if r["impacts"] else None,
                      "ms_per_simulated_s": 1e3 * r["cpu_s"] / t_end,
-                     "sticking_fraction": r["sticking_fraction"]}
+                     "sticking_fraction": r["sticking_fraction"],
+                     "compiled": r["compiled"], "import_cpu_s": r["import_cpu_s"]}
+    row["ratio_per_impact"] = (row["before"]["us_per_impact"] / row["after"]["us_per_impact"]
+                               if row["after"]["us_per_impact"] else None)
     return row
 
 
@@ -230,16 +247,25 @@ def _cost(value: float | None, unit: str) -> str:
     return "-" if value is None else f"{value:.1f} {unit}"
 
 
+def _per_impact(row: dict) -> str:
+    ratio = row.get("ratio_per_impact")
+    return "-" if ratio is None else f"{ratio:.2f}x"
+
+
 def _ensemble(e: dict) -> str:
     return f"{e['mean']:.0f} ± {e['std']:.0f} [{e['min']}, {e['max']}]"
 
 
 def markdown(rows: list[dict], base: str, members: int = 0, move: float = SPREAD_MOVE) -> str:
     spreads = any("spread" in r for r in rows)
-    lines = [f"Before: commit {base}; after: this tree. `run(scene, t_end, dt=1e-2)`, CPU time, "
-             "best of the interleaved rounds, each in a fresh process.", ""]
+    compiled = {r["after"].get("compiled") for r in rows}
+    after = ("its flight search compiled by numba" if compiled == {True} else
+             "pure Python" if compiled == {False} else "compiled in some runs")
+    lines = [f"Before: commit {base}; after: this tree ({after}). `run(scene, t_end, dt=1e-2)`, "
+             "CPU time, best of the interleaved rounds, each in a fresh process (its import "
+             "not counted).", ""]
     head = ("| scene | t_end | impacts before / after | per impact before / after | "
-            "per simulated s before / after | speed-up | first 10 impacts moved |")
+            "per simulated s before / after | speed-up | per impact | first 10 impacts moved |")
     if spreads:
         lines += [f"Ensembles: the same run with the ice's start moved by 0 to "
                   f"{move:g} m ({members} runs each), impact counts as mean ± standard "
@@ -247,15 +273,15 @@ def markdown(rows: list[dict], base: str, members: int = 0, move: float = SPREAD
                   "the means within 2 standard errors (z).", ""]
         head += (" before's ensemble | after's ensemble | before's own range | "
                  "after within (z) |")
-    lines += [head, "|---|---:|---:|---:|---:|---:|---:|" + ("---:|---:|---:|---|" if spreads
-                                                               else "")]
+    lines += [head, "|---|---:|---:|---:|---:|---:|---:|---:|" + (
+        "---:|---:|---:|---|" if spreads else "")]
     for r in rows:
         b, a = r["before"], r["after"]
         line = (f"| {r['scene']} | {r['t_end_s']:g} s | {b['impacts']} / {a['impacts']} "
                 f"({100 * r['impact_count_change']:+.1f} %) | {_cost(b['us_per_impact'], 'us')} / "
                 f"{_cost(a['us_per_impact'], 'us')} | {b['ms_per_simulated_s']:.2f} / "
                 f"{a['ms_per_simulated_s']:.2f} ms | {r['ratio']:.2f}x | "
-                f"{r['first10_max_shift_s']:.1e} s |")
+                f"{_per_impact(r)} | {r['first10_max_shift_s']:.1e} s |")
         if "spread" in r:
             sb, sa, w = r["spread"]["before"], r["spread"]["after"], r["spread"]["verdict"]
             line += (f" {_ensemble(sb)} | {_ensemble(sa)} | {100 * sb['relative_range']:.1f} % | "
@@ -282,8 +308,13 @@ def main(argv=None) -> int:
                         help="also the exact solver against solve_ivp with events")
     parser.add_argument("--steps", action="store_true",
                         help="only the stepping costs docs/accuracy.md quotes")
+    parser.add_argument("--pure", action="store_true",
+                        help="this tree's runs with ICEIMPACT_PURE=1: its compiled flight search "
+                             "(numba) off")
     parser.add_argument("--out", type=Path, default=RESULTS / "core_speed.json")
     args = parser.parse_args(argv)
+    if args.pure:
+        PURE_ENV["ICEIMPACT_PURE"] = "1"
     if args.steps:
         with tempfile.TemporaryDirectory(prefix="core_speed_") as tmp:
             cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
@@ -317,7 +348,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="core_speed_") as tmp:
         cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
         head = (f"{'scene':22} {'t_end':>6} {'impacts':>13} {'us/impact':>15} "
-                f"{'ms/sim s':>13} {'speed-up':>8} {'first10 moved':>13}")
+                f"{'ms/sim s':>13} {'speed-up':>8} {'/impact':>8} {'first10 moved':>13}")
         print(f"before = {args.base}, after = this tree; run(dt={DT:g}), best of {rounds}")
         print(head)
         print("-" * len(head))
@@ -330,7 +361,8 @@ def main(argv=None) -> int:
                 print(f"{name:22} {t_end:6g} {b['impacts']:6d}/{a['impacts']:<6d} "
                       f"{b['us_per_impact'] or 0:7.1f}/{a['us_per_impact'] or 0:<7.1f} "
                       f"{b['ms_per_simulated_s']:6.2f}/{a['ms_per_simulated_s']:<6.2f} "
-                      f"{row['ratio']:7.2f}x {row['first10_max_shift_s']:13.1e}", flush=True)
+                      f"{row['ratio']:7.2f}x {_per_impact(row):>8} "
+                      f"{row['first10_max_shift_s']:13.1e}", flush=True)
                 if args.spread:
                     ens = {side: spread(cores[side], fields, t_end, args.members, args.move)
                            for side in ("before", "after")}
@@ -343,7 +375,7 @@ def main(argv=None) -> int:
     report = {"benchmark": "core_speed", "date": datetime.now(UTC).isoformat(timespec="seconds"),
               "command": "python benchmarks/core_speed.py " + " ".join(argv or sys.argv[1:]),
               "machine": platform.platform(), "python": platform.python_version(),
-              "base": args.base, "dt_s": DT, "rounds": rounds,
+              "base": args.base, "dt_s": DT, "rounds": rounds, "pure": args.pure,
               "scenes": {name: SCENES[name][1] for name in args.scenes},
               "rows": rows}
     if args.spread:

@@ -88,7 +88,9 @@ class LinearDrag(_DragLaw):
         behind coasting at w0, free of cancellation at small x (its series), so it is exact to
         rounding even when far below the rounding of u t. The velocity is
         ``w0 + r0 (e^{-x} - 1)``: exactly w0 at t = 0 and without drag, even when |w0| << |u|.
-        (The returned function takes t alone; its constants are bound as its default values.)"""
+        (The returned function takes t alone; its constants are bound as its default values,
+        which solvers/flight_search.py reads: its _motion repeats this form operation for
+        operation.)"""
 
         def linear(t: float, kappa=self.kappa, w0=w0, r0=w0 - u) -> tuple[float, float]:
             x = kappa * t

@@ -206,7 +206,8 @@ class Oscillator:
             def under(t: float, neg_sigma=neg_sigma, omega=omega, y0=y0, p=p, q=q,
                       v0=v0) -> tuple[float, float]:
                 # _decay_pair(neg_sigma * t), written out: the free structure's form, evaluated
-                # several times per impact
+                # several times per impact (and again, operation for operation, in
+                # solvers/flight_search.py's _motion, which reads these defaults)
                 arg = neg_sigma * t
                 if arg < -0.7:
                     decay = exp(arg)

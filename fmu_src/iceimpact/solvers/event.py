@@ -46,6 +46,7 @@ from .contact_rules import (
     separates,
     sticking_contact_force,
 )
+from .flight_search import COMPILED, FlightSearch
 from .rootfind import RootSearch
 from .state import Record, StateError
 from .taylor import StepEnd, StickingTaylor, TaylorStep
@@ -147,6 +148,9 @@ class Flight(_SearchedSegment):
                  "search", "_x_motion", "_z_motion")
     phase = Phase.FLIGHT
     ANCHOR = ("x0", "v0", "z0", "w0")
+    #: the search may be flight_search's (the gap and bounds are this class's closed forms);
+    #: it is where numba compiled it
+    _ONE_FUNCTION = COMPILED is not None
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
@@ -167,7 +171,12 @@ class Flight(_SearchedSegment):
         # each body's closed form from the anchor, its constants computed once
         self._x_motion = osc.increment(x0, v0)
         self._z_motion = drag.increment(w0, u)
-        self.search = RootSearch(start, _time_eps(t0))
+        # (the common flight, an under-damped structure and the linear drag: its search in one
+        # function, flight_search)
+        if self._ONE_FUNCTION and osc.regime == UNDER and not drag.quadratic:
+            self.search = FlightSearch(start, _time_eps(t0))
+        else:
+            self.search = RootSearch(start, _time_eps(t0))
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
@@ -418,6 +427,7 @@ class DraggedFlight(Flight):
     skipped beyond the integration's accuracy."""
 
     FRONTIER_ONLY = False  # its integration chunks change while marching
+    _ONE_FUNCTION = False  # (its motion is integrated)
     state_array = None     # no closed form: sampled point by point
     clearance = None       # no closed-form envelope of the structure's motion
 

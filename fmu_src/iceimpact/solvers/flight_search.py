@@ -1,0 +1,336 @@
+"""The root search of a flight's gap in one function: :class:`~.rootfind.RootSearch`'s common
+steps, specialised to an under-damped structure (eq. 9-10) and the ice under the linear drag
+(eq. 6-7), compiled by numba when it is installed (the ``fast`` extra).
+
+A flight of Figure 2 spends most of its time in its root search: two probes of the gap and its
+bounds, a Taylor stretch, a monotone stretch and one or two Newton points, some 80 calls of small
+Python functions. :func:`flight_root` makes the same steps on plain floats, with the closed forms
+and bounds written out, so that it compiles as one function; the solver calls it for each flight
+it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.event`).
+
+Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
+(``Oscillator.deviation_increment``'s under-damped form, ``LinearDrag.increment``, ``bounds``,
+``accel_bounds``, ``Flight.probe``, ``gap_and_rate``, ``clearance``), operation for operation,
+so the points it visits and the root it returns are RootSearch's to the bit
+(tests/test_flight_search.py checks both against each other, and the runs with and without
+numba). Where a step leaves the common path (a probe to rescale, a clearance to compute, a
+degenerate or tangent start, a bracket whose Newton iteration stalls at an ulp) it returns the
+frontier as it was before that step, and RootSearch makes that step and the rest of the search.
+
+numba compiles it without ``fastmath`` (no contraction of a product and a sum into one fused
+operation, no reordering), and its ``math`` functions call the same C library as CPython's, so the
+compiled function gives the same floats as the pure one. Without numba, or with
+``ICEIMPACT_PURE=1`` in the environment, the solver keeps RootSearch for every flight (in pure
+Python that is faster than this function); the results are the same either way.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import types
+import warnings
+from math import cos, exp, expm1, sin, sqrt
+from typing import Any
+
+from .rootfind import RootSearch
+
+#: The outcomes of :func:`flight_root`: the frontier passed the horizon with no root, a root was
+#: found (it may lie beyond the horizon), or the next step is RootSearch's to make.
+PASSED, ROOT, GENERIC = 0, 1, 2
+
+# RootSearch's constants, repeated here as literals of the compiled function (a test checks them
+# against rootfind's)
+_DESCENT_STEPS = 12
+_BRACKET_STEPS = 1100
+_ROOT_RTOL = 8.9e-16
+_ROOT_XTOL = 1e-15
+_FOREVER = 1e300
+_SCALED_ABOVE = 1e100
+_SUM_NEAR_1_LOW = 5e-100
+_SPREAD = 1e-140
+
+
+def _motion(t, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0):
+    """(x - x0, v, z - z0, w) at t: ``Oscillator.deviation_increment``'s under-damped form and
+    ``LinearDrag.increment``, written out."""
+    arg = neg_sigma * t
+    if arg < -0.7:
+        decay = exp(arg)
+        decay_m1 = decay - 1.0
+    else:
+        decay_m1 = expm1(arg)
+        decay = 1.0 + decay_m1
+    wt = omega * t
+    cos_wt = cos(wt)
+    half = sin(0.5 * wt)
+    s = decay * sin(wt) / omega
+    dx = y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s
+    v = v0 * (decay * cos_wt) - q * s
+    x = kappa * t
+    if x < 1e-2:  # series, truncation ~ x^6 / 5040
+        lag = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
+    else:
+        lag = -expm1(-x) / x - 1.0
+    return dx, v, w0 * t + r0 * t * lag, w0 + r0 * expm1(-x)
+
+
+def _bracketed(lo, hi, t, f_t, df_t, gap0, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0):
+    """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t < 0, f'(t) = df_t),
+    its bracket [lo, hi]; NaN where it would step to the next float (RootSearch finishes)."""
+    step = step_before = hi - lo
+    for _ in range(_BRACKET_STEPS):
+        nxt = t - f_t / df_t if df_t != 0.0 else math.nan
+        if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
+            if abs(nxt - t) <= _ROOT_XTOL + _ROOT_RTOL * abs(t):
+                if f_t < 0.0:
+                    return t
+                return math.nan  # (the next float's test: RootSearch's)
+            nxt = lo + 0.5 * (hi - lo)
+        step_before, step = step, abs(nxt - t)
+        converged = step <= _ROOT_XTOL + _ROOT_RTOL * abs(nxt)
+        if converged or not lo < nxt < hi:
+            return t if converged else nxt
+        t = nxt
+        dx, v, dz, w = _motion(t, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+        f_t, df_t = gap0 + (dx - dz), v - w
+        if f_t < 0.0:
+            hi = t
+        elif f_t > 0.0:
+            lo = t
+        else:
+            return t
+    return t
+
+
+def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
+                time_eps, gap0, x0, z0, offset, mass, damping, stiffness, omega2,
+                neg_sigma, omega, y0, p, q, v0, kappa, w0, r0, u):
+    """RootSearch's steps from the frontier a (its probe there, if taken: ``probed_at`` and
+    the five values) while a <= horizon, for the gap of a flight: structure from (x0, v0) on the
+    under-damped oscillator (mass, damping, stiffness, offset; its increment's constants
+    neg_sigma, omega, y0, p, q, v0), ice from velocity w0 under the linear drag (kappa, r0 =
+    w0 - u), gap0 = x0 - z0.
+
+    Returns (outcome, a, root, iterations, creep, probed_at, f, f', f'', K, J, x - x0, v,
+    z - z0, w): PASSED, ROOT (the root, and the motion there: the state of the event), or
+    GENERIC with the frontier before the step RootSearch is to make."""
+    pdz = math.nan  # z - z0 at probed_at, when known
+    outcome = PASSED
+    while a <= horizon:
+        if a == probed_at:
+            f, df, d2, bound, jerk = pf, pdf, pd2, pbound, pjerk
+            dz = pdz
+        else:
+            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+            # Flight.probe: Oscillator.bounds (not over-damped) and LinearDrag.accel_bounds
+            a_x = -(damping * v + stiffness * ((x0 + dx) - offset)) / mass
+            j_x = -(damping * a_x + stiffness * v) / mass
+            s_x = -(damping * j_x + stiffness * a_x) / mass
+            a_z = -kappa * (w - u)
+            size = a_z if a_z > 0.0 else 0.0 - a_z
+            f = gap0 + (dx - dz)
+            df = v - w
+            d2 = a_x - a_z
+            bound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
+            jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + kappa * size
+        if f < 0.0 or (f == 0.0 and df < 0.0):
+            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+            return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
+                    dx, v, dz, w)
+        df_size = df if df >= 0.0 else -df
+        d2_size = d2 if d2 >= 0.0 else -d2
+        total = f + df_size + d2_size + bound + jerk
+        floor = _SPREAD * total
+        outcome = GENERIC  # (any break below leaves the step to RootSearch)
+        if (0.0 < f < floor or df_size < floor or d2_size < floor or bound < floor
+                or jerk < floor or not _SUM_NEAR_1_LOW <= total <= _SCALED_ABOVE
+                or bound <= 0.0):
+            break  # (a probe RootSearch may rescale, or a linear signal)
+        if dz != dz:
+            dz = _motion(a, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)[2]
+        if not z0 + dz >= offset:
+            break  # Flight.clearance may prove a stretch: RootSearch asks it
+        disc = sqrt(df * df + 2.0 * bound * f)
+        h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
+        if df >= 0.0:
+            if jerk > 0.0:
+                h_rise = (d2 + sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
+            else:
+                h_rise = math.inf if d2 >= 0.0 else df / -d2
+            if h_rise > h_free:
+                h_free = h_rise
+        else:
+            h_mono = -df / bound
+            if jerk > 0.0:
+                root = sqrt(d2 * d2 - 2.0 * jerk * df)
+                if d2 < 0.0:
+                    h_jerk = (root - d2) / jerk
+                    if h_jerk > h_mono:
+                        h_mono = h_jerk
+                elif d2 + root > 0.0:
+                    h_jerk = -2.0 * df / (d2 + root)
+                    if h_jerk > h_mono:
+                        h_mono = h_jerk
+            elif d2 <= 0.0:
+                h_mono = math.inf
+            if h_mono > h_free:
+                b = a + (_FOREVER if _FOREVER < h_mono else h_mono)
+                if b > a:
+                    # RootSearch._descend: Newton's method from a on the monotone stretch [a, b]
+                    t, f_t, df_t = a, f, df
+                    disc = df * df - 2.0 * f * d2
+                    step = 2.0 * f / (sqrt(disc) - df) if disc >= 0.0 else f / -df
+                    found = math.nan
+                    stalled = False
+                    for _ in range(_DESCENT_STEPS):
+                        if not df_t < 0.0:
+                            break
+                        nxt = t + step
+                        if nxt >= b:
+                            break
+                        if step <= _ROOT_XTOL + _ROOT_RTOL * (t if t >= 0.0 else -t):
+                            found = t
+                            break
+                        dx, v, dz, w = _motion(nxt, neg_sigma, omega, y0, p, q, v0, kappa,
+                                               w0, r0)
+                        f_n = gap0 + (dx - dz)
+                        df_n = v - w
+                        if f_n < 0.0:
+                            found = _bracketed(t, nxt, nxt, f_n, df_n, gap0, neg_sigma, omega,
+                                               y0, p, q, v0, kappa, w0, r0)
+                            stalled = found != found
+                            break
+                        if f_n == 0.0:
+                            found = nxt
+                            break
+                        t, f_t, df_t = nxt, f_n, df_n
+                        step = f_t / -df_t if df_t < 0.0 else math.inf
+                    if stalled:
+                        break  # (a bracket that stalled at an ulp: RootSearch's)
+                    if found == found:
+                        dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, kappa,
+                                               w0, r0)
+                        return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
+                                pbound, pjerk, dx, v, dz, w)
+                    dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+                    if gap0 + (dx - dz) < 0.0:
+                        break  # (a crossing before b: RootSearch brackets it)
+                    a = b
+                    iterations += 1
+                    outcome = PASSED
+                    continue
+        if h_free > _FOREVER:
+            return (PASSED, math.inf, math.nan, iterations + 1, creep, probed_at, pf, pdf,
+                    pd2, pbound, pjerk, math.nan, math.nan, math.nan, math.nan)
+        if h_free < time_eps + 8.9e-16 * a:
+            break  # (a tangent or degenerate start: RootSearch's creep)
+        b = a + h_free
+        # the sign test at b by the full probe, which the next step starts from
+        dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+        f_b = gap0 + (dx - dz)
+        if f_b < 0.0:
+            break  # (rounding at the frontier: RootSearch's bracket from b)
+        a_x = -(damping * v + stiffness * ((x0 + dx) - offset)) / mass
+        j_x = -(damping * a_x + stiffness * v) / mass
+        s_x = -(damping * j_x + stiffness * a_x) / mass
+        a_z = -kappa * (w - u)
+        size = a_z if a_z > 0.0 else 0.0 - a_z
+        a = probed_at = b
+        pf, pdf, pd2 = f_b, v - w, a_x - a_z
+        pbound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
+        pjerk = sqrt(j_x * j_x + s_x * s_x / omega2) + kappa * size
+        pdz = dz
+        iterations += 1
+        creep = 0
+        outcome = PASSED
+    return (outcome, a, math.nan, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
+            math.nan, math.nan, math.nan, math.nan)
+
+
+def _compiled():
+    """:func:`flight_root` compiled by numba, or None (not installed, or ICEIMPACT_PURE set).
+
+    Compiled at import for its one signature (floats, the two counters integers), so that no
+    run pays for it; numba keeps the machine code in its cache (``__pycache__``), which later
+    imports load."""
+    if os.environ.get("ICEIMPACT_PURE", "") not in ("", "0"):
+        return None
+    try:
+        import numba
+    except ImportError:
+        return None
+    f8, i8 = numba.float64, numba.int64
+
+    def jit(signature, function, **callees):
+        # a copy of the function whose callees are their compiled forms (the module's names
+        # keep the pure ones)
+        copy = types.FunctionType(function.__code__, {**function.__globals__, **callees},
+                                  function.__name__)
+        copy.__qualname__ = function.__qualname__
+        return numba.njit(signature, cache=True, fastmath=False, error_model="python")(copy)
+    try:
+        motion = jit((f8,) * 10, _motion)
+        bracketed = jit((f8,) * 15, _bracketed, _motion=motion)
+        compiled = jit((f8, f8, i8, i8) + (f8,) * 25, flight_root, _motion=motion,
+                       _bracketed=bracketed)
+        # its compiled entry point, called without the dispatcher's matching of argument types
+        # (the arguments are the signature's, or converted as the dispatcher converts them)
+        compiled = compiled.overloads[compiled.signatures[0]].entry_point
+    except Exception as exc:  # (any failure of numba leaves the pure path)
+        warnings.warn(f"numba could not compile the flight search ({exc}); the pure path "
+                      "runs (the same results, slower)", RuntimeWarning, stacklevel=2)
+        return None
+    return compiled
+
+
+#: numba's compiled :func:`flight_root` where available (``fast`` extra), else None: the
+#: solver then keeps RootSearch for every flight (in pure Python that is the faster of the two)
+COMPILED = _compiled()
+_UNPROBED = (math.nan,) * 5
+
+
+class FlightSearch(RootSearch):
+    """The root search of a flight's gap (structure under-damped, ice under the linear drag):
+    RootSearch, whose common steps :func:`flight_root` makes. The signal is the
+    :class:`~iceimpact.solvers.event.Flight` itself (its anchor, its oscillator and the
+    constants of its closed forms)."""
+
+    __slots__ = ("handed_back",)
+    #: the steps' function: the compiled one (the pure one serves the tests)
+    kernel = staticmethod(flight_root if COMPILED is None else COMPILED)
+
+    def __init__(self, start: float, time_eps: float):
+        super().__init__(start, time_eps)
+        # a step was RootSearch's: the rest of the search is too (the ice upstream of the
+        # structure's rest position, mostly, where every step asks Flight.clearance)
+        self.handed_back = False
+
+    def next_root_of(self, horizon: float, signal: Any) -> float | None:
+        root = self.root
+        if root is not None:
+            return root if root <= horizon else None
+        if not self.a <= horizon:
+            return None
+        if self.handed_back:
+            return RootSearch.next_root_of(self, horizon, signal)
+        osc = signal.osc
+        # the constants of the flight's closed forms: the structure's (neg_sigma, omega, y0,
+        # p, q, v0), the ice's (kappa, w0, r0), as their scalar functions hold them
+        out = self.kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
+                          *(self._probed or _UNPROBED), self.time_eps, signal.gap0, signal.x0,
+                          signal.z0, osc.offset, osc.mass, osc.damping, osc.stiffness,
+                          osc.omega2, *signal._x_motion.__defaults__,
+                          *signal._z_motion.__defaults__, signal.u)
+        outcome, self.a, root, self.iterations, self.creep, probed_at = out[:6]
+        if probed_at != self._probed_at:
+            self._probed_at = probed_at
+            self._probed = out[6:11]
+        if outcome == ROOT:
+            self.root = root
+            signal._last = (root, *out[11:])  # (the state there, as Flight._motion keeps it)
+            return root if root <= horizon else None
+        if outcome == GENERIC:
+            self.handed_back = True
+            return RootSearch.next_root_of(self, horizon, signal)
+        return None

@@ -1,0 +1,273 @@
+"""The flight's root search in one function (solvers/flight_search.py) against RootSearch, whose
+steps it makes: the same points, the same roots, the same runs to the bit, in pure Python and
+compiled by numba (where installed), and the pure path kept by ICEIMPACT_PURE."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, seed, settings
+from hypothesis import strategies as st
+
+from iceimpact import ParameterError, Scene, Simulator, SolverError, run
+from iceimpact.solvers import flight_search, rootfind
+from iceimpact.solvers.event import Flight
+from iceimpact.solvers.flight_search import GENERIC, PASSED, ROOT, FlightSearch, flight_root
+from random_search import FLOWS, flow_at, scale_scenes
+
+SRC = Path(__file__).resolve().parents[1] / "fmu_src"
+
+#: scenes whose flights the function takes (under-damped structure, linear drag) and a run
+#: length (s) with some hundreds of impacts: Figure 2, a heavy floe, a damped structure, e < 1
+#: (sticking phases between the flights), the linearised Morison drag on the structure (an
+#: oscillator with an offset that moves with the flow)
+SCENES = {
+    "figure2": ({}, 200.0),
+    "heavy_floe": ({"ice_M": 6400.0, "flow_u": 2.0}, 60.0),
+    "damped": ({"structure_c": 3000.0}, 60.0),
+    "e_half": ({"impact_e": 0.5}, 60.0),
+    "structure_drag": ({"structure_Cd": 1.0, "structure_A": 2.0}, 150.0),
+}
+
+
+def _digest(result) -> str:
+    h = hashlib.sha256()
+    for key in ("t", "x", "v", "z", "w", "impulse", "sticking"):
+        h.update(np.ascontiguousarray(getattr(result, key)).tobytes())
+    h.update(np.ascontiguousarray(result.impacts["t"]).tobytes())
+    return h.hexdigest()
+
+
+class _Counted:
+    """flight_root (pure) counting its outcomes."""
+
+    def __init__(self):
+        self.outcomes = {PASSED: 0, ROOT: 0, GENERIC: 0}
+
+    def __call__(self, *args):
+        out = flight_root(*args)
+        self.outcomes[out[0]] += 1
+        return out
+
+
+@pytest.fixture
+def pure_function(monkeypatch):
+    """Flights search with the pure flight_root (counted), whether or not numba is there."""
+    counted = _Counted()
+    monkeypatch.setattr(Flight, "_ONE_FUNCTION", True)
+    monkeypatch.setattr(FlightSearch, "kernel", staticmethod(counted))
+    return counted
+
+
+def _generic(monkeypatch):
+    monkeypatch.setattr(Flight, "_ONE_FUNCTION", False)
+
+
+def test_constants_are_root_searchs():
+    assert flight_search._DESCENT_STEPS == rootfind.DESCENT_STEPS
+    assert flight_search._BRACKET_STEPS == rootfind.BRACKET_STEPS
+    assert flight_search._ROOT_RTOL == rootfind.ROOT_RTOL
+    assert flight_search._ROOT_XTOL == rootfind.ROOT_XTOL
+    assert flight_search._FOREVER == rootfind.FOREVER
+    assert flight_search._SCALED_ABOVE == rootfind.SCALED_ABOVE
+    assert flight_search._SUM_NEAR_1_LOW == rootfind._SUM_NEAR_1_LOW
+    assert flight_search._SPREAD == rootfind.SPREAD
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_runs_equal_root_search_to_the_bit(name, pure_function, monkeypatch):
+    """run() with the flights' searches in flight_root gives RootSearch's arrays, bit for bit,
+    and the function made the searches (handing a step back to RootSearch where it must)."""
+    fields, t_end = SCENES[name]
+    scene = Scene(**fields)
+    with_function = _digest(run(scene, t_end, dt=1e-2))
+    assert pure_function.outcomes[ROOT] > 10
+    _generic(monkeypatch)
+    assert _digest(run(scene, t_end, dt=1e-2)) == with_function
+
+
+def test_hands_steps_back_and_continues(pure_function, monkeypatch):
+    """Over Figure 2 the function hands some steps to RootSearch (the ice upstream of the
+    structure's rest position: Flight.clearance's), and the run is RootSearch's."""
+    scene = Scene()
+    with_function = _digest(run(scene, 200.0, dt=1e-2))
+    assert pure_function.outcomes[GENERIC] > 0
+    _generic(monkeypatch)
+    assert _digest(run(scene, 200.0, dt=1e-2)) == with_function
+
+
+def _stepped(scene: Scene, h: float, t_end: float) -> tuple:
+    """Simulator.advance by h, the flow speed changed every second step (re-anchoring)."""
+    sim = Simulator(scene)
+    u = scene.flow_u
+    states = []
+    for k in range(round(t_end / h)):
+        report = sim.advance(h, u * (1.0 + 0.25 * (k % 2)))
+        state = sim.solver.state
+        states.append((sim.t, state.x, state.v, state.z, state.w, report.impulse))
+    return tuple(states), tuple(i.t for i in sim.impacts)
+
+
+def test_chopped_horizons_and_flow_changes(pure_function, monkeypatch):
+    """Short communication steps (horizons inside a flight: the search stops at each and goes
+    on from its frontier) and a flow speed that changes at each step: the same as RootSearch."""
+    scene = Scene(**SCENES["heavy_floe"][0])
+    with_function = _stepped(scene, 0.013, 20.0)
+    assert pure_function.outcomes[PASSED] > 100
+    _generic(monkeypatch)
+    assert _stepped(scene, 0.013, 20.0) == with_function
+
+
+def test_frontier_and_snapshot_as_root_search(pure_function, monkeypatch):
+    """A flight's search stopped at a horizon keeps RootSearch's frontier (a, iterations, creep),
+    so snapshots and checkpoints are the same."""
+    def frontiers():
+        sim = Simulator(Scene())
+        out = []
+        for _ in range(300):
+            sim.advance(0.01)
+            seg = sim.solver.seg
+            out.append((type(seg).__name__, json.dumps(sim.save(), sort_keys=True)))
+        return out
+    with_function = frontiers()
+    assert pure_function.outcomes[PASSED] > 0
+    _generic(monkeypatch)
+    assert frontiers() == with_function
+
+
+def test_search_from_a_flight_directly(pure_function):
+    """Flights searched by FlightSearch and by RootSearch from the same anchors with the same
+    sequence of horizons: the same roots, frontiers and counters (the ice downstream of the
+    structure's rest position, where flight_root makes the steps itself)."""
+    sim = Simulator(Scene())
+    sim.advance(1.0)
+    solver = sim.solver
+    for v0, w0, gap in ((0.3, -0.2, 1e-3), (-0.05, 0.4, 1e-3), (0.0, 0.0, 0.0),
+                        (1e-3, 1e-3, 1e-6), (0.2, 0.2, 0.0), (0.5, 0.1, 0.0)):
+        x0 = 0.01 + gap
+        flights = [Flight(solver, 0.0, x0, v0, x0 - gap, w0, 0.5) for _ in range(2)]
+        flights[1].search = rootfind.RootSearch(0.0, flights[0].search.time_eps)
+        assert isinstance(flights[0].search, FlightSearch)
+        results = []
+        for flight in flights:
+            found = [flight.search.next_root_of(h, flight) for h in (1e-3, 0.02, 0.5, 3.0, 50.0)]
+            s = flight.search
+            results.append((found, s.a, s.root, s.iterations, s.creep))
+        assert results[0] == results[1]
+    assert pure_function.outcomes[PASSED] + pure_function.outcomes[ROOT] > 3
+
+
+def test_pure_environment_keeps_pure_path():
+    """ICEIMPACT_PURE=1: no compiled function, every flight on RootSearch."""
+    code = ("from iceimpact.solvers import flight_search as f; from iceimpact.solvers.event "
+            "import Flight; print(f.COMPILED is None, Flight._ONE_FUNCTION)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True, env={**os.environ, "PYTHONPATH": str(SRC),
+                                           "ICEIMPACT_PURE": "1"})
+    assert done.stdout.split() == ["True", "False"]
+
+
+_DIGESTS = """
+import hashlib, json, sys
+import numpy as np
+from iceimpact import Scene, run
+out = {}
+for name, (fields, t_end) in json.loads(sys.argv[1]).items():
+    r = run(Scene(**fields), t_end, dt=1e-2)
+    h = hashlib.sha256()
+    for key in ("t", "x", "v", "z", "w", "impulse", "sticking"):
+        h.update(np.ascontiguousarray(getattr(r, key)).tobytes())
+    h.update(np.ascontiguousarray(r.impacts["t"]).tobytes())
+    out[name] = h.hexdigest()
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.skipif(os.environ.get("ICEIMPACT_PURE", "") not in ("", "0"),
+                    reason="the compiled path is off (ICEIMPACT_PURE)")
+def test_compiled_equals_pure():
+    """numba installed (the ``fast`` extra, part of ``dev``): the flights search with the
+    compiled function, and run() gives the pure path's arrays (ICEIMPACT_PURE=1) bit for bit."""
+    pytest.importorskip("numba")
+    assert flight_search.COMPILED is not None and Flight._ONE_FUNCTION
+    digests = {}
+    for pure in ("0", "1"):
+        done = subprocess.run([sys.executable, "-c", _DIGESTS, json.dumps(SCENES)],
+                              capture_output=True, text=True, check=True,
+                              env={**os.environ, "PYTHONPATH": str(SRC), "ICEIMPACT_PURE": pure})
+        digests[pure] = json.loads(done.stdout.strip().splitlines()[-1])
+    assert digests["0"] == digests["1"]
+    here = {name: _digest(run(Scene(**fields), t_end, dt=1e-2))
+            for name, (fields, t_end) in SCENES.items()}
+    assert here == digests["1"]
+
+
+def test_compiled_function_values_equal_pure():
+    """The compiled function returns the pure one's tuple, bit for bit, from the anchors of
+    Figure 2's flights and random horizons (math's exp, expm1, sin, cos, sqrt the same)."""
+    pytest.importorskip("numba")
+    if flight_search.COMPILED is None:
+        pytest.skip("the compiled path is off (ICEIMPACT_PURE)")
+    rng = np.random.default_rng(7)
+    sim = Simulator(Scene())
+    checked = 0
+    for _ in range(400):
+        sim.advance(0.05)
+        seg = sim.solver.seg
+        if not isinstance(seg.search, FlightSearch):
+            continue
+        osc = seg.osc
+        constants = (seg.gap0, seg.x0, seg.z0, osc.offset, osc.mass, osc.damping,
+                     osc.stiffness, osc.omega2, *seg._x_motion.__defaults__,
+                     *seg._z_motion.__defaults__, seg.u)
+        for horizon in rng.uniform(0.0, 2.0, 3):
+            args = (float(horizon), 0.0, 0, 0, math.nan, *(math.nan,) * 5,
+                    seg.search.time_eps, *constants)
+            pure, compiled = flight_root(*args), flight_search.COMPILED(*args)
+            assert [float(v).hex() for v in compiled] == [float(v).hex() for v in pure]
+            checked += 1
+    assert checked > 100
+
+
+def _stepped_case(scene, h: float, flow: str, signs: list[bool], one_function: bool) -> tuple:
+    """random_search's stepping of a scene (3 s at most, its flow sequence), with or without
+    the flight search in one function; each step's state, or the refusal."""
+    kernel = flight_search.COMPILED or flight_root
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Flight, "_ONE_FUNCTION", one_function)
+        mp.setattr(FlightSearch, "kernel", staticmethod(kernel))
+        states = []
+        try:
+            sim = Simulator(scene)
+            u0 = scene.flow_u if scene.flow_u != 0.0 else 0.1
+            for i in range(max(1, min(300, round(3.0 / h)))):
+                report = sim.advance(h, flow_at(flow, i, u0, signs))
+                s = sim.solver.state
+                states.append((sim.t, s.x, s.v, s.z, s.w, sim.impact_count, report.impulse))
+        except (ParameterError, SolverError) as exc:
+            states.append(type(exc).__name__)
+        return tuple(states)
+
+
+def test_extreme_scenes_as_root_search():
+    """Scenes drawn as ``random_search.py --scales --flows`` draws them (masses 1e-6 to 1e9 kg,
+    omega_n up to the exact method's limit, every damping, flows reversing, zero, random),
+    stepped at 1 ms to 1 s: the flight search in one function (compiled where numba is
+    installed) gives RootSearch's states at every step."""
+    @seed(5)
+    @settings(max_examples=150, deadline=None, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(scene=scale_scenes(1), h=st.sampled_from([1e-3, 1e-2, 0.1, 1.0]),
+           flow=st.sampled_from(FLOWS), signs=st.lists(st.booleans(), min_size=1, max_size=8))
+    def case(scene, h, flow, signs):
+        assert (_stepped_case(scene, h, flow, signs, True)
+                == _stepped_case(scene, h, flow, signs, False))
+    case()
