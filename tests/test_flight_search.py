@@ -271,3 +271,25 @@ def test_extreme_scenes_as_root_search():
         assert (_stepped_case(scene, h, flow, signs, True)
                 == _stepped_case(scene, h, flow, signs, False))
     case()
+
+
+@pytest.mark.parametrize("which", ["frontier", "root"])
+def test_a_nan_from_the_kernel_hands_the_search_back(monkeypatch, which):
+    """Where Python's math would raise (a domain error) the compiled function gives NaN: the
+    search then goes back to RootSearch from the frontier as it was, so a run is the pure
+    path's, never a NaN frontier or root. Every call here returns a NaN at its first flight."""
+    kw, t_end = SCENES["figure2"]
+    _generic(monkeypatch)
+    reference = _digest(run(Scene(**kw), 20.0))
+
+    def poisoned(*args):
+        out = list(flight_root(*args))
+        if which == "frontier":
+            out[1] = math.nan
+        else:
+            out[0], out[2] = ROOT, math.nan
+        return tuple(out)
+
+    monkeypatch.setattr(Flight, "_ONE_FUNCTION", True)
+    monkeypatch.setattr(FlightSearch, "kernel", staticmethod(poisoned))
+    assert _digest(run(Scene(**kw), 20.0)) == reference

@@ -322,7 +322,14 @@ class FlightSearch(RootSearch):
                           signal.z0, osc.offset, osc.mass, osc.damping, osc.stiffness,
                           osc.omega2, *signal._x_motion.__defaults__,
                           *signal._z_motion.__defaults__, signal.u)
-        outcome, self.a, root, self.iterations, self.creep, probed_at = out[:6]
+        outcome, a, root, iterations, creep, probed_at = out[:6]
+        if a != a or (outcome == ROOT and root != root):
+            # a NaN where Python's math would have raised (a domain error): the compiled
+            # function's only departure from the pure one; RootSearch makes the search from
+            # the frontier as it was, and raises or answers as the pure path does
+            self.handed_back = True
+            return RootSearch.next_root_of(self, horizon, signal)
+        self.a, self.iterations, self.creep = a, iterations, creep
         if probed_at != self._probed_at:
             self._probed_at = probed_at
             self._probed = out[6:11]
