@@ -171,9 +171,11 @@ class Flight(_SearchedSegment):
         # each body's closed form from the anchor, its constants computed once
         self._x_motion = osc.increment(x0, v0)
         self._z_motion = drag.increment(w0, u)
-        # (the common flight, an under-damped structure and the linear drag: its search in one
-        # function, flight_search)
-        if self._ONE_FUNCTION and osc.regime == UNDER and not drag.quadratic:
+        # (the common flight, an under-damped Oscillator, not a structure from outside or under
+        # the quadratic Morison drag, and the linear drag: its search in one function,
+        # flight_search)
+        if (self._ONE_FUNCTION and type(osc) is Oscillator and osc.regime == UNDER
+                and not drag.quadratic):
             self.search = FlightSearch(start, _time_eps(t0))
         else:
             self.search = RootSearch(start, _time_eps(t0))
