@@ -26,6 +26,7 @@ environment is set up.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import importlib.abc
 import importlib.util
@@ -163,6 +164,32 @@ def _aliases_removed() -> dict:
             if k in (CORE, BOOT) or k.startswith(CORE + ".")}
 
 
+#: In the host's environment, "1" lets the FMU's core compile its flight search where the
+#: host's Python has numba (solvers/flight_search.py): half the cost per impact, but about 1.7 s
+#: of compiling at the first instantiation of every freshly extracted FMU (numba's cache lives
+#: beside the extracted source), which a host extracting the FMU for each run pays each time.
+FMU_COMPILED_ENV = "ICEIMPACT_FMU_COMPILED"
+
+
+@contextlib.contextmanager
+def _flight_search_policy():
+    """While the FMU's core loads: the pure flight search (ICEIMPACT_PURE=1, which
+    flight_search reads at import), unless the host asked for the compiled one
+    (FMU_COMPILED_ENV=1). The host's environment is given back as it was."""
+    if os.environ.get(FMU_COMPILED_ENV, "") == "1":
+        yield
+        return
+    before = os.environ.get("ICEIMPACT_PURE")
+    os.environ["ICEIMPACT_PURE"] = "1"
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["ICEIMPACT_PURE"]
+        else:
+            os.environ["ICEIMPACT_PURE"] = before
+
+
 def load_slave(build_id: str, class_name: str = "IceImpact") -> type:
     """The slave class of this FMU build, loaded once per process (see the module docstring)."""
     key = f"{build_id}.{class_name}"
@@ -177,7 +204,8 @@ def load_slave(build_id: str, class_name: str = "IceImpact") -> type:
     private = f"_{CORE}_{build_id}"
     if private not in sys.modules:
         core_dir = os.path.join(resources, CORE)
-        _load(private, os.path.join(core_dir, "__init__.py"), core_dir)
+        with _flight_search_policy():
+            _load(private, os.path.join(core_dir, "__init__.py"), core_dir)
 
     slave_name = f"{private}_slave"
     slave = sys.modules.get(slave_name)

@@ -293,3 +293,30 @@ def test_a_nan_from_the_kernel_hands_the_search_back(monkeypatch, which):
     monkeypatch.setattr(Flight, "_ONE_FUNCTION", True)
     monkeypatch.setattr(FlightSearch, "kernel", staticmethod(poisoned))
     assert _digest(run(Scene(**kw), 20.0)) == reference
+
+
+_FMU_PROBE = """
+import json, os, sys
+from fmpy import simulate_fmu
+simulate_fmu(sys.argv[1], stop_time=0.2, output_interval=0.1)
+compiled = [m.COMPILED is not None for k, m in sys.modules.items()
+            if k.startswith("_iceimpact_") and k.endswith(".solvers.flight_search")]
+print(json.dumps({"compiled": compiled, "pure_env": os.environ.get("ICEIMPACT_PURE")}))
+"""
+
+
+@pytest.mark.parametrize("opt_in", [False, True])
+def test_the_fmu_runs_the_pure_search_unless_the_host_opts_in(fmu_dir, opt_in):
+    """A host that extracts the FMU afresh for each run would pay numba's compile (about
+    1.7 s) at every instantiation: the FMU's core loads with the pure flight search, and the
+    host's environment is left as it was; ICEIMPACT_FMU_COMPILED=1 lets it compile where the
+    host's Python has numba."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("ICEIMPACT_PURE", "ICEIMPACT_FMU_COMPILED")}
+    if opt_in:
+        env["ICEIMPACT_FMU_COMPILED"] = "1"
+    out = subprocess.run([sys.executable, "-c", _FMU_PROBE, fmu_dir], env=env,
+                         capture_output=True, text=True, timeout=300, check=True)
+    seen = json.loads(out.stdout.strip().splitlines()[-1])
+    assert seen["pure_env"] is None  # the host's environment as it was
+    assert seen["compiled"] == [opt_in and flight_search.COMPILED is not None]
