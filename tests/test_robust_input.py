@@ -1415,7 +1415,35 @@ def test_method_3_light_floe_near_the_rate_limit_costs_the_rate_rules_work():
         assert sim.solver.chunk_hi - sim.t <= sim.solver.chunk
         assert sim.solver.nfev <= 4.0 * rate * sim.t + 2000
     assert sim.impact_count >= 30
-    assert sim.solver.rules.degenerate.run > 20  # held, as before: the holds are what it pins
+    # (its holds, each chatter-closed impact counted as a degenerate contact, are gone with fix
+    # 32: a hold integrated in spans is pinned by the next test)
+
+
+def test_method_3_a_forced_hold_is_integrated_in_the_segments_spans():
+    """A forced hold (bodies together, separation not looked for until its end: a degenerate
+    contact, or events repeating at one instant) of the chatter time, 0.39 s for this slow
+    structure, was integrated whole in one call at the step bound of fix 30's light floe
+    (345,842 evaluations) and thrown away at the next flow change. It is now integrated in the
+    segment's spans, never more than a chunk ahead of the time asked, and its end is still where
+    the contact logic decides again."""
+    from iceimpact.solvers.contact_rules import Phase
+
+    case = LIGHT_FLOE_NEAR_THE_RATE_LIMIT
+    scene = Scene(**dict(case["scene"], structure_x0=0.0, ice_z0=0.0, structure_v0=0.0,
+                         ice_v0=0.0))
+    sim = Simulator(scene)
+    solver = sim.solver
+    sim.advance(1e-3, 0.1)
+    hold = solver.rules.chatter_time
+    assert hold == pytest.approx(0.39, rel=0.02)
+    x, v = solver.state.x, solver.state.v
+    solver._segment(Phase.STICK, sim.t, [x, v, 0.0], hold=hold)
+    start, nfev0 = sim.t, solver.nfev
+    for _ in range(20):
+        sim.advance(1e-3, 0.1)
+        assert solver.chunk_hi - sim.t <= solver.chunk
+        assert solver.hold_until == pytest.approx(start + hold)
+    assert solver.nfev - nfev0 < 20000  # the hold whole: ~3.5e5
 
 
 def test_method_3_radau_has_limits_from_its_steps_per_period_and_tolerance():
@@ -1986,3 +2014,39 @@ def test_a_slow_mode_far_below_the_fast_one_still_parts_the_bodies():
         r = sim.advance(1e-4, 0.0)
         assert r.impulse >= 0.0 and not r.sticking
         assert sim.solver.state.x >= sim.solver.state.z
+
+
+@pytest.mark.parametrize("method", [1, 3])
+def test_the_contact_after_an_impact_is_not_a_degenerate_contact(monkeypatch, method):
+    """Fix 30's light floe (0.34 mg on a 1.8 g structure, e = 0.7, the flow reversed one 1 ms
+    step in four): every 4 ms the returning floe's impact is closed plastically (chatter
+    closure), and the contact right after it, at equal velocities, was counted as a contact
+    re-forming with no speed. From the ninth within the chatter time (0.39 s) the bodies were
+    held for up to that long with no look for a separation (742 holds in method 1's 3 s, 259 in
+    method 3's 1 s, at 1 ms steps; here method 3 runs 0.05 s at 0.1 ms steps). The contact after
+    an impact is no longer counted: no hold, the same impacts, a sound run."""
+    from iceimpact.solvers import contact_rules
+    from random_search import replay
+
+    holds = []
+    original = contact_rules.DegenerateContacts.hold
+
+    def counted(self, t):
+        hold = original(self, t)
+        if hold > 0.0:
+            holds.append(t)
+        return hold
+
+    monkeypatch.setattr(contact_rules.DegenerateContacts, "hold", counted)
+    scene = dict(structure_m=0.0018329234721427574, structure_c=0.0005841447487010957,
+                 structure_k=4.654109849934993e-05, structure_x0=4.177705884955332e-267,
+                 structure_v0=1e-16, ice_M=3.3519054173469566e-07, ice_A=0.19282973629443662,
+                 ice_Cd=0.5503080240880754, ice_z0=4.177705884955332e-267,
+                 ice_v0=-0.00013118567765448426, impact_e=0.7045244644744516, drag_model=1,
+                 drag_v_lin=0.0018488068422214442, solver_method=method)
+    h = 1e-3 if method == 1 else 1e-4  # method 3: 0.05 s at 0.1 ms steps (the search's horizon)
+    outcome = replay({"scene": scene, "h": h, "flow": "reversed 1 in 4", "signs": [True],
+                      "time_limit": 60.0})
+    assert outcome.fault is None and not outcome.refused
+    assert outcome.impacts > 10
+    assert holds == []

@@ -1255,7 +1255,7 @@ class EventSolver(Solver):
         impact = self.rules.impact(t, x, v_minus, w_minus, self.e, u)
         self._record(impact)
         self.pending_impulse += impact.impulse
-        self._begin(t, x, impact.v_plus, x, impact.w_plus, u)
+        self._begin(t, x, impact.v_plus, x, impact.w_plus, u, reanchor=True)
 
     def _flight_end(self, t: float, x: float, v: float, w: float, u: float) -> None:
         """A flight's gap closing at time t, position x: :meth:`_begin` at zero gap, with the
@@ -1274,7 +1274,7 @@ class EventSolver(Solver):
             # coexist, as _read checks of a snapshot)
             self.seg = self._flight_cls(self, t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
         else:
-            self._begin(t, x, impact.v_plus, x, impact.w_plus, u)
+            self._begin(t, x, impact.v_plus, x, impact.w_plus, u, reanchor=True)
 
     # marching -----------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:

@@ -361,10 +361,11 @@ class OdeSolver(Solver):
         return self.sol(t)
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float,
-               reanchor: bool = False) -> None:
+               reanchor: bool = False, after_impact: bool = False) -> None:
         """Start the segment that follows time t from state (x, v, z, w) (contact rules of
         :mod:`~iceimpact.solvers.contact_rules` with :data:`INTEGRATED_POLICY`; ``reanchor``:
-        after a change of the flow speed, which is no event)."""
+        after a change of the flow speed, which is no event; ``after_impact``: the velocities
+        after an impact, an event, but no contact re-forming, fix 32)."""
         if not reanchor:
             if _same_instant(t, self._last_event_t):
                 self._events_here += 1
@@ -389,7 +390,7 @@ class OdeSolver(Solver):
             else:
                 self._segment(Phase.STICK, t, [x, v_common, 0.0], hold=self.rules.chatter_time)
             return
-        decision = self.rules.at_contact(t, x, v, w, self.u, reanchor)
+        decision = self.rules.at_contact(t, x, v, w, self.u, reanchor or after_impact)
         if decision.outcome is Outcome.IMPACT:
             self._impact(t, x, v, w)
         elif decision.outcome is Outcome.STICK:
@@ -403,7 +404,7 @@ class OdeSolver(Solver):
         impact = self.rules.impact(t, x, v_minus, w_minus, self.e, self.u)
         self._record(impact)
         self.pending_impulse += impact.impulse
-        self._begin(t, x, impact.v_plus, x, impact.w_plus)
+        self._begin(t, x, impact.v_plus, x, impact.w_plus, after_impact=True)
 
     # marching ------------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
