@@ -15,8 +15,9 @@ zero, reversed one step in four. Scenes the model refuses (ParameterError, at th
 step, or a SolverError naming the limit, such as method 2's unstable Euler step) are
 counted and skipped.
 
-Printed: every scene that stalls (TIMEOUT: out of CPU time with its work not in impacts, see
-:func:`busy_with_impacts`), produces a non-finite output, a negative gap beyond
+Printed: every scene that stalls (TIMEOUT: out of CPU time with its work beyond what its
+impacts or its rate rule allow, see :func:`busy_with_impacts` and :func:`busy_integrating`),
+produces a non-finite output, a negative gap beyond
 its method's tolerance, a tensile (negative) contact impulse beyond rounding, or energy created
 while the flow is zero (FAIL), or is slow (SLOW); then the counts. docs/robustness.md reports
 the searches.
@@ -50,9 +51,10 @@ from iceimpact.scene import (
     OMEGA_MAX_EXACT,
     OMEGA_MAX_ODE,
     TAYLOR_RATE_MAX,
+    integrated_rate,
 )
 from iceimpact.solvers.contact_rules import chatter_time
-from iceimpact.solvers.ode import ATOL_SCALE, PARTING_NOISE
+from iceimpact.solvers.ode import ATOL_SCALE, ODE_METHODS, PARTING_NOISE, STABLE_STEP
 from test_properties import scenes
 
 TIME_LIMIT = 30.0  # s of CPU time per scene (not wall time: the machine may be shared)
@@ -69,6 +71,10 @@ STATE_ULPS = 8.0 * 2.0 ** -52
 #: 20-40 us; a plastic stick-part cycle's 0.33 ms, each impact with a separation and a flight
 #: of half a period; docs/robustness.md, "Many real impacts at a stiff structure")
 IMPACT_WORK = 1e-3
+#: method 3's evaluations per unit rate and simulated second, per communication step and in
+#: all, within which a run out of CPU time is busy integrating (:func:`busy_integrating`; the
+#: bound of fix 30's test, and 100 for each restart at a flow change)
+ODE_WORK, ODE_RESTART_WORK, ODE_WORK_FLOOR = 4.0, 100, 2000
 FLOWS = ("constant", "reversing", "random signs", "zero", "reversed 1 in 4")
 OMEGA_MAX = {1: OMEGA_MAX_EXACT, 2: 1e12, 3: OMEGA_MAX_ODE}
 #: the drag-rate limit of each method's validation (method 3: its explicit integrators, the
@@ -84,14 +90,15 @@ def _alarm(signum, frame):
     raise _Stalled
 
 
-def _progress(sim: Simulator) -> tuple[float, int]:
-    """(simulated time, impacts) reached so far, within a step too: the start of the exact
-    method's current segment, method 3's integration frontier (a step that runs out of time
-    is rolled back, so the simulator's own time and count stay at the last step's end)."""
+def _progress(sim: Simulator) -> tuple[float, int, int]:
+    """(simulated time, impacts, right-hand-side evaluations) reached so far, within a step
+    too: the start of the exact method's current segment, the end of method 3's last
+    integration call and its evaluations until then (a step that runs out of time is rolled
+    back, so the simulator's own time and counts stay at the last step's end)."""
     solver = sim.solver
     seg = getattr(solver, "seg", None)
-    t = max(sim.t, getattr(seg, "t0", -math.inf), getattr(solver, "t_lo", -math.inf))
-    return t, solver.impact_count
+    t = max(sim.t, getattr(seg, "t0", -math.inf), getattr(solver, "chunk_hi", -math.inf))
+    return t, solver.impact_count, getattr(solver, "nfev", 0)
 
 
 class _HalfwayAlarm:
@@ -101,8 +108,8 @@ class _HalfwayAlarm:
 
     def __init__(self, sim: Simulator):
         self.sim = sim
-        self.checkpoint: tuple[float, float, int] | None = None
-        self.end: tuple[float, float, int] | None = None
+        self.checkpoint: tuple[float, float, int, int] | None = None
+        self.end: tuple[float, float, int, int] | None = None
 
     def __call__(self, signum, frame):
         mark = (time.process_time(), *_progress(self.sim))
@@ -187,8 +194,8 @@ def energy_floor(scene: Scene, s, u: float, atol: float) -> float:
 class Outcome:
     """What one case gave: the fault's text (None: sound), whether a step was refused, the CPU
     time (s), the simulated time reached (s), the most negative gap seen (m), the impacts
-    resolved, and whether a run out of CPU time was busy with its impacts
-    (:func:`busy_with_impacts`, printed BUSY, not a fault)."""
+    resolved, and whether a run out of CPU time was busy with its impacts or its integration
+    (:func:`busy_with_impacts`, :func:`busy_integrating`; printed BUSY, not a fault)."""
     fault: str | None
     refused: bool
     cpu: float
@@ -214,6 +221,22 @@ def busy_with_impacts(scene: Scene, t: float, impacts: int, cpu: float,
     omega_n = math.sqrt(scene.structure_k / scene.structure_m)
     return (impacts <= t / chatter_time(omega_n) + 1.0 and cpu <= IMPACT_WORK * impacts
             and late_cpu <= IMPACT_WORK * late_impacts)
+
+
+def busy_integrating(scene: Scene, u: float, t: float, nfev: int, steps: int) -> bool:
+    """A method-3 run (its explicit integrator, the search's DOP853) out of CPU time is busy
+    integrating, not stalled, when its right-hand-side evaluations up to simulated time t keep
+    within what its rate rule allows: ODE_WORK evaluations per unit of the fastest rate it
+    integrates (``integrated_rate`` at the flow speed u: DOP853 makes 15 evaluations per step
+    of at most STABLE_STEP / rate = 1 / (5 rate) s, 3 rate per simulated second, plus its
+    restarts at impacts), ODE_RESTART_WORK per communication step (a flow change restarts the
+    integration) and ODE_WORK_FLOOR. Such a run costs up to ~10 s of CPU per simulated second
+    at the rate limit, 3e5 1/s (docs/robustness.md, fix 30, and Open)."""
+    if (scene.solver_method != 3 or ODE_METHODS[scene.solver_ode_method] not in STABLE_STEP
+            or t <= 0.0):
+        return False
+    rate = integrated_rate(scene, u)
+    return nfev <= ODE_WORK * rate * t + ODE_RESTART_WORK * steps + ODE_WORK_FLOOR
 
 
 def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
@@ -274,10 +297,11 @@ def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
                                      f"at t = {r.t}")
             e_last, last = e_now, s
     except _Stalled:
-        cpu, t_reached, impacts = alarm.end or (time.process_time(), *_progress(sim))
-        half_cpu, _, half_impacts = alarm.checkpoint or (start, 0.0, 0)
-        busy = busy_with_impacts(scene, t_reached, impacts, cpu - start,
-                                 impacts - half_impacts, cpu - half_cpu)
+        cpu, t_reached, impacts, nfev = alarm.end or (time.process_time(), *_progress(sim))
+        half_cpu, _, half_impacts, _ = alarm.checkpoint or (start, 0.0, 0, 0)
+        busy = (busy_with_impacts(scene, t_reached, impacts, cpu - start,
+                                  impacts - half_impacts, cpu - half_cpu)
+                or busy_integrating(scene, u0, t_reached, nfev, i))
         reached = (t_reached, impacts)
         if not busy:
             fault = f"TIMEOUT at t = {sim.t} s, h = {h} s, flow {flow}: {scene}"
@@ -327,7 +351,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.replay is not None:
         outcome = replay(args.replay)
-        verdict = outcome.fault or ("BUSY with impacts" if outcome.busy else "sound")
+        busy = "BUSY: its work within the bounds of its rules"
+        verdict = outcome.fault or (busy if outcome.busy else "sound")
         print(verdict, f"({outcome.impacts} impacts, refused at a step: {outcome.refused}, CPU "
               f"{outcome.cpu:.2f} s, t = {outcome.t} s, smallest gap {outcome.min_gap!r} m)")
         return
@@ -367,7 +392,7 @@ def main() -> None:
             print("REPLAY " + case_text(scene, h, flow, signs, args.time_limit), flush=True)
 
     check()
-    print(f"{count} scenes, {refused} refused at a step, {busy} busy with impacts, "
+    print(f"{count} scenes, {refused} refused at a step, {busy} busy (impacts or integration), "
           f"{len(found)} faults")
 
 

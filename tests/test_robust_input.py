@@ -2050,3 +2050,26 @@ def test_the_contact_after_an_impact_is_not_a_degenerate_contact(monkeypatch, me
     assert outcome.fault is None and not outcome.refused
     assert outcome.impacts > 10
     assert holds == []
+
+
+def test_the_search_tells_a_run_busy_integrating_at_its_rate_from_a_stall():
+    """Method 3 at its explicit rate limit costs up to ~10 s of CPU per simulated second by its
+    rate rule (the seed-53 search's damped 26 g structure, c / m = 2.7e5 1/s: 3.8 rate
+    evaluations per simulated second, 9.9 s for its second). A run out of CPU time counts as
+    busy, not as a TIMEOUT fault, while its evaluations keep within ODE_WORK of them per unit
+    rate and simulated second (plus ODE_RESTART_WORK per step and ODE_WORK_FLOOR); beyond,
+    and for the other methods or an implicit integrator, it is a fault."""
+    from iceimpact.scene import integrated_rate
+    from random_search import ODE_RESTART_WORK, ODE_WORK, ODE_WORK_FLOOR, busy_integrating
+
+    scene = Scene(structure_m=0.026356702073031105, structure_c=7106.487429949025,
+                  structure_k=2082983.3397196622, ice_M=8.48189216315647e-06, ice_Cd=0.0,
+                  ice_z0=-0.04, impact_e=0.0, solver_method=3)
+    rate = integrated_rate(scene, 0.1)
+    assert rate == pytest.approx(2.7e5, rel=0.01)
+    allowed = ODE_WORK * rate * 0.5 + ODE_RESTART_WORK * 50 + ODE_WORK_FLOOR
+    assert busy_integrating(scene, 0.1, 0.5, int(allowed), 50)
+    assert not busy_integrating(scene, 0.1, 0.5, int(allowed) + 1, 50)
+    assert not busy_integrating(scene, 0.1, 0.0, 0, 0)
+    assert not busy_integrating(scene.replace(solver_ode_method=3), 0.1, 0.5, 10, 50)  # LSODA
+    assert not busy_integrating(scene.replace(solver_method=1), 0.1, 0.5, 10, 50)
