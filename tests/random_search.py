@@ -383,7 +383,7 @@ def main() -> None:
         if outcome.fault is not None:
             found.append(outcome.fault)
             print(outcome.fault, flush=True)
-        if outcome.fault is not None or outcome.cpu > 10.0:
+        if outcome.fault is not None or outcome.busy or outcome.cpu > 10.0:
             if outcome.busy:
                 print(f"BUSY {outcome.impacts} impacts by t = {outcome.t} s in {outcome.cpu:.1f}"
                       f" s, h = {h} s, flow {flow}: {scene}", flush=True)
