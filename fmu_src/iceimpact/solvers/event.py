@@ -1199,15 +1199,16 @@ class EventSolver(Solver):
         return a_x, self.drag.accel_bounds(w, u)[0]
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
-               reanchor: bool = False) -> None:
+               reanchor: bool = False, after_impact: bool = False) -> None:
         """Start the segment that follows time t from state (x, v, z, w) (``reanchor``: after a
-        change of the flow speed, see :meth:`ContactRules.at_contact`)."""
+        change of the flow speed; ``after_impact``: the velocities after an impact; neither is
+        a contact re-forming, see :meth:`ContactRules.at_contact`)."""
         self.u = u
         self.tau = 0.0
         if x - z > 0.0:
             self._fly(t, x, v, z, w, u)
             return
-        decision = self.rules.at_contact(t, x, v, w, u, reanchor)
+        decision = self.rules.at_contact(t, x, v, w, u, reanchor or after_impact)
         outcome = decision.outcome
         if outcome is _IMPACT:
             self._impact(t, x, decision.v, decision.w, u)
@@ -1255,7 +1256,7 @@ class EventSolver(Solver):
         impact = self.rules.impact(t, x, v_minus, w_minus, self.e, u)
         self._record(impact)
         self.pending_impulse += impact.impulse
-        self._begin(t, x, impact.v_plus, x, impact.w_plus, u, reanchor=True)
+        self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
 
     def _flight_end(self, t: float, x: float, v: float, w: float, u: float) -> None:
         """A flight's gap closing at time t, position x: :meth:`_begin` at zero gap, with the
@@ -1274,7 +1275,7 @@ class EventSolver(Solver):
             # coexist, as _read checks of a snapshot)
             self.seg = self._flight_cls(self, t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
         else:
-            self._begin(t, x, impact.v_plus, x, impact.w_plus, u, reanchor=True)
+            self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
 
     # marching -----------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
