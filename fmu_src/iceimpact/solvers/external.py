@@ -221,9 +221,9 @@ class ExternalSolver(EventSolver):
 
     # segments -----------------------------------------------------------------------------------
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
-               reanchor: bool = False) -> None:
+               reanchor: bool = False, after_impact: bool = False) -> None:
         self._structure_at(t)
-        super()._begin(t, x, v, z, w, u, reanchor)
+        super()._begin(t, x, v, z, w, u, reanchor, after_impact)
 
     def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
                           lam: float) -> None:
