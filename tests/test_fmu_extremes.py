@@ -29,6 +29,7 @@ from fmu_host import (
     errors,
 )
 from iceimpact import ParameterError, Scene, Simulator
+from iceimpact.contract import INT32_MAX
 from iceimpact.scene import FLOW_INPUT, PARAMETERS
 
 #: At the FMU a cell runs at most this many communication steps (the flow reversals included):
@@ -110,7 +111,8 @@ def _bad_values(spec) -> list:
     """NaN, +-inf, zero, negative and out-of-range values for one parameter (integers: zero,
     negative and out of range)."""
     if spec.kind is int:
-        return [0, -1, int(spec.maximum) + 1]
+        # (one above solver.max_impacts' maximum is no fmi2Integer: it wraps to -2^31, refused)
+        return [0, -1, int(spec.maximum) + 1 if spec.maximum < INT32_MAX else -INT32_MAX - 1]
     values = [math.nan, math.inf, -math.inf, 0.0, -1.0]
     if spec.maximum is not None:
         values.append(spec.maximum + 1.0)

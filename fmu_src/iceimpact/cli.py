@@ -31,6 +31,7 @@ from .contract import BY_NAME
 from .runspec import DEFAULT_DT, SpecError, apply, check_samples, parse_set
 from .scene import ParameterError, Scene, load_scene
 from .simulator import Result, run
+from .solvers.base import SolverError
 
 #: Columns of ``simulate --out``: the FMU's output names for the sampled states (SI units),
 #: with the Result field each comes from. ``contact.active`` is 1 while the bodies stick.
@@ -215,6 +216,8 @@ def _simulate(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         print(f"iceimpact simulate: not enough memory for {args.t_end / args.dt:.3g} samples; "
               "raise --dt or lower --t-end", file=sys.stderr)
         return 1
+    except SolverError as exc:  # the method cannot go on (a step over solver.max_impacts, ...)
+        parser.error(str(exc))
     wall = time.perf_counter() - t0
     summary = summarize(result, args.transient)
     if args.out is not None:

@@ -52,6 +52,10 @@ DETECTION_WINDOW, DETECTION_SIGN = 1, 2                   # solver.detection
 STRUCTURE_BUILTIN, STRUCTURE_EXTERNAL = 1, 2              # structure.model
 SCHEME_GAUSS_SEIDEL, SCHEME_JACOBI = 1, 2                 # coupling.scheme
 
+#: Default of solver.max_impacts, and the largest FMI 2.0 Integer (a 32-bit fmi2Integer).
+MAX_IMPACTS = 100_000
+INT32_MAX = 2**31 - 1
+
 
 @dataclass(frozen=True)
 class Variable:
@@ -167,6 +171,14 @@ PARAMETERS: tuple[Variable, ...] = (
           "fluid.rho Cd A |u - v| (u - v) / 2 under drag.model (0 = off)", 0.0, **_NON_NEGATIVE),
     _real("structure.A", "m2", "projected area of the structure facing the flow (drag)", 0.0,
           **_NON_NEGATIVE),
+    # a step's latency bound: at the costliest measured ~0.3 ms an impact (a stick-part cycle at
+    # a stiff structure, docs/robustness.md) 1e5 impacts are ~30 s of CPU; the article's scenes
+    # make at most a few thousand impacts a simulated second
+    Variable("solver.max_impacts", "solver_max_impacts", PARAMETER, int, "",
+             "most impacts in one communication step: a step that needs more is refused "
+             "(fmi2Discard, the state stays as before it); shorter steps go on", MAX_IMPACTS,
+             allowed=f"1 <= max_impacts <= {INT32_MAX}", minimum=1,
+             maximum=INT32_MAX),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).

@@ -100,6 +100,7 @@ class Scene:
     structure_V: float = _START["structure_V"]
     structure_Cd: float = _START["structure_Cd"]
     structure_A: float = _START["structure_A"]
+    solver_max_impacts: int = _START["solver_max_impacts"]
 
     def __post_init__(self) -> None:
         validate(self)

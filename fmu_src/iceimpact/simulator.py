@@ -215,6 +215,7 @@ class Simulator:
         try:
             if inputs is not None:
                 solver.inputs = inputs
+            solver.begin_step()
             impulse = solver.advance_to(t_end, u)
             report = self._report(impulse, h)
             # never let NaN or inf reach an output (the sum is finite when they all are, save
@@ -228,12 +229,14 @@ class Simulator:
                     raise SolverError(f"the method produced a non-finite {', '.join(bad)} at "
                                       f"t = {t_end!r} s")
         except BaseException as exc:
+            solver.end_step()
             solver.rollback(checkpoint)  # a refused step changes nothing
             if isinstance(exc, SolverError):
                 self.failed = (f"the run stopped at t = {self.solver.t!r} s (the step to "
                                f"{t_end!r} s was refused; the state is as before it): {exc}")
                 raise SolverError(self.failed) from exc
             raise
+        solver.end_step()
         self.failed = None
         self.report = report
         self._n_reported = solver.impact_count

@@ -10,10 +10,12 @@ method knows nothing of FMI or scene files.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from ..contract import INT32_MAX
 from ..physics.contact import Impact
 from ..physics.ice import make_structure_drag
 from ..scene import Scene
@@ -89,6 +91,10 @@ class Solver:
         self.state = State(0.0, scene.structure_x0, scene.structure_v0, scene.ice_z0, scene.ice_v0)
         self.sticking = False
         self.sticking_since: float | None = None  # start of the current sticking phase, s
+        # the impact count beyond which the current step is refused (solver.max_impacts over
+        # the step's start, set by begin_step; none until a step sets it)
+        self.impact_limit = math.inf
+        self.step_start = 0.0  # the time the current step started from, s
 
     @property
     def t(self) -> float:
@@ -102,12 +108,45 @@ class Solver:
         """March to ``t_end`` with flow speed u; return the impulse on the structure (N.s)."""
         raise NotImplementedError
 
+    def begin_step(self, start: float | None = None) -> None:
+        """Start the impact budget of a communication step from time ``start`` (s; default: now)
+        or of one sample interval of a sampled run: at most ``solver.max_impacts`` impacts
+        from now on, else :meth:`_record` refuses the step. :meth:`end_step` lifts it."""
+        self.impact_limit = self.impact_count + self.scene.solver_max_impacts
+        self.step_start = self.state.t if start is None else start
+
+    def end_step(self) -> None:
+        """No budget outside a step (a solver marched directly has none)."""
+        self.impact_limit = math.inf
+
     def _record(self, impact: Impact) -> None:
-        """Count an impact (and list it, if impacts are recorded)."""
+        """Count an impact (and list it, if impacts are recorded). One impact beyond the step's
+        budget (:meth:`begin_step`) raises :class:`SolverError`: the simulator rolls the step
+        back, so a scene whose impacts would take a step minutes or hours (a stick-part cycle
+        at a stiff structure, docs/robustness.md) is refused with the way out, never a hang."""
+        if self.impact_count >= self.impact_limit:
+            raise SolverError(self._over_budget(impact.t))
         self.impact_count += 1
         self.t_last = impact.t
         if self.record_impacts:
             self.impacts.append(impact)
+
+    def _over_budget(self, t: float) -> str:
+        """The refusal of a step that needs more than solver.max_impacts impacts: the budget,
+        where the step stood and the rate of its impacts, and the two ways on."""
+        budget = self.scene.solver_max_impacts
+        span = t - self.step_start
+        if span > 0.0:
+            rate = budget / span
+            where = (f"the next one at t = {t!r} s, {span:.3g} s into the step: {rate:.3g} "
+                     f"impacts a simulated second; at that rate steps of {0.5 * span:.3g} s "
+                     f"take half the budget")
+        else:
+            where = f"all at t = {t!r} s"
+        return (f"the step needs more than solver.max_impacts = {budget} impacts ({where}). "
+                f"Take shorter communication steps (run(): a shorter dt), or raise "
+                f"solver.max_impacts (allowed: an integer, 1 <= max_impacts <= {INT32_MAX}) if "
+                f"a step may take that long")
 
     def _set_sticking(self, sticking: bool, t: float) -> None:
         """Enter (at time t, s) or leave the sticking phase."""

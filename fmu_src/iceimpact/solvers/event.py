@@ -1324,7 +1324,14 @@ class EventSolver(Solver):
         closed forms (equal to the scalar ones to rounding). A quadratic-drag sticking phase,
         which has no closed form, evaluates its Taylor steps' polynomials at all its samples at
         once (:meth:`QuadraticStick.states_at`, equal to :meth:`QuadraticStick.state` to
-        rounding); a segment with neither is marched sample by sample."""
+        rounding); a segment with neither is marched sample by sample. Each sample interval
+        has its own impact budget (solver.max_impacts), as each step of a Simulator has."""
+        try:
+            return self._sample(times, u)
+        finally:
+            self.end_step()
+
+    def _sample(self, times: np.ndarray, u: float) -> Samples:
         if u != self.u:
             x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
                                                  self.seg.phase is Phase.STICK)
@@ -1348,6 +1355,8 @@ class EventSolver(Solver):
         add_target, add_value = targets.append, values.append
         i = 0
         horizon = t_list[-1]
+        interval = 0  # the sample interval whose impact budget runs
+        self.begin_step()
         while i < n:
             seg = self.seg
             if type(seg) is not last_type:
@@ -1357,6 +1366,9 @@ class EventSolver(Solver):
                     kind = kinds[last_type] = _sampling_kind(seg)
                 grouped = isinstance(kind, _SampleGroup)
             if kind is _MARCHED:  # march to the sample
+                if interval != i:
+                    interval = i
+                    self.begin_step(t_list[i - 1])
                 add_target(i)
                 add_value(self._march(t_list[i], u))
                 out.set(i, self.state, self.sticking)
@@ -1386,6 +1398,9 @@ class EventSolver(Solver):
                 self.state = State(horizon, x, v, z, w)
                 break
             add_target(j)
+            if interval != j:  # (the event is sample j's: the first at or after it)
+                interval = j
+                self.begin_step(t_list[j - 1])
             add_value(event(seg, tau_event, u))
             i = j
         impulse = np.zeros(n)
