@@ -129,8 +129,9 @@ CELLS: tuple[Cell, ...] = (
                                                        "structure_A": 1.0e4},
          refused=((2, 2),)),
     Cell("Morison: flow reversing, e = 0.5", {**PILE, "impact_e": 0.5}, t_end=30.0, h=1e-2,
-         t_end_ode=15.0, flow=((10.0, -0.1), (20.0, 0.3)), refused=((2, 2),),
-         known={(2, 3): "negative gap -3.28e-06 m"}),  # see docs/morison.md, method 3
+         t_end_ode=15.0, flow=((10.0, -0.1), (20.0, 0.3)), refused=((2, 2),)),
+    # (method 3 stepped over a shallow touch at 4.587 s here, -3.28e-6 m, until it looked for
+    # meetings inside its steps: docs/robustness.md, fix 33)
 )
 
 

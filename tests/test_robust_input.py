@@ -2073,3 +2073,39 @@ def test_the_search_tells_a_run_busy_integrating_at_its_rate_from_a_stall():
     assert not busy_integrating(scene, 0.1, 0.0, 0, 0)
     assert not busy_integrating(scene.replace(solver_ode_method=3), 0.1, 0.5, 10, 50)  # LSODA
     assert not busy_integrating(scene.replace(solver_method=1), 0.1, 0.5, 10, 50)
+
+
+def test_method_3_sees_a_meeting_hidden_inside_one_integrator_step():
+    """Fix 33 (the search with seed 57): a light ice (0.59 kg, quadratic drag) following a slow
+    structure, the flow reversed by random signs at 1 ms steps. DOP853 crossed a 3.5 ms dip of
+    the gap below zero in one 4 ms step, whose ends both had an open gap: solve_ivp tests the
+    event's sign at step ends only, so the ice went 2.5e-7 m through the structure with no
+    impact. The dip's lowest point is where the gap's rate turns from closing to opening inside
+    a step; the meeting is now found there on the dense output, and the impacts are those of
+    the exact method, which shares no integration with it (its own no-miss root search)."""
+    case = {"scene": dict(structure_m=0.5900798482397783, structure_c=8.186006944808163e-39,
+                          structure_k=0.20546239680237188, structure_x0=-0.01,
+                          structure_v0=-0.6095437618432101, ice_M=0.5902157347899184,
+                          ice_A=0.5900798482397783, ice_Cd=0.1500251476655752, ice_z0=-0.01,
+                          ice_v0=0.0, impact_e=0.02438189881828224, drag_model=2,
+                          drag_v_lin=0.01, flow_u=0.0, solver_method=3),
+            "h": 0.001, "flow": "random signs",
+            "signs": [False, False, False, True, False, False, False, False, False]}
+    from random_search import flow_at, replay
+
+    outcome = replay(case)
+    assert outcome.fault is None and outcome.min_gap >= 0.0
+    runs = {}
+    for method in (1, 3):
+        sim = Simulator(Scene(**{**case["scene"], "solver_method": method}))
+        k, lowest = 0, math.inf
+        while sim.t < 0.8 - 1e-12:
+            sim.advance(case["h"], flow_at(case["flow"], k, 0.1, case["signs"]))
+            k += 1
+            lowest = min(lowest, sim.solver.state.gap)
+        runs[method] = ([i.t for i in sim.impacts], lowest)
+    exact, ode = runs[1][0], runs[3][0]
+    assert len(ode) == len(exact) == 55
+    assert max(abs(a - b) for a, b in zip(exact, ode, strict=True)) < 1e-6
+    assert 0.7903 < ode[-2] < 0.7904  # the meeting inside the step [0.790, 0.794]
+    assert runs[3][1] >= -1e-10
