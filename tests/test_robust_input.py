@@ -2109,3 +2109,61 @@ def test_method_3_sees_a_meeting_hidden_inside_one_integrator_step():
     assert max(abs(a - b) for a, b in zip(exact, ode, strict=True)) < 1e-6
     assert 0.7903 < ode[-2] < 0.7904  # the meeting inside the step [0.790, 0.794]
     assert runs[3][1] >= -1e-10
+
+
+def test_method_3_sees_a_tensile_moment_hidden_inside_one_integrator_step():
+    """Fix 33, sticking: the seed-49 scene at omega_n 1.7e3 rad/s (k / 1e8), a plastic ice
+    stuck on an undamped structure and ringing just beyond what its drag holds. Its contact
+    force turns tensile for a short moment each period, shorter than DOP853's steps: tested at
+    step ends only, the bodies were held through it (a pull) and method 3 made 10, 4 and 1
+    impacts in the windows where the exact method makes 24, 23 and 7. The contact force's
+    lowest point inside a step, where its rate (``Together.contact_force_rate``) turns from
+    negative to positive, is now checked: every 0.1 s window has the exact method's impacts,
+    and the ringing the same amplitude, to 1e-3 of the drag's threshold."""
+    from test_step_budget import SEED_49
+
+    windows = {}
+    for method in (1, 3):
+        scene = Scene(**{**SEED_49, "structure_k": SEED_49["structure_k"] / 1e8,
+                         "solver_method": method})
+        sim = Simulator(scene)
+        counts, states = [], []
+        for _ in range(6):
+            before = sim.impact_count
+            r = sim.advance(0.1, 0.1)
+            assert r.impulse >= 0.0
+            counts.append(sim.impact_count - before)
+            states.append(sim.solver.state)
+        windows[method] = counts, states
+    assert windows[3][0] == windows[1][0] == [23, 23, 24, 23, 7, 0]
+    # the pair's largest ringing its drag holds, x_eq (m + M) / M with x_eq = b u / k (m)
+    scale = (scene.drag_b * 0.1 / scene.structure_k
+             * (scene.structure_m + scene.ice_M) / scene.ice_M)
+    for exact, ode in zip(windows[1][1], windows[3][1], strict=True):
+        assert abs(exact.x - ode.x) < 1e-3 * scale
+
+
+@pytest.mark.parametrize("drag_model", [1, 2], ids=["linear", "quadratic"])
+@pytest.mark.parametrize("morison", [False, True], ids=["plain", "morison"])
+def test_the_contact_force_rate_is_the_derivative_of_the_contact_force(drag_model, morison):
+    """``Together.contact_force_rate`` (fix 33's look inside method 3's sticking steps) against
+    a central difference of ``contact_force`` along the sticking motion, for both drag laws,
+    with and without the Morison drag on the structure; arrays element by element."""
+    from iceimpact.solvers.contact_rules import make_together
+    from iceimpact.solvers.ode import OdeSolver
+
+    extra = {"structure_Cd": 1.0, "structure_A": 2.0} if morison else {}
+    scene = Scene(drag_model=drag_model, solver_method=3, **extra)
+    solver = OdeSolver(scene)
+    together = make_together(solver.m, solver.c, solver.k, solver.M, solver.drag, 0.3,
+                             inertia_from_net=True, structure_drag=solver.structure_drag)
+    states = np.array([[0.01, -0.02, 0.0], [-0.003, 0.4, 1.0], [0.0, 0.3, 0.0]]).T
+    rates = together.contact_force_rate(states)
+    for k in range(states.shape[1]):
+        y = states[:, k]
+        dy = np.array(together(0.0, y))
+        delta = 1e-6
+        numeric = (together.contact_force(y + delta * dy)
+                   - together.contact_force(y - delta * dy)) / (2 * delta)
+        assert rates[k] == pytest.approx(numeric, rel=1e-6, abs=1e-9)
+        assert together.contact_force_rate(y) == pytest.approx(rates[k], rel=1e-15)

@@ -223,6 +223,16 @@ class Together:
         """dF_s/dv of the Morison drag on the structure, kg/s (none here)."""
         return 0.0
 
+    def contact_force_rate(self, y):
+        """d lam / dt at state ``[x, v, ...]``, N/s (rows of arrays: element by element), for
+        method 3's look inside its steps: lam = F(v) - M a with a = net / (m + M), so
+        ``lam' = F'(v) a - M ((F'(v) + F_s'(v) - c) a - k v) / (m + M)``."""
+        v = y[1]
+        df = self.drag.force_rate(v, self.u)
+        accel = self(0.0, y)[1]
+        return df * accel - self.M * ((df + self._structure_drag_rate(v) - self.c) * accel
+                                      - self.k * v) / self.total
+
     @property
     def structure_drag_B(self) -> float:
         """Quadratic Morison drag constant on the structure, kg/m (0: none)."""

@@ -348,7 +348,7 @@ class OdeSolver(Solver):
             self.event = (hi, res.y[:, -1])
             self.t_hi, self.y_hi = hi, res.y[:, -1]
         else:
-            hidden = self._hidden_meeting(res) if self.phase is Phase.FLIGHT else None
+            hidden = self._hidden_event(res) if events is not None else None
             if hidden is not None:
                 y_ev = res.sol(hidden)
                 self.event = (hidden, y_ev)
@@ -360,36 +360,44 @@ class OdeSolver(Solver):
             else:
                 self.t_hi, self.y_hi = hi, res.y[:, -1]
 
-    def _hidden_meeting(self, res) -> float | None:
-        """The first meeting of a flight inside one integrator step that scipy's event test
-        cannot see (s), or None. solve_ivp tests the gap's sign at the ends of its steps only,
-        so a dip of the gap below zero that starts and ends within one step goes unseen: a
-        step of 4 ms over a 3.5 ms dip let the ice through the structure by 2.5e-7 m (the
-        search with seed 57, fix 33). Such a dip has its lowest point inside the step, where
-        the gap's rate v - w turns from closing to opening; so wherever the rate changes sign
-        that way between two step ends (before scipy's own event, if any), the lowest point is
-        found on the dense output (brentq on the rate), and if the gap event is negative there
-        the meeting is its first root before it (brentq, scipy's own tolerance for events).
-        The steps' ends and values are those of the call: a function of its start, so that a
-        restored snapshot finds the same meeting."""
+    def _hidden_event(self, res) -> float | None:
+        """The first event of the segment inside one integrator step that scipy's event test
+        cannot see (s), or None (fix 33). solve_ivp tests the event's sign at the ends of its
+        steps only, so a dip below zero that starts and ends within one step goes unseen: in
+        flight, the gap (a step of 4 ms over a 3.5 ms dip let the ice through the structure by
+        2.5e-7 m, the search with seed 57); sticking, the contact force (a pair ringing just
+        beyond what its drag holds, held through its tensile moments: a pull). Such a dip has
+        its lowest point inside the step, where the event's rate turns from negative to
+        positive (in flight v - w, sticking :meth:`Together.contact_force_rate`); so wherever
+        it changes sign that way between two step ends (before scipy's own event, if any), the
+        lowest point is found on the dense output (brentq on the rate), and if the event is
+        negative there, the event is its first root before it (brentq, scipy's tolerance for
+        events). A function of the call's steps, so that a restored snapshot finds the same."""
         t, y = res.t, res.y
         end = len(t) - 1
         if res.status == 1:  # scipy's event ends the call: only dips before it
             end = int(np.searchsorted(t, float(res.t_events[0][0]), side="left")) - 1
-        rate = y[1] - y[3]
-        candidates = np.flatnonzero((rate[:end] < 0.0) & (rate[1:end + 1] > 0.0))
+        if end < 1:
+            return None
+        if self.phase is Phase.FLIGHT:
+            def rate(state):
+                return state[1] - state[3]
+        else:
+            rate = self.rhs.contact_force_rate
+        rates = rate(y[:, :end + 1])
+        candidates = np.flatnonzero((rates[:end] < 0.0) & (rates[1:] > 0.0))
         if not len(candidates):
             return None
-        sol, gap_event, start = res.sol, self.event_fn, self.segment_start
+        sol, event, start = res.sol, self.event_fn, self.segment_start
         tol = 4.0 * np.finfo(float).eps
         for i in candidates.tolist():
             lo, hi = float(t[i]), float(t[i + 1])
-            lowest = brentq(lambda s: float(sol(s)[1] - sol(s)[3]), lo, hi, xtol=tol, rtol=tol)
-            if lowest <= start or not gap_event(lowest, sol(lowest)) < 0.0:
+            lowest = brentq(lambda s: float(rate(sol(s))), lo, hi, xtol=tol, rtol=tol)
+            if lowest <= start or not event(lowest, sol(lowest)) < 0.0:
                 continue
-            if not gap_event(lo, sol(lo)) > 0.0:  # (scipy saw no crossing at the step's ends)
+            if not event(lo, sol(lo)) > 0.0:  # (scipy saw no crossing at the step's ends)
                 return lo
-            return brentq(lambda s: gap_event(s, sol(s)), lo, lowest, xtol=tol, rtol=tol)
+            return brentq(lambda s: event(s, sol(s)), lo, lowest, xtol=tol, rtol=tol)
         return None
 
     def _y(self, t: float) -> np.ndarray:
