@@ -559,3 +559,23 @@ def test_step_reports_are_ordinary_frozen_reports():
     assert report == twin and hash(report) == hash(twin) and repr(report) == repr(twin)
     with pytest.raises(dataclasses.FrozenInstanceError):
         report.x = 0.0
+
+
+def test_method_2_impact_at_a_communication_point_keeps_the_state_restorable():
+    """Method 2 takes a grid point within GRID_SLACK of the step's end as that end, but dated
+    an impact there t_a + n dt, which rounds past it (0.050000000000000405 for the end 0.05):
+    the impact, the new grid's anchor and t_last fell after the state's own time, and
+    ``Simulator.from_snapshot(sim.save())`` (the FMU's fmi2SetFMUstate) refused the state it had
+    just saved. Such an impact is now at the step's end (found by the budget's property test in
+    test_step_budget.py)."""
+    scene = Scene(structure_m=1.0, structure_c=0.0, structure_k=1.0, structure_x0=0.0,
+                  structure_v0=0.0625, ice_M=1.0, ice_A=1.0, ice_Cd=0.0, ice_z0=0.0,
+                  ice_v0=0.0625, impact_e=0.0, flow_u=0.0, solver_method=2,
+                  solver_detection=2)
+    sim = Simulator(scene)
+    for _ in range(60):
+        report = sim.advance(0.05)
+        assert 0.0 <= report.t_last <= report.t
+        again = Simulator.from_snapshot(sim.save())
+        assert again.save() == sim.save()
+    assert sim.impact_count > 1000

@@ -14,12 +14,15 @@ import subprocess
 import sys
 
 import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from fmu_host import FMI_DISCARD, FMI_OK, Instance, errors
 from iceimpact import ParameterError, Scene, Simulator
 from iceimpact.contract import INT32_MAX, MAX_IMPACTS
 from iceimpact.simulator import run
 from iceimpact.solvers.base import SolverError
+from test_properties import scenes
 
 #: Figure 2's run makes ten impacts by t = 30 s, in pairs 0.13 s apart (0.89 s and 1.01 s, 8.63 s
 #: and 8.75 s, ...). Method 2 with the sign test (the window of eq. 26 jumps over them here).
@@ -197,3 +200,37 @@ def test_the_budget_refuses_a_long_step_of_the_stiff_stick_part_cycle_at_once():
     assert sim.t == 0.0 and sim.impact_count == 0
     rate = float(str(refused.value).split(" impacts a simulated second")[0].rsplit(" ", 1)[1])
     assert 1e5 < rate < 3e6
+
+
+@settings(max_examples=100, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(scene=scenes(), method=st.sampled_from([1, 2, 3]), budget=st.integers(1, 3),
+       h=st.sampled_from([0.05, 0.25, 1.0]))
+def test_the_budget_refuses_exactly_the_steps_that_need_more_impacts(scene, method, budget, h):
+    """Random scenes over the extremes (test_properties' strategy), each method: a twin without
+    a budget steps the run; from each of its states a simulator with the budget takes the same
+    step. It is refused exactly when the twin's step makes more than the budget's impacts, and
+    then changes nothing but the record of why; otherwise it reports exactly the twin's step."""
+    extra = {"solver_detection": 2} if method == 2 else {}
+    try:
+        twin = Simulator(scene.replace(solver_method=method, solver_max_impacts=INT32_MAX,
+                                       **extra))
+    except ParameterError:
+        assume(False)
+    t_end = 3.0 if method != 3 else 1.0
+    while twin.t < t_end - 1e-12:
+        snapshot = twin.save()
+        limited = Simulator.from_snapshot(
+            {**snapshot, "scene": {**snapshot["scene"], "solver.max_impacts": budget}})
+        before = limited.save()
+        want = twin.advance(h)
+        try:
+            got = limited.advance(h)
+        except SolverError as exc:
+            assert want.impacts > budget, (want.impacts, str(exc))
+            after = limited.save()
+            assert after.pop("failed") and before.pop("failed") is None
+            assert after == before
+            continue
+        assert want.impacts <= budget
+        assert got == want

@@ -113,6 +113,7 @@ class FixedStepSolver(Solver):
         self.pin_x = 0.0
         self._chunk = CHUNK_MIN
         self.max_penetration = 0.0      # deepest z - x at a detected impact, m (diagnostic)
+        self.step_end = math.inf        # the end of the step being marched (advance_to), s
         s = self.state
         self._anchor(0.0, s.x, s.v, s.z, s.w)
 
@@ -284,7 +285,10 @@ class FixedStepSolver(Solver):
                v_prev: float, w_prev: float) -> float:
         """Impact (eq. 16-17) and/or steady state (eq. 27-29) at grid point n; the impulse."""
         self._chunk = CHUNK_MIN
-        t = self.t_a + n * self.dt
+        # a grid point within GRID_SLACK of the step's end is the step's end (advance_to's n_end):
+        # its time is t_end, not t_a + n dt rounded past it, which put the impact, the new grid's
+        # anchor and the pin after the state's own time (a saved state its restore refused)
+        t = min(self.t_a + n * self.dt, self.step_end)
         impulse = 0.0
         if hit:  # both bodies restart from the structure's position x_k (eq. 24)
             self.max_penetration = max(self.max_penetration, z - x)
@@ -326,6 +330,7 @@ class FixedStepSolver(Solver):
             else:
                 self._anchor(t_now, s.x, s.v, s.z, s.w)
         impulse = 0.0
+        self.step_end = t_end
         n_end = math.floor((t_end - self.t_a) / self.dt + GRID_SLACK)
         while not self.pinned and self.n < n_end:
             impulse += self._march(n_end)
