@@ -229,14 +229,14 @@ class Simulator:
                     raise SolverError(f"the method produced a non-finite {', '.join(bad)} at "
                                       f"t = {t_end!r} s")
         except BaseException as exc:
-            solver.end_step()
             solver.rollback(checkpoint)  # a refused step changes nothing
             if isinstance(exc, SolverError):
                 self.failed = (f"the run stopped at t = {self.solver.t!r} s (the step to "
                                f"{t_end!r} s was refused; the state is as before it): {exc}")
                 raise SolverError(self.failed) from exc
             raise
-        solver.end_step()
+        finally:
+            solver.end_step()  # (no impact budget outside the step)
         self.failed = None
         self.report = report
         self._n_reported = solver.impact_count
