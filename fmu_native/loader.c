@@ -26,6 +26,20 @@
  *     fmi2ExitInitializationMode, so the slave reports bad parameters there by an error message
  *     only, and fails the next fmi2DoStep.
  *
+ *  4. Every host's failure path ends in a status, never a crash: a NULL component (ECOS calls
+ *     fmi2SetupExperiment on the NULL a failed fmi2Instantiate returned) gets fmi2Error and is
+ *     not dereferenced; a NULL category or instance name from PythonFMU is replaced before it
+ *     reaches the host's logger (OMSimulator builds a std::string from it); once the Python of
+ *     the process is finalized (OMSimulator terminates leftover instances from a static
+ *     destructor, after the host's Python exited) no call touches Python; and the reason for a
+ *     failed fmi2Instantiate also goes to stderr, since some hosts show no FMU log by default.
+ *  5. Built with BUNDLED_PYTHON (build_fmu.py --standalone), the FMU carries its own CPython under
+ *     binaries/linux64/python (a prefix: lib/libpython, lib/python3.X with the standard library,
+ *     lib-dynload and site-packages). In a process without Python the loader starts that runtime
+ *     itself, isolated: its home and module path are set here from the FMU's own location, the
+ *     host's environment (PYTHONHOME, PYTHONPATH, ...) is ignored, no signal handler is
+ *     installed. A process that already runs Python keeps its interpreter (docs/fmu.md).
+ *
  * Every other call is passed through unchanged.
  */
 #define _GNU_SOURCE
@@ -48,6 +62,17 @@
 #endif
 #ifndef PYTHONFMU_LIBRARY
 #define PYTHONFMU_LIBRARY "pythonfmu/IceImpact.so"
+#endif
+#ifndef MODEL_IDENTIFIER
+#define MODEL_IDENTIFIER "IceImpact"
+#endif
+
+#ifdef BUNDLED_PYTHON
+/* Only the types and the layout of PyConfig: every function is looked up in the bundled libpython
+   at run time, since this library is loaded before it. */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#define BUNDLED_HOME "python" /* relative to binaries/linux64 */
 #endif
 
 #define EXPORT __attribute__((visibility("default")))
@@ -143,6 +168,14 @@ _Static_assert(sizeof real == sizeof function_names / sizeof *function_names * s
 static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 static int loaded = 0;
 
+/* Py_IsInitialized of the process's Python: 0 once the host finalized it. */
+static int (*py_is_initialized)(void) = NULL;
+
+static int python_alive(void) { return py_is_initialized && py_is_initialized(); }
+
+/* An instance was made: from then on, Python not alive means finalized. */
+static int python_seen = 0;
+
 /* One instance: PythonFMU's component and what the host gave us. */
 typedef struct {
     fmi2Component component;
@@ -153,6 +186,7 @@ typedef struct {
     size_t n_categories;
     char **categories;              /* the host's categories (none: all) */
     int failed;                     /* the slave failed the current call (FAIL_CATEGORY) */
+    int instantiating;              /* inside PythonFMU's fmi2Instantiate: errors to stderr too */
 } Instance;
 
 static char *copy_string(const char *s) {
@@ -176,10 +210,122 @@ static void report(const fmi2CallbackFunctions *f, fmi2String name, const char *
     va_start(args, fmt);
     vsnprintf(text, sizeof text, fmt, args);
     va_end(args);
-    fprintf(stderr, "IceImpact.fmu: %s\n", text);
-    if (f && f->logger) f->logger(f->componentEnvironment, name, fmi2Fatal, "logStatusFatal", "%s",
-                                  text);
+    fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s\n", text);
+    if (f && f->logger)
+        f->logger(f->componentEnvironment, name ? name : MODEL_IDENTIFIER, fmi2Fatal,
+                  "logStatusFatal", "%s", text);
 }
+
+/* The directory of this library (binaries/linux64), without a trailing slash; 1 on success. */
+static int own_directory(char *out, size_t n) {
+    Dl_info self;
+    if (!dladdr((void *)&own_directory, &self) || !self.dli_fname) return 0;
+    const char *slash = strrchr(self.dli_fname, '/');
+    if (!slash) return snprintf(out, n, ".") < (int)n;
+    return snprintf(out, n, "%.*s", (int)(slash - self.dli_fname), self.dli_fname) < (int)n;
+}
+
+
+#ifdef BUNDLED_PYTHON
+/* A function of the bundled libpython (its prototype from Python.h), or a report naming it. */
+#define PY_FUNCTION(handle, fn) \
+    __typeof__(&fn) fn##_ = (__typeof__(&fn))dlsym(handle, #fn); \
+    if (!fn##_) { \
+        report(f, name, "the bundled Python lacks %s", #fn); \
+        return 0; \
+    }
+
+static int config_failed(const fmi2CallbackFunctions *f, fmi2String name, PyStatus status,
+                         const char *what) {
+    report(f, name, "cannot start the bundled Python (%s): %s%s%s", what,
+           status.func ? status.func : "", status.func ? ": " : "",
+           status.err_msg ? status.err_msg : "unknown error");
+    return 0;
+}
+
+/* Load the libraries listed in python/lib/preload.list (the non-glibc libraries that the
+   bundled extension modules need, such as libffi for ctypes), then libpython, all RTLD_GLOBAL. */
+static void *load_bundled_libraries(const fmi2CallbackFunctions *f, fmi2String name,
+                                    const char *home) {
+    char path[4800];
+    snprintf(path, sizeof path, "%s/lib/preload.list", home);
+    FILE *list = fopen(path, "r");
+    if (list) {
+        char line[512];
+        while (fgets(line, sizeof line, list)) {
+            line[strcspn(line, "\r\n")] = '\0';
+            if (!line[0]) continue;
+            snprintf(path, sizeof path, "%s/lib/%s", home, line);
+            if (!dlopen(path, RTLD_NOW | RTLD_GLOBAL)) {
+                report(f, name, "cannot load the bundled library %s: %s", path, dlerror());
+                fclose(list);
+                return NULL;
+            }
+        }
+        fclose(list);
+    }
+    snprintf(path, sizeof path, "%s/lib/%s", home, LIBPYTHON_SONAME);
+    void *py = dlopen(path, RTLD_NOW | RTLD_GLOBAL);
+    if (!py) report(f, name, "cannot load the bundled Python %s: %s", path, dlerror());
+    return py;
+}
+
+/* Start the bundled CPython, isolated, with its home and module path under binaries/linux64. */
+static int start_bundled_python(const fmi2CallbackFunctions *f, fmi2String name,
+                                const char *dir) {
+    char home[4200];
+    snprintf(home, sizeof home, "%s/" BUNDLED_HOME, dir);
+    void *py = load_bundled_libraries(f, name, home);
+    if (!py) return 0;
+    PY_FUNCTION(py, PyConfig_InitIsolatedConfig)
+    PY_FUNCTION(py, PyConfig_Clear)
+    PY_FUNCTION(py, PyConfig_SetBytesString)
+    PY_FUNCTION(py, PyWideStringList_Append)
+    PY_FUNCTION(py, Py_InitializeFromConfig)
+    PY_FUNCTION(py, PyStatus_Exception)
+    PY_FUNCTION(py, Py_DecodeLocale)
+    PY_FUNCTION(py, PyMem_RawFree)
+    PY_FUNCTION(py, PyEval_SaveThread)
+    PY_FUNCTION(py, Py_IsInitialized)
+
+    PyConfig config;
+    PyConfig_InitIsolatedConfig_(&config);
+    config.install_signal_handlers = 0; /* the host's signals stay the host's */
+    config.site_import = 0;             /* the module path below is the whole path */
+    config.write_bytecode = 0;          /* the FMU's folder may be read-only */
+    config.module_search_paths_set = 1;
+    PyStatus status = PyConfig_SetBytesString_(&config, &config.home, home);
+    if (PyStatus_Exception_(status)) {
+        PyConfig_Clear_(&config);
+        return config_failed(f, name, status, "home");
+    }
+    static const char *const folders[] = {
+        "lib/python" PYTHON_VERSION, "lib/python" PYTHON_VERSION "/lib-dynload",
+        "lib/python" PYTHON_VERSION "/site-packages"};
+    for (size_t i = 0; i < sizeof folders / sizeof *folders; i++) {
+        char folder[4300];
+        snprintf(folder, sizeof folder, "%s/%s", home, folders[i]);
+        wchar_t *wide = Py_DecodeLocale_(folder, NULL);
+        if (!wide) {
+            PyConfig_Clear_(&config);
+            report(f, name, "cannot start the bundled Python: cannot decode the path %s", folder);
+            return 0;
+        }
+        status = PyWideStringList_Append_(&config.module_search_paths, wide);
+        PyMem_RawFree_(wide);
+        if (PyStatus_Exception_(status)) {
+            PyConfig_Clear_(&config);
+            return config_failed(f, name, status, "module path");
+        }
+    }
+    status = Py_InitializeFromConfig_(&config);
+    PyConfig_Clear_(&config);
+    if (PyStatus_Exception_(status)) return config_failed(f, name, status, "initialization");
+    PyEval_SaveThread_(); /* PythonFMU takes the GIL with PyGILState_Ensure in every call */
+    py_is_initialized = Py_IsInitialized_;
+    return 1;
+}
+#endif
 
 /* Load Python (if the process has none) and PythonFMU's library; 1 on success. */
 static int load(const fmi2CallbackFunctions *f, fmi2String name) {
@@ -189,9 +335,18 @@ static int load(const fmi2CallbackFunctions *f, fmi2String name) {
         return 1;
     }
     int ok = 0;
-    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
+    char dir[4096];
+    if (!own_directory(dir, sizeof dir)) {
+        report(f, name, "cannot locate its own library (dladdr failed)");
+        goto done;
+    }
+    py_is_initialized = (int (*)(void))dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    if (!py_is_initialized) {
         /* No Python symbols in the global scope: a native host. RTLD_GLOBAL, because numpy's
            and scipy's extension modules do not link libpython either. */
+#ifdef BUNDLED_PYTHON
+        if (!start_bundled_python(f, name, dir)) goto done;
+#else
         void *py = NULL;
         char first_error[1024] = "";
         if (LIBPYTHON_PATH[0]) {
@@ -204,23 +359,16 @@ static int load(const fmi2CallbackFunctions *f, fmi2String name) {
                    "needs the shared library of Python " PYTHON_VERSION " (" LIBPYTHON_SONAME
                    "), which this process has not loaded and which was not found: %s%s%s. "
                    "Install Python " PYTHON_VERSION " as a shared library (Debian/Ubuntu: "
-                   "apt-get install libpython" PYTHON_VERSION ") with the FMU's requirements "
-                   "(resources/requirements.txt), or start the host with "
-                   "LD_PRELOAD=/path/to/" LIBPYTHON_SONAME ".",
+                   "apt-get install libpython" PYTHON_VERSION " python3-numpy python3-scipy), or "
+                   "use the standalone FMU, which carries its own Python (docs/fmu.md).",
                    first_error, first_error[0] ? "; " : "", dlerror());
             goto done;
         }
+        py_is_initialized = (int (*)(void))dlsym(py, "Py_IsInitialized");
+#endif
     }
-    Dl_info self;
-    if (!dladdr((void *)&load, &self) || !self.dli_fname) {
-        report(f, name, "cannot locate its own library (dladdr failed)");
-        goto done;
-    }
-    char path[4096];
-    const char *slash = strrchr(self.dli_fname, '/');
-    int dir_len = slash ? (int)(slash - self.dli_fname) : 1;
-    snprintf(path, sizeof path, "%.*s/%s", dir_len, slash ? self.dli_fname : ".",
-             PYTHONFMU_LIBRARY);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", dir, PYTHONFMU_LIBRARY);
     void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
     if (!lib) {
         report(f, name, "cannot load PythonFMU's library %s: %s", path, dlerror());
@@ -248,6 +396,17 @@ static int category_enabled(const Instance *inst, fmi2String category) {
     return 0;
 }
 
+/* A category of modelDescription.xml's LogCategories for a message that came without one. */
+static fmi2String status_category(fmi2Status status) {
+    switch (status) {
+    case fmi2OK: return "logAll";
+    case fmi2Warning: return "logStatusWarning";
+    case fmi2Discard: return "logStatusDiscard";
+    case fmi2Error: return "logStatusError";
+    default: return "logStatusFatal";
+    }
+}
+
 /* The logger PythonFMU calls: note a failed call, forward what the host should see. */
 static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                         fmi2String category, fmi2String message, ...) {
@@ -257,8 +416,12 @@ static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Statu
         category = "logStatusError";
         if (status < fmi2Error) status = fmi2Error;
     }
-    if (status == fmi2OK && !category_enabled(inst, category)) return;
-    if (!inst->host.logger) return;
+    if (!category) category = status_category(status); /* PythonFMU's exceptions have none */
+    if (!name) name = inst->name;
+    int to_stderr = inst->instantiating && status >= fmi2Warning;
+    if (!to_stderr && (!inst->host.logger ||
+                       (status == fmi2OK && !category_enabled(inst, category))))
+        return;
     char small[1024];
     char *text = small;
     va_list args;
@@ -270,12 +433,31 @@ static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Statu
         vsnprintf(text, (size_t)n + 1, message, args);
         va_end(args);
     }
-    inst->host.logger(inst->host.componentEnvironment, name, status, category, "%s",
-                      text ? text : small);
-    if (text != small) free(text);
+    /* The reason a start failed reaches the user even where the host shows no FMU log. */
+    if (to_stderr) fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s\n", text ? text : small);
+    if (inst->host.logger && (status != fmi2OK || category_enabled(inst, category)))
+        inst->host.logger(inst->host.componentEnvironment, name, status, category, "%s",
+                          text ? text : small);
+    if (text && text != small) free(text);
 }
 
-static Instance *begin(fmi2Component c) {
+/* Said once per process, on stderr, for each kind of call the loader refuses to pass on. */
+static void refused_once(int *said, const char *function, const char *why) {
+    if (*said) return;
+    *said = 1;
+    fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s %s\n", function, why);
+}
+
+/* The instance of a call that may reach Python, or NULL when it must not: a NULL component, or
+   the process's Python already finalized. */
+static Instance *begin(fmi2Component c, const char *function) {
+    static int said_null = 0;
+    if (!c) {
+        refused_once(&said_null, function,
+                     "was called with a NULL instance (did fmi2Instantiate fail?): fmi2Error");
+        return NULL;
+    }
+    if (!python_alive()) return NULL; /* after the host's Python exited: nothing to reach */
     Instance *inst = c;
     inst->failed = 0;
     return inst;
@@ -293,27 +475,38 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
                                      fmi2String resources, const fmi2CallbackFunctions *functions,
                                      fmi2Boolean visible, fmi2Boolean loggingOn) {
     if (!load(functions, name)) return NULL;
+    if (python_seen && !python_alive()) {
+        report(functions, name, "cannot start: the Python of this process has been finalized");
+        return NULL;
+    }
     Instance *inst = calloc(1, sizeof *inst);
     if (!inst) return NULL;
     if (functions) inst->host = *functions;
     inst->ours = inst->host;
     inst->ours.logger = forward_log;
     inst->ours.componentEnvironment = inst;
-    inst->name = copy_string(name);
+    inst->name = copy_string(name ? name : MODEL_IDENTIFIER);
     inst->logging_on = loggingOn;
-    inst->component = real.Instantiate(name, type, guid, resources, &inst->ours, visible, 1);
+    inst->instantiating = 1;
+    inst->component = real.Instantiate(inst->name, type, guid, resources, &inst->ours, visible,
+                                       1);
+    inst->instantiating = 0;
     if (!inst->component) {
+        report(functions, inst->name, "fmi2Instantiate of instance '%s' failed (the reason is "
+               "above)", inst->name);
         free(inst->name);
         free(inst);
         return NULL;
     }
+    python_seen = 1;
     return inst;
 }
 
 EXPORT void fmi2FreeInstance(fmi2Component c) {
     if (!c) return;
     Instance *inst = c;
-    real.FreeInstance(inst->component);
+    /* After the host's Python exited, PythonFMU's objects went with it: free only ours. */
+    if (python_alive()) real.FreeInstance(inst->component);
     clear_categories(inst);
     free(inst->name);
     free(inst);
@@ -321,6 +514,12 @@ EXPORT void fmi2FreeInstance(fmi2Component c) {
 
 EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t n,
                                       const fmi2String categories[]) {
+    static int said_null = 0;
+    if (!c) {
+        refused_once(&said_null, "fmi2SetDebugLogging",
+                     "was called with a NULL instance (did fmi2Instantiate fail?): fmi2Error");
+        return fmi2Error;
+    }
     Instance *inst = c;
     clear_categories(inst);
     inst->logging_on = loggingOn;
@@ -333,10 +532,13 @@ EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, si
     return fmi2OK;
 }
 
-/* Pass-through functions: C is PythonFMU's component, status upgraded by finish(). */
+/* Pass-through functions: C is PythonFMU's component, status upgraded by finish(). A call that
+   cannot reach Python returns fmi2Error, but fmi2Terminate after the host's Python exited has
+   nothing left to end: fmi2OK. */
 #define C (inst->component)
 #define PASS(call) \
-    Instance *inst = begin(c); \
+    Instance *inst = begin(c, __func__); \
+    if (!inst) return fmi2Error; \
     return finish(inst, real.call)
 
 EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined,
@@ -350,7 +552,10 @@ EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     PASS(ExitInitializationMode(C));
 }
-EXPORT fmi2Status fmi2Terminate(fmi2Component c) { PASS(Terminate(C)); }
+EXPORT fmi2Status fmi2Terminate(fmi2Component c) {
+    if (c && !python_alive()) return fmi2OK;
+    PASS(Terminate(C));
+}
 EXPORT fmi2Status fmi2Reset(fmi2Component c) { PASS(Reset(C)); }
 EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                               fmi2Real value[]) {

@@ -74,7 +74,9 @@ def prepare_environment(config: dict, resources: str) -> None:
     names = _requirement_names(config.get("requirements", []))
     version = config.get("python", "")
     same_python = version == "{}.{}".format(*sys.version_info[:2])
-    recorded = [d for d in config.get("site", []) if os.path.isdir(d)]
+    # a relative folder is the FMU's own (a standalone FMU's bundled site-packages)
+    recorded = [os.path.normpath(os.path.join(resources, d)) for d in config.get("site", [])]
+    recorded = [d for d in recorded if os.path.isdir(d)]
     if same_python and any(importlib.util.find_spec(n) is None for n in names):
         position = sys.path.index(resources) + 1 if resources in sys.path else 0
         sys.path[position:position] = [d for d in recorded if d not in sys.path]
@@ -102,8 +104,10 @@ def _missing_message(name: str, exc: Exception, config: dict, resources: str, sa
     fmu = config.get("model_identifier", "IceImpact")
     return (f"{fmu}.fmu needs {', '.join(config.get('requirements', [name]))} in the Python "
             f"of the host process (Python {here}, {sys.prefix}): cannot import {name} ({exc!r}); "
-            f"{where}. Install them for Python {here}: python{here} -m pip install -r "
-            f"{requirements}")
+            f"{where}. Install them for Python {here}: on Debian/Ubuntu, whose Python refuses "
+            f"pip (externally managed), apt-get install python3-numpy python3-scipy; elsewhere "
+            f"python{here} -m pip install -r {requirements}; or use the standalone {fmu}.fmu, "
+            f"which carries its own Python, numpy and scipy (build_fmu.py --standalone)")
 
 
 def fail_call(slave, message: str) -> None:
