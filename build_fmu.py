@@ -1,6 +1,9 @@
 """Build dist/IceImpact.fmu and dist/ModalStructure.fmu (FMI 2.0 Co-Simulation) with PythonFMU.
 
-    python build_fmu.py [--dest dist] [--fmu all|IceImpact|ModalStructure]
+    python build_fmu.py [--dest dist] [--fmu all|IceImpact|ModalStructure] [--standalone]
+
+``--standalone`` also writes ``<dest>/standalone/<FMU>.fmu``: the same FMU with its own CPython
+runtime, numpy and scipy, for Linux x86_64 machines with no Python (:func:`make_standalone`).
 
 ModalStructure.fmu, a linear structure given by its modes to couple IceImpact.fmu with (see
 docs/coupling.md), is built by :func:`build_modal` the same way, from ``fmu_src/ModalStructure.py``
@@ -94,11 +97,11 @@ def requirements() -> str:
 
 
 def complete_model_description(xml: bytes, contract: ModuleType) -> bytes:
-    """Add units, ranges, full-precision start values, descriptions, initial unknowns and the
-    default experiment to PythonFMU's XML, all read from a contract table module
-    (:mod:`iceimpact.contract`, :mod:`iceimpact.modal_contract`: ``BY_NAME``, name -> variable;
-    ``DEFAULT_EXPERIMENT``)."""
-    from iceimpact.contract import number_text
+    """Add units, ranges, full-precision start values, descriptions, the model structure (outputs
+    and initial unknowns with their dependencies) and the default experiment to PythonFMU's XML,
+    all read from a contract table module (:mod:`iceimpact.contract`,
+    :mod:`iceimpact.modal_contract`: ``BY_NAME``, name -> variable; ``DEFAULT_EXPERIMENT``)."""
+    from iceimpact.contract import DEPENDENT, number_text
 
     root = ET.fromstring(xml)
     used_units: list[str] = []
@@ -149,17 +152,58 @@ def complete_model_description(xml: bytes, contract: ModuleType) -> bytes:
         "stopTime": number_text(experiment.stop_time),
         "stepSize": number_text(experiment.step_size)}))
 
+    # ModelStructure: every output with the knowns it depends on, as the contract declares them
+    # (within a step: inputs; at initialization: inputs and parameters, FMI 2.0 section 2.2.8).
+    variables = model_variables.findall("ScalarVariable")
+    inputs = _indices(variables, lambda var: var.get("causality") == "input")
+    initial_knowns = _indices(variables, lambda var: var.get("causality") == "input" or (
+        var.get("causality") == "parameter" and var.get("initial", "exact") == "exact"))
     structure = root.find("ModelStructure")
-    for old in structure.findall("InitialUnknowns"):
+    for old in structure.findall("Outputs") + structure.findall("InitialUnknowns"):
         structure.remove(old)
-    initial = ET.SubElement(structure, "InitialUnknowns")
+    listed = ET.Element("Outputs")
+    initial = ET.Element("InitialUnknowns")
     for index in outputs:
-        # No "dependencies" attribute: an output may depend on every parameter and the input.
-        ET.SubElement(initial, "Unknown", index=str(index))
+        spec = contract.BY_NAME[variables[index - 1].get("name")]
+        _declare_dependencies(ET.SubElement(listed, "Unknown", index=str(index)),
+                              spec.depends_on, inputs, _OUTPUT_KINDS, f"{spec.name}: Outputs")
+        _declare_dependencies(ET.SubElement(initial, "Unknown", index=str(index)),
+                              dict.fromkeys(spec.initial_depends_on, DEPENDENT),
+                              initial_knowns, _INITIAL_KINDS, f"{spec.name}: InitialUnknowns")
+    structure.insert(0, listed)  # Outputs, (Derivatives,) InitialUnknowns: the schema's order
+    structure.append(initial)
 
     text = ET.tostring(root, encoding="unicode")
     pretty = minidom.parseString(text).toprettyxml(indent="  ", encoding="UTF-8")
     return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
+
+
+# dependenciesKind values FMI 2.0 allows: for Outputs all five, for InitialUnknowns only these two
+_OUTPUT_KINDS = ("dependent", "constant", "fixed", "tunable", "discrete")
+_INITIAL_KINDS = ("dependent", "constant")
+
+
+def _indices(variables: list[ET.Element], wanted) -> dict[str, int]:
+    """Name -> ScalarVariable index (from 1) of the variables ``wanted(variable)`` accepts."""
+    return {var.get("name"): index for index, var in enumerate(variables, start=1)
+            if wanted(var)}
+
+
+def _declare_dependencies(unknown: ET.Element, kinds: dict[str, str], knowns: dict[str, int],
+                          allowed_kinds: tuple[str, ...], where: str) -> None:
+    """Set ``dependencies`` (indices, smallest first) and ``dependenciesKind`` of a ModelStructure
+    ``Unknown`` from ``{known name: kind}``; ``knowns`` are the names it may list."""
+    for name, kind in kinds.items():
+        if name not in knowns:
+            raise ValueError(f"{where}: {name!r} is not a known here ({', '.join(knowns)})")
+        if kind not in allowed_kinds:
+            raise ValueError(f"{where}: dependenciesKind {kind!r} of {name!r} is not one of "
+                             f"{', '.join(allowed_kinds)}")
+    pairs = sorted((knowns[name], kind) for name, kind in kinds.items())
+    # both, even empty: no dependencies would mean "depends on every known", and FMPy's validator
+    # wants both attributes or neither
+    unknown.set("dependencies", " ".join(str(index) for index, _ in pairs))
+    unknown.set("dependenciesKind", " ".join(kind for _, kind in pairs))
 
 
 def _rewrite_model_description(fmu: Path, contract: ModuleType) -> None:
@@ -308,9 +352,12 @@ def python_environment(requirement_lines: list[str], library: Path | None) -> di
 
 
 def compile_loader(dest: Path, library: Path | None, soname: str,
-                   pythonfmu_library: str = PYTHONFMU_LIBRARY) -> Path:
+                   pythonfmu_library: str = PYTHONFMU_LIBRARY, *,
+                   bundled_python: bool = False) -> Path:
     """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython();
-    ``pythonfmu_library`` is where it finds PythonFMU's library, relative to binaries/linux64."""
+    ``pythonfmu_library`` is where it finds PythonFMU's library, relative to binaries/linux64.
+    With ``bundled_python`` the loader starts the runtime of a standalone FMU
+    (:func:`make_standalone`) in a process without Python; that needs the build's Python.h."""
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     if compiler is None:
         raise NativeBuildError(
@@ -322,10 +369,20 @@ def compile_loader(dest: Path, library: Path | None, soname: str,
         "LIBPYTHON_SONAME": soname,
         "PYTHON_VERSION": python_version(),
         "PYTHONFMU_LIBRARY": pythonfmu_library,
+        "MODEL_IDENTIFIER": Path(pythonfmu_library).stem,
     }
+    flags = []
+    if bundled_python:
+        include = sysconfig.get_paths()["include"]
+        if not (Path(include) / "Python.h").exists():
+            raise NativeBuildError(
+                f"the standalone FMU's loader needs Python.h of this Python ({include}): install "
+                f"the Python headers (Debian/Ubuntu: apt-get install python{python_version()}-dev)")
+        flags = ["-DBUNDLED_PYTHON", f"-I{include}"]
     command = [compiler, "-shared", "-fPIC", "-O2", "-std=c11", "-Wall", "-Wextra", "-Werror",
                "-fvisibility=hidden", "-Wl,-z,nodelete", "-o", str(dest), str(LOADER_SOURCE),
-               *(f"-D{k}={json.dumps(v)}" for k, v in defines.items()), "-ldl", "-lpthread"]
+               *(f"-D{k}={json.dumps(v)}" for k, v in defines.items()), *flags, "-ldl",
+               "-lpthread"]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise NativeBuildError(f"compiling the FMU's loader failed:\n{' '.join(command)}\n"
@@ -400,6 +457,296 @@ def build_modal(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_S
     return build_slave(MODAL_SLAVE_NAME, "iceimpact.modal_contract", dest, source_dir)
 
 
+# Standalone FMUs ---------------------------------------------------------------------------------
+# ``python build_fmu.py --standalone`` writes dist/standalone/<id>.fmu: the FMU above plus its own
+# CPython runtime, for a Linux x86_64 machine with no Python at all. Laid out as a prefix under
+# binaries/linux64/python (the loader, compiled with BUNDLED_PYTHON, sets it as the runtime's home
+# and module path):
+#
+#   lib/libpython3.X.so.1.0          the build's libpython
+#   lib/preload.list, lib/lib*.so*   libraries outside glibc that the shipped modules need (libffi)
+#   lib/python3.X/                   the standard library modules the core imports, lib-dynload
+#   lib/python3.X/site-packages/     numpy and the scipy subpackages the core imports
+#
+# What the core imports is measured (:func:`imported_modules`: a probe drives the slave through
+# every method, drag law, structure model, a refused parameter and its state), then whole
+# packages are taken, less tests, headers and type stubs; every .py is compiled once to an
+# unchecked-hash .pyc (a zip keeps mtimes to 2 s only, so a timestamp .pyc would be stale).
+
+STANDALONE_DIR = "standalone"
+BUNDLED_HOME = f"binaries/{NATIVE_PLATFORM}/python"  # loader.c: BUNDLED_HOME under its folder
+#: Third-party packages the standalone runtime carries, with their vendored libraries.
+BUNDLED_PACKAGES = ("numpy", "scipy")
+#: Folders of a package that no import needs, and those dropped unless the probe imported them.
+_TRIM_DIRS = {"tests", "test", "__pycache__", "include", "_pyinstaller", "doc", "docs",
+              "benchmarks", "idlelib", "tkinter", "turtledemo", "ensurepip", "lib2to3",
+              "pydoc_data"}
+_TRIM_UNLESS_IMPORTED = {"f2py", "distutils", "typing", "testing", "unittest", "tomllib"}
+_TRIM_SUFFIXES = (".pyi", ".pxd", ".pyx", ".h", ".c", ".cpp", ".a", ".pc", ".txt", ".md",
+                  ".f", ".f90", ".orig")
+#: Standard-library modules taken even when the probe does not import them: the start-up's
+#: codecs and the modules that formatting an exception's traceback needs.
+_STDLIB_ALWAYS = ("encodings", "os", "traceback", "linecache", "tokenize", "token", "warnings",
+                  "codecs", "io", "abc", "stat", "posixpath", "genericpath", "_collections_abc",
+                  "_sitebuiltins", "weakref", "copyreg", "re", "enum", "functools", "keyword",
+                  "reprlib", "operator", "types", "collections", "contextlib",
+                  # hashlib's built-in digests, used in place of OpenSSL's (_DYNLOAD_LEFT_OUT)
+                  "_md5", "_sha1", "_sha256", "_sha512", "_sha3", "_blake2")
+#: Libraries every Linux x86_64 machine has (glibc's); anything else a shipped binary needs
+#: outside the FMU is bundled.
+_SYSTEM_LIBRARIES = re.compile(
+    r"^(linux-vdso|ld-linux|libc|libm|libdl|librt|libpthread|libutil|libresolv|libmvec"
+    # the C++ runtime too: a C++ host has its own loaded, and a second copy must not come in
+    r"|libgcc_s)\b|^libstdc\+\+")
+#: Extension modules left out: their libraries (OpenSSL) are large, and the modules that import
+#: them fall back to their built-in code without them (hashlib's own digests).
+_DYNLOAD_LEFT_OUT = ("_hashlib", "_ssl")
+
+PROBE = r'''
+import importlib, json, sys, xml.etree.ElementTree as ET
+resources, kind = sys.argv[1], sys.argv[2]
+sys.path.insert(0, resources)
+module = open(resources + "/slavemodule.txt").read().strip()
+cls = getattr(importlib.import_module(module), kind)
+md = ET.parse(resources + "/../modelDescription.xml").getroot()
+refs = {v.get("name"): (int(v.get("valueReference")), v[0].tag)
+        for v in md.iter("ScalarVariable")}
+
+def setv(slave, name, value):
+    vr, tag = refs[name]
+    getattr(slave, "set_" + tag.lower())([vr], [value])
+
+def run(values, steps=300, inputs=()):
+    slave = cls(instance_name="probe", resources=resources, visible=False)
+    slave.setup_experiment(0.0, None, None)
+    for name, value in values.items():
+        setv(slave, name, value)
+    slave.enter_initialization_mode()
+    slave.exit_initialization_mode()
+    for k in range(steps):
+        for name, value in inputs:
+            setv(slave, name, value)
+        slave.do_step(k * 1e-3, 1e-3)
+    for tag in ("Real", "Integer", "Boolean"):
+        vrs = [vr for vr, t in refs.values() if t == tag]
+        getattr(slave, "get_" + tag.lower())(vrs)
+    state = slave._get_fmu_state()
+    slave._set_fmu_state(cls._fmu_state_from_bytes(cls._fmu_state_to_bytes(state)))
+    slave.do_step(steps * 1e-3, 1e-3)
+    slave.terminate()
+
+scenes = json.loads(sys.argv[3])
+for values, inputs in scenes:
+    try:
+        run(values, inputs=[tuple(i) for i in inputs])
+    except Exception:
+        pass
+try:  # a state that is no state: refused
+    cls._fmu_state_from_bytes(b"not a state")
+except Exception:
+    pass
+print(json.dumps(sorted(sys.modules)))
+'''
+
+#: The probe's scenes per FMU: (parameters, inputs held every step).
+PROBE_SCENES = {
+    SLAVE_NAME: [
+        ({"ice.M": 800.0}, []),
+        ({"ice.M": 800.0, "solver.method": 2}, []),
+        ({"ice.M": 800.0, "solver.method": 3, "drag.model": 2, "impact.e": 0.0}, []),
+        ({"ice.M": 800.0, "solver.method": 3, "solver.ode_method": 2}, []),
+        ({"ice.M": 800.0, "structure.Cd": 1.0, "structure.A": 2.0, "structure.Ca": 1.0,
+          "structure.V": 1.0, "drag.model": 2}, []),
+        ({"structure.model": 2, "ice.M": 800.0},
+         [("structure.x_in", 0.0), ("structure.v_in", 0.0), ("structure.a_in", 0.0)]),
+        ({"structure.m": -1.0}, []),
+    ],
+    MODAL_SLAVE_NAME: [({}, [("force", 1000.0)]), ({"modes": 2}, [("force", 10.0)])],
+}
+
+
+def imported_modules(fmu_dir: Path, slave_name: str) -> list[str]:
+    """The modules the FMU's slave imports (sys.modules of a probe run in a fresh process)."""
+    scenes = PROBE_SCENES[slave_name]
+    names = {name for values, inputs in scenes for name in [*values, *(i[0] for i in inputs)]}
+    described = ET.parse(fmu_dir / "modelDescription.xml").getroot()
+    known = {v.get("name") for v in described.iter("ScalarVariable")}
+    scenes = [(({k: v for k, v in values.items() if k in known}),
+               [i for i in inputs if i[0] in known]) for values, inputs in scenes]
+    if names - known:
+        warnings.warn(f"the probe of {slave_name} skips unknown variables {sorted(names - known)}",
+                      stacklevel=2)
+    done = subprocess.run(
+        [sys.executable, "-c", PROBE, str(fmu_dir / "resources"), slave_name, json.dumps(scenes)],
+        capture_output=True, text=True, env={**os.environ, "ICEIMPACT_PURE": "1"})
+    if done.returncode != 0:
+        raise NativeBuildError(f"the import probe of {slave_name} failed:\n{done.stderr[-3000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _trimmed_copy(source: Path, target: Path, package: str = "",
+                  modules: frozenset[str] = frozenset()) -> None:
+    """Copy the package folder ``source`` (imported as ``package``), less what no import needs:
+    _TRIM_DIRS, _TRIM_SUFFIXES, compiled test modules, and _TRIM_UNLESS_IMPORTED folders none of
+    whose modules are in ``modules``."""
+    def ignore(folder: str, names: list[str]) -> list[str]:
+        dotted = ".".join(filter(None, [package, *Path(folder).relative_to(source).parts]))
+        dropped = []
+        for n in names:
+            if os.path.isdir(os.path.join(folder, n)):
+                if n in _TRIM_DIRS or (n in _TRIM_UNLESS_IMPORTED and not any(
+                        m == f"{dotted}.{n}" or m.startswith(f"{dotted}.{n}.")
+                        for m in modules)):
+                    dropped.append(n)
+            elif (n.endswith(_TRIM_SUFFIXES) or n.endswith(".pyc")
+                  or re.match(r"_\w*tests?\.cpython", n)):  # numpy's compiled test modules
+                dropped.append(n)
+        return dropped
+    shutil.copytree(source, target, ignore=ignore, symlinks=False)
+
+
+def _needed_libraries(binary: Path) -> list[tuple[str, Path]]:
+    """(soname, path) of the shared libraries ``binary`` needs from outside its own folders."""
+    done = subprocess.run(["ldd", str(binary)], capture_output=True, text=True)
+    found = []
+    for line in done.stdout.splitlines():
+        match = re.match(r"\s*(\S+) => (/\S+)", line)
+        if match and not _SYSTEM_LIBRARIES.match(match.group(1)):
+            found.append((match.group(1), Path(match.group(2))))
+    return found
+
+
+def bundle_runtime(home: Path, modules: list[str]) -> dict:
+    """Lay out the runtime described above under ``home`` for the measured ``modules``;
+    returns what was bundled (for python.json)."""
+    version = python_version()
+    lib = home / "lib"
+    stdlib_target = lib / f"python{version}"
+    site_target = stdlib_target / "site-packages"
+    dynload_target = stdlib_target / "lib-dynload"
+    for folder in (site_target, dynload_target):
+        folder.mkdir(parents=True, exist_ok=True)
+    library, soname = libpython()
+    if library is None:
+        raise NativeBuildError(
+            f"a standalone FMU carries the build's libpython, and this Python ({sys.base_prefix}) "
+            "has none: build with a Python configured with --enable-shared (pyenv: "
+            "PYTHON_CONFIGURE_OPTS=--enable-shared)")
+    shutil.copy2(library, lib / soname)
+
+    measured = frozenset(modules)
+    stdlib = Path(sysconfig.get_paths()["stdlib"])
+    dynload = stdlib / "lib-dynload"
+    tops = sorted({name.split(".")[0] for name in modules} | set(_STDLIB_ALWAYS))
+    taken: list[str] = []
+    binaries: list[Path] = [lib / soname]
+    for top in tops:
+        if (stdlib / top / "__init__.py").exists():
+            _trimmed_copy(stdlib / top, stdlib_target / top, top, measured)
+        elif (stdlib / f"{top}.py").exists():
+            shutil.copy2(stdlib / f"{top}.py", stdlib_target / f"{top}.py")
+        elif top in _DYNLOAD_LEFT_OUT:
+            continue
+        else:
+            extensions = list(dynload.glob(f"{top}.*.so")) if dynload.is_dir() else []
+            if not extensions:
+                continue  # built in, frozen, or not of the standard library
+            for extension in extensions:
+                shutil.copy2(extension, dynload_target / extension.name)
+                binaries.append(dynload_target / extension.name)
+        taken.append(top)
+    # the extension modules that the taken packages import lazily (ctypes: _ctypes)
+    for name in modules:
+        if name in _DYNLOAD_LEFT_OUT:
+            continue
+        for extension in (dynload.glob(f"{name}.*.so") if dynload.is_dir() else []):
+            if not (dynload_target / extension.name).exists():
+                shutil.copy2(extension, dynload_target / extension.name)
+                binaries.append(dynload_target / extension.name)
+
+    import importlib.util
+
+    packages = {}
+    for package in BUNDLED_PACKAGES:
+        spec = importlib.util.find_spec(package)
+        source = Path(next(iter(spec.submodule_search_locations)))
+        target = site_target / package
+        if package == "scipy":
+            # the subpackages the core imports (with scipy's private _lib), not all of scipy
+            used = sorted({n.split(".")[1] for n in modules
+                           if n.startswith("scipy.") and n.count(".") >= 1})
+            target.mkdir()
+            for entry in source.iterdir():
+                if entry.is_dir() and entry.name not in used:
+                    continue
+                if entry.is_dir():
+                    _trimmed_copy(entry, target / entry.name, f"scipy.{entry.name}", measured)
+                elif not entry.name.endswith(_TRIM_SUFFIXES + (".pyc",)):
+                    shutil.copy2(entry, target / entry.name)
+            packages[package] = used
+        else:
+            _trimmed_copy(source, target, package, measured)
+            packages[package] = ["all"]
+        vendored = source.parent / f"{package}.libs"
+        if vendored.is_dir():
+            shutil.copytree(vendored, site_target / vendored.name)
+        binaries += list(target.rglob("*.so"))
+
+    # libraries outside glibc and outside the bundled packages (which carry theirs): bundled
+    preload: list[str] = []
+    for binary in binaries:
+        for soname_needed, path in _needed_libraries(binary):
+            if str(path).startswith(str(home)) or soname_needed in preload:
+                continue
+            if soname_needed.startswith("libpython"):
+                continue
+            shutil.copy2(path, lib / soname_needed)
+            preload.append(soname_needed)
+    (lib / "preload.list").write_text("".join(f"{name}\n" for name in preload))
+
+    import compileall
+    import py_compile
+
+    compileall.compile_dir(str(stdlib_target), quiet=2, workers=0, ddir=None,
+                           invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
+    return {"stdlib": taken, "packages": packages, "libraries": preload}
+
+
+def make_standalone(fmu: Path, dest: Path, slave_name: str = SLAVE_NAME) -> Path:
+    """Write ``dest/<slave_name>.fmu``: ``fmu`` (a build of :func:`build_slave`) with its own
+    CPython runtime, for Linux x86_64 hosts with no Python (see above)."""
+    if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
+        raise NativeBuildError("a standalone FMU is built on Linux x86_64 only")
+    dest = Path(dest).resolve()
+    dest.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="iceimpact_standalone_") as tmp:
+        root = Path(tmp) / "fmu"
+        with zipfile.ZipFile(fmu) as src:
+            src.extractall(root)
+        modules = imported_modules(root, slave_name)
+        shutil.rmtree(root / "binaries" / "win64", ignore_errors=True)  # Linux only
+        bundled = bundle_runtime(root / BUNDLED_HOME, modules)
+        library, soname = libpython()
+        loader = root / "binaries" / NATIVE_PLATFORM / f"{slave_name}.so"
+        compile_loader(loader, None, soname, f"pythonfmu/{slave_name}.so", bundled_python=True)
+        config_path = root / "resources" / "iceimpact_fmu" / "python.json"
+        config = json.loads(config_path.read_text())
+        site = f"../{BUNDLED_HOME}/lib/python{python_version()}/site-packages"
+        config.update(prefix=None, libpython=None, site=[site], standalone=bundled)
+        config_path.write_text(json.dumps(config, indent=2) + "\n")
+        description = root / "modelDescription.xml"
+        description.write_bytes(description.read_bytes().replace(
+            b'needsExecutionTool="true"', b'needsExecutionTool="false"'))
+        target = dest / f"{slave_name}.fmu"
+        tmp_fmu = target.with_suffix(".fmu.tmp")
+        with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED, compresslevel=9) as dst:
+            for path in sorted(root.rglob("*")):
+                if path.is_file():
+                    dst.write(path, path.relative_to(root).as_posix())
+        tmp_fmu.replace(target)
+    return target
+
+
 #: What ``python build_fmu.py --fmu NAME`` builds.
 BUILDERS = {SLAVE_NAME: build, MODAL_SLAVE_NAME: build_modal}
 
@@ -425,6 +772,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fmu", choices=["all", *BUILDERS], default="all",
                         help="which FMU to build (default: all, i.e. IceImpact.fmu and "
                              "ModalStructure.fmu)")
+    parser.add_argument("--standalone", action="store_true",
+                        help="also write <dest>/standalone/<FMU>.fmu, each with its own CPython "
+                             "runtime, numpy and scipy, for Linux x86_64 machines without Python")
     parser.add_argument("--variables-table", action="store_true",
                         help="also print the variables of IceImpact.fmu as a Markdown table "
                              "(docs/fmu.md)")
@@ -444,6 +794,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"built {fmu}" + ("" if not problems else f" ({len(problems)} validation "
                                                        "problems)"))
         failed += bool(problems)
+        if args.standalone:
+            standalone = make_standalone(fmu, Path(args.dest) / STANDALONE_DIR, name)
+            print(f"built {standalone} ({standalone.stat().st_size / 1e6:.0f} MB, with its own "
+                  f"Python {python_version()}, numpy and scipy)")
     return 1 if failed else 0
 
 

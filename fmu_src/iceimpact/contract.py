@@ -7,11 +7,14 @@ page and the built modelDescription.xml agree with it). Everything else draws fr
   from the start values here;
 - the slave (``fmu_src/IceImpact.py``) registers exactly these variables, with these
   causalities and variabilities;
-- ``build_fmu.py`` writes units, min/max, descriptions and the default experiment from it;
+- ``build_fmu.py`` writes units, min/max, descriptions, the default experiment and what each
+  output depends on (ModelStructure) from it;
 - the CLI resolves ``--set`` / ``--vary`` names against it.
 
 Adding a variable: one row here, plus the physics that uses it (a :class:`~iceimpact.Scene`
-field for a parameter or input, a :class:`~iceimpact.StepReport` field for an output).
+field for a parameter or input, a :class:`~iceimpact.StepReport` field for an output); an output
+names the knowns it depends on (``initial_depends_on``, ``depends_on``), which
+tests/test_model_structure.py measures.
 This module imports nothing from the package: it is the bottom layer.
 """
 
@@ -44,6 +47,9 @@ DEFAULT_EXPERIMENT = DefaultExperiment()
 # Causalities and variabilities, as FMI 2.0 spells them.
 PARAMETER, INPUT, OUTPUT = "parameter", "input", "output"
 FIXED, TUNABLE, CONTINUOUS, DISCRETE = "fixed", "tunable", "continuous", "discrete"
+# How a known enters an output (FMI 2.0 dependenciesKind): with no particular structure; FIXED
+# ("fixed") is a factor of fixed parameters, p * known.
+DEPENDENT = "dependent"
 
 # Enumerations of the Integer parameters (named so that the physics never compares with 1, 2, 3).
 LINEAR_DRAG, QUADRATIC_DRAG = 1, 2                        # drag.model
@@ -65,6 +71,13 @@ class Variable:
     :class:`~iceimpact.StepReport` field of an output. ``minimum``/``maximum`` bound the allowed
     values (``min_exclusive``/``max_exclusive`` make a bound strict); ``allowed`` is the range as
     a reader sees it in error messages and docs.
+
+    An output's dependencies are its rows of modelDescription.xml's ModelStructure:
+    ``depends_on`` names the inputs it depends on directly within a communication step (an
+    fmi2Set of the input changes what fmi2Get returns before the next fmi2DoStep), each with
+    its FMI ``dependenciesKind`` (``Outputs``); ``initial_depends_on`` names the knowns of
+    Initialization Mode (parameters and inputs) its value after fmi2ExitInitializationMode
+    depends on (``InitialUnknowns``). Empty: it depends on none.
     """
 
     name: str
@@ -81,6 +94,8 @@ class Variable:
     max_exclusive: bool = False
     variability: str = FIXED
     choices: dict[int, str] = field(default_factory=dict)  # Integer enumerations
+    depends_on: dict[str, str] = field(default_factory=dict)  # input name -> dependenciesKind
+    initial_depends_on: tuple[str, ...] = ()
 
     @property
     def tunable(self) -> bool:
@@ -209,33 +224,50 @@ def _out(name: str, field: str, kind: type, unit: str, description: str,
                     allowed="", **kw)
 
 
+#: The knowns of the contact rules at the start time: whether bodies at zero gap impact, stick
+#: or part there (contact.count, contact.active, contact.t_last after initialization) is
+#: decided from the velocities and accelerations of the whole scene and the flow speed, down to
+#: the rounding level of its speeds; declared in full rather than as the few a scene exercises.
+START_CONTACT = tuple(p.name for p in PARAMETERS) + (FLOW_INPUT.name,)
+# The initial structure is structure.x0, v0 built in, the inputs' start values external.
+_X0, _V0 = ("structure.model", "structure.x0"), ("structure.model", "structure.v0")
+
 #: Outputs: values at the end of the last communication step. Appended ones keep the value
-#: references of the older ones.
+#: references of the older ones. Stored by fmi2DoStep, none depends on an input within a step
+#: (no depends_on); after initialization they are the scene's start, built from the parameters
+#: and flow.u at fmi2ExitInitializationMode (structure.x_in, v_in, a_in are read by the first
+#: step only).
 OUTPUTS: tuple[Variable, ...] = (
-    _out("structure.x", "x", float, "m", "structure displacement"),
-    _out("structure.v", "v", float, "m/s", "structure velocity"),
-    _out("ice.z", "z", float, "m", "ice displacement"),
-    _out("ice.v", "w", float, "m/s", "ice velocity"),
+    _out("structure.x", "x", float, "m", "structure displacement", initial_depends_on=_X0),
+    _out("structure.v", "v", float, "m/s", "structure velocity", initial_depends_on=_V0),
+    _out("ice.z", "z", float, "m", "ice displacement", initial_depends_on=("ice.z0",)),
+    _out("ice.v", "w", float, "m/s", "ice velocity", initial_depends_on=("ice.v0",)),
     _out("contact.gap", "gap", float, "m",
-         "gap x - z between structure and ice, never negative", minimum=0.0),
+         "gap x - z between structure and ice, never negative", minimum=0.0,
+         initial_depends_on=_X0 + ("ice.z0",)),
     _out("contact.impulse", "impulse", float, "N.s",
          "impulse delivered to the structure during the last communication step "
          "(impacts plus sticking contact)"),
     _out("contact.force", "force", float, "N",
          "mean contact force over the last communication step: contact.impulse / step size"),
-    _out("contact.count", "impact_count", int, "", "impacts since the start", minimum=0),
-    _out("contact.active", "sticking", bool, "", "true while the bodies stick together"),
+    _out("contact.count", "impact_count", int, "", "impacts since the start", minimum=0,
+         initial_depends_on=START_CONTACT),
+    _out("contact.active", "sticking", bool, "", "true while the bodies stick together",
+         initial_depends_on=START_CONTACT),
     _out("contact.t_last", "t_last", float, "s",
-         "time of the latest impact (-1 before the first)", variability=DISCRETE),
+         "time of the latest impact (-1 before the first)", variability=DISCRETE,
+         initial_depends_on=START_CONTACT),
+    # a valid built-in scene starts with ice.z0 <= structure.x0; an external one from x = 0
     _out("contact.penetration", "penetration", float, "m",
          "distance the ice is past the structure (z - x > 0), else 0: the fixed-step method's "
          "grid (solver.method = 2), or the ODE method's integration error (3, of the order of "
          "its absolute tolerance, 1e-3 solver.rtol m); always 0 with the exact method",
-         minimum=0.0),
+         minimum=0.0, initial_depends_on=("structure.model", "ice.z0")),
     _out("structure.force", "spring_force", float, "N",
          "spring force k x of the structure: the base shear of the SDOF idealisation, the load "
          "a design check takes (docs/design_loads.md); 0 with an external structure "
-         "(structure.model = 2), whose internal forces live in the other FMU"),
+         "(structure.model = 2), whose internal forces live in the other FMU",
+         initial_depends_on=_X0 + ("structure.k",)),
     _out("coupling.force", "coupling_force", float, "N",
          "external structure (structure.model = 2): the force for the master to hold on the "
          "structure over its next step. contact.force, except with a Jacobi master "

@@ -22,7 +22,15 @@ from __future__ import annotations
 import math
 
 from . import contract
-from .contract import CONTINUOUS, INPUT, OUTPUT, PARAMETER, DefaultExperiment, Variable
+from .contract import (
+    CONTINUOUS,
+    FIXED,
+    INPUT,
+    OUTPUT,
+    PARAMETER,
+    DefaultExperiment,
+    Variable,
+)
 
 VERSION = "0.1.0"
 
@@ -83,15 +91,27 @@ INPUTS: tuple[Variable, ...] = (
 )
 FORCE_INPUT = INPUTS[0]
 
-#: Outputs: the contact point at the end of the last communication step.
+
+def _mode_knowns(*fields: str) -> tuple[str, ...]:
+    """``modes`` and the given parameters of every mode: each mode enters the initial outputs
+    once ``modes`` includes it."""
+    return (MODES_PARAMETER.name,) + tuple(f"mode{k}.{field}" for k in range(1, MAX_MODES + 1)
+                                           for field in fields)
+
+
+#: Outputs: the contact point at the end of the last communication step. x and v are stored by
+#: fmi2DoStep; a is computed when read, from the modal state and the current force, whose factor
+#: sum(phi^2 / m) is fixed (FMI dependenciesKind "fixed"). After initialization x = sum phi q0,
+#: v = sum phi v0 over the modes used, a from every mode parameter and force.
 OUTPUTS: tuple[Variable, ...] = (
     Variable("x", "x", OUTPUT, float, "m", "displacement of the contact point",
-             variability=CONTINUOUS, allowed=""),
+             variability=CONTINUOUS, allowed="", initial_depends_on=_mode_knowns("phi", "q0")),
     Variable("v", "v", OUTPUT, float, "m/s", "velocity of the contact point",
-             variability=CONTINUOUS, allowed=""),
+             variability=CONTINUOUS, allowed="", initial_depends_on=_mode_knowns("phi", "v0")),
     Variable("a", "a", OUTPUT, float, "m/s2", "acceleration of the contact point under the current "
              "value of force (at the end of a step: under the force of that step)",
-             variability=CONTINUOUS, allowed=""),
+             variability=CONTINUOUS, allowed="", depends_on={FORCE_INPUT.name: FIXED},
+             initial_depends_on=tuple(p.name for p in PARAMETERS) + (FORCE_INPUT.name,)),
 )
 
 #: Every variable, in value-reference order per type as the slave registers them.
