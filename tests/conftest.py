@@ -23,3 +23,22 @@ def fmu_dir(fmu, tmp_path_factory) -> str:
 @pytest.fixture(scope="session")
 def model_description(fmu):
     return read_model_description(str(fmu))
+
+
+@pytest.fixture(scope="session")
+def c_host(tmp_path_factory) -> Path:
+    """The C master of tests/c_host/host.c, compiled once."""
+    from native_host import C_HOST, compile_c
+
+    return compile_c(C_HOST / "host.c", tmp_path_factory.mktemp("host") / "host", "-ldl")
+
+
+@pytest.fixture(scope="session")
+def standalone_fmu(fmu, tmp_path_factory) -> Path:
+    """The session's IceImpact.fmu made standalone (build_fmu.py --standalone)."""
+    return build_module().make_standalone(fmu, tmp_path_factory.mktemp("standalone"))
+
+
+@pytest.fixture(scope="session")
+def standalone_dir(standalone_fmu, tmp_path_factory) -> str:
+    return extract(str(standalone_fmu), unzipdir=str(tmp_path_factory.mktemp("standalone_x")))

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import stat
 import subprocess
 import sys
 import textwrap
@@ -26,17 +25,10 @@ from fmpy.fmi1 import FMICallException
 
 from fmu_host import DT, FMI_ERROR, OUTPUTS, ROOT, Instance, build_module, columns, errors
 from iceimpact import Scene, Simulator
+from native_host import C_HOST, compile_c, ecos_binary, parse_csv, run_empty_env
 
-C_HOST = ROOT / "tests" / "c_host"
 VALUES = {"ice.M": 800.0}  # impacts within the first second
 N_STEPS = 2000
-
-
-def run_empty_env(command: list[str], cwd: Path | None = None,
-                  timeout: float = 120) -> subprocess.CompletedProcess:
-    """Run ``command`` like ``env -i``: no environment variable at all."""
-    return subprocess.run(command, env={}, cwd=cwd, capture_output=True, text=True,
-                          timeout=timeout)
 
 
 def core(values: dict, n: int, step) -> dict[str, np.ndarray]:
@@ -45,30 +37,6 @@ def core(values: dict, n: int, step) -> dict[str, np.ndarray]:
     sim = Simulator(scene)
     reports = [sim.advance(step(k), scene.flow_u) for k in range(n)]
     return {o.name: np.array([getattr(r, o.field) for r in reports]) for o in OUTPUTS}
-
-
-def compiler() -> str:
-    cc = shutil.which("cc") or shutil.which("gcc")
-    assert cc, "no C compiler (scripts/system-deps.sh installs gcc)"
-    return cc
-
-
-def compile_c(source: Path, exe: Path, *flags: str) -> Path:
-    subprocess.run([compiler(), "-O2", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
-                    str(source), *flags], check=True)
-    return exe
-
-
-@pytest.fixture(scope="module")
-def c_host(tmp_path_factory) -> Path:
-    return compile_c(C_HOST / "host.c", tmp_path_factory.mktemp("host") / "host", "-ldl")
-
-
-def parse_csv(text: str) -> dict[str, np.ndarray]:
-    lines = text.strip().splitlines()
-    header = lines[0].split(",")
-    data = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
-    return {name: data[:, i] for i, name in enumerate(header)}
 
 
 # 1. Loading with an empty environment ------------------------------------------------------------
@@ -88,11 +56,7 @@ def test_c_host_with_an_empty_environment_equals_fmpy_every_time(fmu, fmu_dir, c
 
 
 def test_ecos_command_line_with_an_empty_environment_equals_the_core(fmu, tmp_path):
-    ecospy = pytest.importorskip("ecospy")
-    # the wheel installs the engine without the execute bit
-    ecos = tmp_path / "ecos"
-    shutil.copy(Path(ecospy.__file__).parent / "binaries" / "ecos", ecos)
-    ecos.chmod(ecos.stat().st_mode | stat.S_IXUSR)
+    ecos = ecos_binary(tmp_path)
     done = run_empty_env([str(ecos), "simulate", "--path", str(fmu), "--stopTime", "2",
                           "--stepSize", str(DT)], cwd=tmp_path)
     assert done.returncode == 0, done.stdout + done.stderr

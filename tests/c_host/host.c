@@ -1,12 +1,26 @@
 /*
  * Minimal FMI 2.0 Co-Simulation master in C, to run IceImpact.fmu outside Python.
  *
- *   host FMU_DIR [-n STEPS] [-h STEP] [-s NAME=VALUE]... [-o NAME]... [-k]
+ *   host FMU_DIR [-n STEPS] [-h STEP] [-s NAME=VALUE]... [-o NAME]... [-k] [-N] [-S] [-E]
+ *        [-P LIBPYTHON]
  *
  * FMU_DIR is the extracted FMU (modelDescription.xml, binaries/linux64/<id>.so, resources/).
  * Sets the given parameters, steps STEPS communication steps of STEP seconds (default 2000 x 1 ms)
  * and prints time plus the outputs (all outputs, or those given with -o) as CSV on stdout after the
  * initialization and after every step. -k keeps the library loaded (no dlclose) at exit.
+ *
+ * The failure paths of real hosts, each on request:
+ *   -N  calls every FMI function that takes an instance with NULL first, as ECOS calls
+ *       fmi2SetupExperiment on the NULL a failed fmi2Instantiate returned, and prints
+ *       "null <function> <status>" for each on stdout; it goes on after a failed fmi2Instantiate
+ *       too (exit status 3 then);
+ *   -S  a logger that aborts on a NULL instance name or category, as OMSimulator's does (it
+ *       builds a std::string from each);
+ *   -E  exits without fmi2Terminate and fmi2FreeInstance (static destructors still run);
+ *   -P  embeds Python first (LIBPYTHON, RTLD_GLOBAL, Py_InitializeEx), as a Python host does,
+ *       finalizes it after the last step, and then calls fmi2Terminate and fmi2FreeInstance, as
+ *       OMSimulator's static destructor does after the host's Python exited; prints
+ *       "after finalize: terminate <status>" on stdout.
  *
  * A PythonFMU FMU needs libpython in the process and numpy/scipy on the module path:
  *   LD_PRELOAD=$LIBDIR/libpython3.11.so PYTHONPATH=<site-packages> ./host FMU_DIR
@@ -71,9 +85,16 @@ typedef struct {
 static Variable vars[MAX_VARS];
 static int n_vars = 0;
 
+static int strict_logger = 0;
+
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                    fmi2String category, fmi2String message, ...) {
     (void)env;
+    if (strict_logger && (!instance || !category || !message)) {
+        fprintf(stderr, "host: the FMU logged with a NULL %s\n",
+                !instance ? "instance name" : !category ? "category" : "message");
+        abort();
+    }
     va_list args;
     va_start(args, message);
     fprintf(stderr, "[%s] status %d [%s] ", instance ? instance : "?", (int)status,
@@ -168,7 +189,8 @@ int main(int argc, char **argv) {
     const char *dir = argv[1];
     long n_steps = 2000;
     double h = 1e-3;
-    int keep_loaded = 0;
+    int keep_loaded = 0, null_calls = 0, exit_early = 0;
+    const char *embed_python = NULL;
     const char *sets[MAX_VARS];
     int n_sets = 0;
     const char *outs[MAX_VARS];
@@ -179,6 +201,10 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "-s") && i + 1 < argc && n_sets < MAX_VARS) sets[n_sets++] = argv[++i];
         else if (!strcmp(argv[i], "-o") && i + 1 < argc && n_outs < MAX_VARS) outs[n_outs++] = argv[++i];
         else if (!strcmp(argv[i], "-k")) keep_loaded = 1;
+        else if (!strcmp(argv[i], "-N")) null_calls = 1;
+        else if (!strcmp(argv[i], "-S")) strict_logger = 1;
+        else if (!strcmp(argv[i], "-E")) exit_early = 1;
+        else if (!strcmp(argv[i], "-P") && i + 1 < argc) embed_python = argv[++i];
         else {
             fprintf(stderr, "host: unknown argument %s\n", argv[i]);
             return 2;
@@ -232,6 +258,48 @@ int main(int argc, char **argv) {
     fmi2SetIntegerTYPE set_integer = (fmi2SetIntegerTYPE)symbol(lib, "fmi2SetInteger");
     fmi2DoStepTYPE do_step = (fmi2DoStepTYPE)symbol(lib, "fmi2DoStep");
 
+    void (*py_finalize)(void) = NULL;
+    if (embed_python) {
+        void *py = dlopen(embed_python, RTLD_NOW | RTLD_GLOBAL);
+        if (!py) {
+            fprintf(stderr, "host: cannot load %s: %s\n", embed_python, dlerror());
+            return 2;
+        }
+        void (*initialize)(int) = (void (*)(int))symbol(py, "Py_InitializeEx");
+        py_finalize = (void (*)(void))symbol(py, "Py_Finalize");
+        initialize(0);
+    }
+
+    if (null_calls) {
+        fmi2ValueReference vr = 0;
+        fmi2Real real_value = 0.0;
+        fmi2Integer integer_value = 0;
+        fmi2Boolean boolean_value = 0;
+        printf("null fmi2SetupExperiment %d\n", (int)setup(NULL, fmi2False, 0.0, 0.0, fmi2False,
+                                                             0.0));
+        printf("null fmi2EnterInitializationMode %d\n", (int)enter_init(NULL));
+        printf("null fmi2ExitInitializationMode %d\n", (int)exit_init(NULL));
+        printf("null fmi2GetReal %d\n", (int)get_real(NULL, &vr, 1, &real_value));
+        printf("null fmi2GetInteger %d\n", (int)get_integer(NULL, &vr, 1, &integer_value));
+        printf("null fmi2GetBoolean %d\n", (int)get_boolean(NULL, &vr, 1, &boolean_value));
+        printf("null fmi2SetReal %d\n", (int)set_real(NULL, &vr, 1, &real_value));
+        printf("null fmi2SetInteger %d\n", (int)set_integer(NULL, &vr, 1, &integer_value));
+        printf("null fmi2DoStep %d\n", (int)do_step(NULL, 0.0, 1e-3, fmi2True));
+        printf("null fmi2Terminate %d\n", (int)terminate(NULL));
+        const char *names[] = {"fmi2Reset", "fmi2CancelStep"};
+        for (int i = 0; i < 2; i++) {
+            fmi2ComponentFunctionTYPE f = (fmi2ComponentFunctionTYPE)symbol(lib, names[i]);
+            printf("null %s %d\n", names[i], (int)f(NULL));
+        }
+        fmi2Status (*debug)(fmi2Component, fmi2Boolean, size_t, const fmi2String *) =
+            (fmi2Status(*)(fmi2Component, fmi2Boolean, size_t, const fmi2String *))symbol(
+                lib, "fmi2SetDebugLogging");
+        printf("null fmi2SetDebugLogging %d\n", (int)debug(NULL, fmi2True, 0, NULL));
+        free_instance(NULL);
+        printf("null fmi2FreeInstance done\n");
+        fflush(stdout);
+    }
+
     char resources[4200];
     snprintf(resources, sizeof resources, "file://%s/resources", dir);
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
@@ -239,6 +307,9 @@ int main(int argc, char **argv) {
                                   fmi2True);
     if (!c) {
         fprintf(stderr, "host: fmi2Instantiate failed\n");
+        if (null_calls) /* what ECOS does next */
+            printf("null-after-failure fmi2SetupExperiment %d\n",
+                   (int)setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
         return 3;
     }
 
@@ -307,6 +378,14 @@ int main(int argc, char **argv) {
     }
     fflush(stdout);
 
+    if (exit_early) exit(status);
+    if (py_finalize) {
+        py_finalize();
+        printf("after finalize: terminate %d\n", (int)terminate(c));
+        free_instance(c);
+        fflush(stdout);
+        return status;
+    }
     if (terminate(c) > fmi2Warning && !status) status = 3;
     free_instance(c);
     if (!keep_loaded) dlclose(lib);
