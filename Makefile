@@ -6,7 +6,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-all fmu bench reproduce regime-map lint clean
+.PHONY: setup demo test test-all fmu standalone bench reproduce regime-map lint clean
 
 setup: $(STAMP)
 
@@ -19,6 +19,10 @@ $(STAMP): pyproject.toml
 
 fmu: $(STAMP)
 	$(PY) build_fmu.py
+
+# the FMUs with their own Python, numpy and scipy, for machines without Python (dist/standalone/)
+standalone: $(STAMP)
+	$(PY) build_fmu.py --standalone
 
 demo: $(STAMP)
 	$(PY) build_fmu.py

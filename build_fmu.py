@@ -30,6 +30,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import importlib
+import importlib.util
 import json
 import os
 import platform
@@ -747,6 +748,22 @@ def make_standalone(fmu: Path, dest: Path, slave_name: str = SLAVE_NAME) -> Path
     return target
 
 
+# The system file --------------------------------------------------------------------------------
+#: The coupled system of examples/system/ (IceImpact.fmu on ModalStructure.fmu), written beside the
+#: FMUs when both are built: one file that FMPy, ECOS, libcosim and OMSimulator load as it is
+#: (docs/coupling.md, "The system file in five masters").
+SYSTEM_FILE = "IceOnStructure.ssp"
+SYSTEM_SCRIPT = ROOT / "examples" / "system" / "system.py"
+
+
+def write_system(dest: str | Path) -> Path:
+    """Write ``<dest>/IceOnStructure.ssp`` from the two FMUs built in ``dest``."""
+    spec = importlib.util.spec_from_file_location("iceimpact_system_example", SYSTEM_SCRIPT)
+    system = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(system)
+    return system.write_ssp(Path(dest), Path(dest) / SYSTEM_FILE)
+
+
 #: What ``python build_fmu.py --fmu NAME`` builds.
 BUILDERS = {SLAVE_NAME: build, MODAL_SLAVE_NAME: build_modal}
 
@@ -798,6 +815,8 @@ def main(argv: list[str] | None = None) -> int:
             standalone = make_standalone(fmu, Path(args.dest) / STANDALONE_DIR, name)
             print(f"built {standalone} ({standalone.stat().st_size / 1e6:.0f} MB, with its own "
                   f"Python {python_version()}, numpy and scipy)")
+    if args.fmu == "all":
+        print(f"built {write_system(args.dest)}")
     return 1 if failed else 0
 
 

@@ -1,12 +1,17 @@
 """An ice floe striking a structure from another FMU: IceImpact.fmu (structure.model = 2) coupled
-to ModalStructure.fmu, by three masters, on one system.
+to ModalStructure.fmu, in scripted masters and in five masters that load one system file.
 
-The system (``IceOnStructure.ssp``: ``SystemStructure.ssd`` and both FMUs under ``resources/``)::
+The system (``IceOnStructure.ssp``, :func:`write_ssp`; components ``floe`` and ``structure``)::
 
-    ice.coupling.force -> structure.force
-    structure.x       -> ice.structure.x_in
-    structure.v       -> ice.structure.v_in
-    structure.a       -> ice.structure.a_in
+    floe.coupling.force -> structure.force
+    structure.x         -> floe.structure.x_in
+    structure.v         -> floe.structure.v_in
+    structure.a         -> floe.structure.a_in
+
+The SSP carries ``SystemStructure.ssd`` (parameters bound inline, OpenModelica's fixed-step master,
+a DefaultExperiment of 2 s with the OSP step of 1 ms), both FMUs and the same parameters as
+``resources/IceOnStructure.ssv`` under ``resources/``; docs/coupling.md says which master needs
+which part. Every master that loads it is a Jacobi scheme, so it binds ``coupling.scheme = 2``.
 
 The masters (fixed communication step h), each with IceImpact's ``coupling.scheme`` set to its
 scheme:
@@ -17,25 +22,41 @@ scheme:
   ``coupling.scheme = 1``);
 - ``fmpy_master(..., scheme="jacobi")``: both step from the values of the previous step end, then
   the outputs are passed on (the structure's force is one step older; ``coupling.scheme = 2``);
-- ``ecospy_run``: the SSP run by ECOS (ecospy), whose fixed-step algorithm is the Jacobi scheme:
-  it equals the FMPy Jacobi master to rounding (the SSP binds ``coupling.scheme = 2``);
-- ``libcosimpy_run``: the same system in libcosim (libcosimpy), also a Jacobi scheme.
+- ``libcosimpy_run``: the same system built by hand in libcosim (libcosimpy), a Jacobi scheme;
+- loading the SSP unchanged, all Jacobi: ``fmpy_ssp_run`` (FMPy's ``simulate_ssp``),
+  ``ecospy_run`` (ECOS), ``libcosim_ssp_run`` (libcosim's ``from_ssp_file``),
+  ``omsimulator_cli_run`` and ``omsimulator_api_run`` (OMSimulator's command line and Python
+  API; the OMSimulator build is found at ``../shared/tools/omsimulator`` from the repository by
+  default, and skipped where absent).
+
+Every run returns a dict: ``time``, ``x`` (the structure's), ``force`` (the floe's
+contact.force) at the communication points k h, ``count`` (contact.count at the end); the SSP
+masters also ``counts`` (contact.count at each point).
 
 Run ``python examples/system/system.py --fmus dist`` after ``python build_fmu.py``: it writes the
 SSP, runs every master, prints how far each is from IceImpact's own monolithic run (the built-in
 structure, structure.model = 1, equal to the default mode of ModalStructure.fmu) and the
-agreement of the masters.
+agreement of the masters with the FMPy Jacobi loop.
 """
 
 from __future__ import annotations
 
 import argparse
+import pickle
 import shutil
+import subprocess
+import sys
 import tempfile
 import zipfile
+from collections import defaultdict
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+#: An OMSimulator build (bin/OMSimulator, python/OMSimulator): ../shared/tools/omsimulator
+OMSIMULATOR = ROOT.parent / "shared" / "tools" / "omsimulator"
 
 #: The scene: an impacting floe (tests/test_coupling.py's first scene).
 ICE = {"structure.model": 2, "drag.model": 2, "ice.M": 1200.0, "impact.e": 0.7,
@@ -45,40 +66,91 @@ SCHEMES = {"gauss-seidel": 1, "jacobi": 2}
 FLOW_U = 0.3
 #: ModalStructure's default is one mode equal to IceImpact's built-in structure.
 STRUCTURE: dict[str, float] = {}
-INTEGERS = {"structure.model", "coupling.scheme", "drag.model", "solver.method", "modes"}
+#: The Integer variables of both FMUs
+INTEGERS = {"structure.model", "coupling.scheme", "drag.model", "solver.method",
+            "solver.detection", "solver.ode_method", "solver.max_impacts", "contact.count",
+            "modes"}
+#: The experiment the SSP carries: 2 s at 1 ms communication steps.
+T_END, STEP = 2.0, 1e-3
 
+#: The connections, between the roles ``ice`` (IceImpact.fmu) and ``structure``
+#: (ModalStructure.fmu).
 CONNECTIONS = [("ice", "coupling.force", "structure", "force"),
                ("structure", "x", "ice", "structure.x_in"),
                ("structure", "v", "ice", "structure.v_in"),
                ("structure", "a", "ice", "structure.a_in")]
+#: The component of each role in the SSP and the masters. IceImpact's is not named ``ice``:
+#: OMSimulator strips a component's name from the front of the names bound to it (``ice.M`` on
+#: ``ice`` becomes ``M``, unknown: the floe keeps its default mass).
+ICE_COMPONENT, STRUCTURE_COMPONENT = "floe", "structure"
+COMPONENTS = {"ice": ICE_COMPONENT, "structure": STRUCTURE_COMPONENT}
+#: The parameter set: inline in the SSD under this name, and as a file in the SSP for FMPy.
+PARAMETER_SET, SSV = "initialValues", "resources/IceOnStructure.ssv"
 
 
 # The SSP ------------------------------------------------------------------------------------------
-def _parameter(name: str, value) -> str:
-    kind = "Integer" if name in INTEGERS else "Real"
-    return (f'            <ssv:Parameter name="{name}"><ssv:{kind} value="{value!r}"/>'
-            f'</ssv:Parameter>')
+_NAMESPACES = {
+    "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+    "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+    "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+    "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
+    "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+}
 
 
-def _component(name: str, fmu: str, inputs: list[str], outputs: list[str],
-               parameters: dict) -> str:
-    connectors = [f'        <ssd:Connector name="{c}" kind="input"><ssc:Real/></ssd:Connector>'
-                  for c in inputs]
-    connectors += [f'        <ssd:Connector name="{c}" kind="output"><ssc:Real/></ssd:Connector>'
-                   for c in outputs]
-    bindings = ""
-    if parameters:
-        bindings = ("\n      <ssd:ParameterBindings><ssd:ParameterBinding>"
-                    "<ssd:ParameterValues>\n"
-                    '        <ssv:ParameterSet version="1.0" name="initialValues">'
-                    "<ssv:Parameters>\n"
-                    + "\n".join(_parameter(k, v) for k, v in parameters.items())
-                    + "\n        </ssv:Parameters></ssv:ParameterSet>\n"
-                    "      </ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>")
-    return (f'    <ssd:Component name="{name}" source="resources/{fmu}" '
-            'type="application/x-fmu-sharedlibrary">\n      <ssd:Connectors>\n'
-            + "\n".join(connectors) + "\n      </ssd:Connectors>" + bindings
-            + "\n    </ssd:Component>")
+def fmu_variables(fmu: Path) -> dict[str, tuple[str, str]]:
+    """name -> (FMI type, causality) of an FMU's variables, from its modelDescription.xml."""
+    with zipfile.ZipFile(fmu) as z:
+        root = ElementTree.fromstring(z.read("modelDescription.xml"))
+    return {v.get("name"): (next(iter(v)).tag, v.get("causality", "local"))
+            for v in root.iter("ScalarVariable")}
+
+
+def bindings(ice: dict = ICE, structure: dict = STRUCTURE, flow_u: float = FLOW_U) -> dict:
+    """The values the SSP binds, by component: IceImpact's with coupling.scheme = 2 (every
+    master that reads the SSP is a Jacobi scheme) and flow.u."""
+    return {ICE_COMPONENT: {**ice, "coupling.scheme": SCHEMES["jacobi"], "flow.u": flow_u},
+            STRUCTURE_COMPONENT: dict(structure)}
+
+
+def _value(kind: str, value) -> str:
+    """An SSV value as its type writes it (an Integer 2.0 would be refused as "2.0")."""
+    if kind == "Integer":
+        return str(int(value))
+    if kind == "Boolean":
+        return "true" if value else "false"
+    return repr(float(value))
+
+
+def _default_types() -> dict[str, tuple[str, str]]:
+    """The FMI types when the FMUs are not at hand: INTEGERS, the rest Real."""
+    return defaultdict(lambda: ("Real", "parameter"),
+                       {name: ("Integer", "parameter") for name in INTEGERS})
+
+
+def _parameters(values: dict, types: dict[str, tuple[str, str]], indent: str,
+                prefix: str = "") -> str:
+    return "\n".join(f'{indent}<ssv:Parameter name="{prefix}{name}"><ssv:{types[name][0]} '
+                      f'value="{_value(types[name][0], value)}"/></ssv:Parameter>'
+                      for name, value in values.items())
+
+
+def _component(name: str, fmu: str, inputs: list[str], outputs: list[str], values: dict,
+               types: dict[str, tuple[str, str]]) -> str:
+    connectors = [f'          <ssd:Connector name="{c}" kind="{kind}"><ssc:{types[c][0]}/>'
+                  "</ssd:Connector>"
+                  for kind, names in (("input", inputs), ("output", outputs)) for c in names]
+    binding = ""
+    if values:
+        binding = ("\n        <ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>\n"
+                   f'          <ssv:ParameterSet version="1.0" name="{PARAMETER_SET}">'
+                   "<ssv:Parameters>\n" + _parameters(values, types, " " * 12)
+                   + "\n          </ssv:Parameters></ssv:ParameterSet>\n"
+                   "        </ssd:ParameterValues></ssd:ParameterBinding></ssd:ParameterBindings>")
+    return (f'      <ssd:Component name="{name}" source="resources/{fmu}" '
+            'type="application/x-fmu-sharedlibrary">\n        <ssd:Connectors>\n'
+            + "\n".join(connectors) + "\n        </ssd:Connectors>" + binding
+            + "\n      </ssd:Component>")
 
 
 def connections(second_order: bool = True) -> list[tuple[str, str, str, str]]:
@@ -87,39 +159,119 @@ def connections(second_order: bool = True) -> list[tuple[str, str, str, str]]:
     return CONNECTIONS if second_order else CONNECTIONS[:3]
 
 
-def system_structure(ice: dict, structure: dict, flow_u: float,
-                     second_order: bool = True) -> str:
-    """SystemStructure.ssd of the coupled system (parameters bound in the file)."""
+def _check(values: dict, types: dict[str, tuple[str, str]], component: str) -> None:
+    """Refuse what a master would drop silently (libcosim ignores an unknown name, FMPy and
+    OMSimulator would fail at a later step)."""
+    for name in values:
+        if types.get(name, ("", ""))[1] not in ("parameter", "input"):
+            raise ValueError(f"{component}: {name!r} is no parameter or input of the FMU")
+        if name.split(".")[0] == component:  # OMSimulator strips it: ice.M on ice -> M
+            raise ValueError(f"{component}: the component's name begins {name!r}")
+
+
+def system_structure(ice: dict = ICE, structure: dict = STRUCTURE, flow_u: float = FLOW_U,
+                     second_order: bool = True, t_end: float = T_END, h: float = STEP,
+                     types: dict[str, dict] | None = None) -> str:
+    """SystemStructure.ssd of the coupled system: the parameters bound inline in each component
+    (set ``initialValues``), OpenModelica's fixed-step master with the step ``h`` (OMSimulator
+    loads no system without it), a DefaultExperiment of ``t_end`` with the OSP step ``h``
+    (libcosim's ``from_ssp_file`` takes its step from it). ``types``: component -> the FMU's
+    :func:`fmu_variables` (read from the FMUs by :func:`write_ssp`; by default IceImpact's
+    integers are those of ``INTEGERS``)."""
+    values = bindings(ice, structure, flow_u)
+    types = types or {c: _default_types() for c in values}
+    ice_io = (["structure.x_in", "structure.v_in", "structure.a_in"],
+              ["coupling.force", "contact.force", "contact.count"])
     components = [
-        _component("ice", "IceImpact.fmu",
-                   ["structure.x_in", "structure.v_in", "structure.a_in"],
-                   ["coupling.force", "contact.force"],
-                   {**ice, "coupling.scheme": SCHEMES["jacobi"], "flow.u": flow_u}),
-        _component("structure", "ModalStructure.fmu", ["force"], ["x", "v", "a"], structure),
+        _component(ICE_COMPONENT, "IceImpact.fmu", *ice_io, values[ICE_COMPONENT],
+                   types[ICE_COMPONENT]),
+        _component(STRUCTURE_COMPONENT, "ModalStructure.fmu", ["force"], ["x", "v", "a"],
+                   values[STRUCTURE_COMPONENT], types[STRUCTURE_COMPONENT]),
     ]
-    links = [f'      <ssd:Connection startElement="{a}" startConnector="{ca}" '
-             f'endElement="{b}" endConnector="{cb}"/>'
+    links = [f'      <ssd:Connection startElement="{COMPONENTS[a]}" startConnector="{ca}" '
+             f'endElement="{COMPONENTS[b]}" endConnector="{cb}"/>'
              for a, ca, b, cb in connections(second_order)]
+    namespaces = "\n".join(f'    xmlns:{k}="{v}"' for k, v in _NAMESPACES.items())
     return ('<?xml version="1.0" encoding="UTF-8"?>\n'
             '<ssd:SystemStructureDescription version="1.0" name="IceOnStructure"\n'
-            '    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"\n'
-            '    xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"\n'
-            '    xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues">\n'
+            + namespaces + ">\n"
             '  <ssd:System name="IceOnStructure">\n    <ssd:Elements>\n'
             + "\n".join(components) + "\n    </ssd:Elements>\n    <ssd:Connections>\n"
-            + "\n".join(links) + "\n    </ssd:Connections>\n  </ssd:System>\n"
+            + "\n".join(links) + "\n    </ssd:Connections>\n"
+            # OMSimulator: its weakly coupled system's fixed-step master, in the form it writes
+            '    <ssd:Annotations><ssc:Annotation type="org.openmodelica"><oms:Annotations>\n'
+            "      <oms:SimulationInformation>"
+            f'<oms:FixedStepMaster description="oms-ma" stepSize="{h!r}" '
+            'relativeTolerance="0.0001"/></oms:SimulationInformation>\n'
+            "    </oms:Annotations></ssc:Annotation></ssd:Annotations>\n"
+            "  </ssd:System>\n"
+            # libcosim: the algorithm and its step (ssp_parser.cpp reads this form only)
+            f'  <ssd:DefaultExperiment startTime="0.0" stopTime="{t_end!r}">\n'
+            '    <ssd:Annotations><ssc:Annotation type="com.opensimulationplatform">'
+            f'<osp:Algorithm><osp:FixedStepAlgorithm baseStepSize="{h!r}"/></osp:Algorithm>'
+            "</ssc:Annotation></ssd:Annotations>\n"
+            "  </ssd:DefaultExperiment>\n"
             "</ssd:SystemStructureDescription>\n")
 
 
+def parameter_values(ice: dict = ICE, structure: dict = STRUCTURE, flow_u: float = FLOW_U,
+                     types: dict[str, dict] | None = None) -> str:
+    """The same bindings as one SSV parameter set, each name prefixed by its component's (what
+    FMPy's ``simulate_ssp(parameter_set=read_ssv(...))`` applies: it ignores inline
+    bindings)."""
+    values = bindings(ice, structure, flow_u)
+    types = types or {c: _default_types() for c in values}
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n'
+            f'<ssv:ParameterSet version="1.0" name="{PARAMETER_SET}"\n'
+            f'    xmlns:ssc="{_NAMESPACES["ssc"]}"\n    xmlns:ssv="{_NAMESPACES["ssv"]}">\n'
+            "  <ssv:Parameters>\n"
+            + "\n".join(_parameters(v, types[c], "    ", f"{c}.")
+                        for c, v in values.items() if v)
+            + "\n  </ssv:Parameters>\n</ssv:ParameterSet>\n")
+
+
 def write_ssp(fmus: Path, path: Path, ice: dict = ICE, structure: dict = STRUCTURE,
-              flow_u: float = FLOW_U, second_order: bool = True) -> Path:
-    """IceOnStructure.ssp: SystemStructure.ssd and the two FMUs from the folder ``fmus``."""
+              flow_u: float = FLOW_U, second_order: bool = True, t_end: float = T_END,
+              h: float = STEP) -> Path:
+    """IceOnStructure.ssp from the folder ``fmus`` holding IceImpact.fmu and ModalStructure.fmu:
+    SystemStructure.ssd (:func:`system_structure`), both FMUs and the parameter set
+    ``resources/IceOnStructure.ssv`` (:func:`parameter_values`) under ``resources/``. Every
+    bound name is checked against the FMU's model description."""
+    fmus, path = Path(fmus), Path(path)
+    sources = {ICE_COMPONENT: fmus / "IceImpact.fmu",
+               STRUCTURE_COMPONENT: fmus / "ModalStructure.fmu"}
+    types = {c: fmu_variables(fmu) for c, fmu in sources.items()}
+    for component, values in bindings(ice, structure, flow_u).items():
+        _check(values, types[component], component)
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("SystemStructure.ssd",
-                   system_structure(ice, structure, flow_u, second_order))
-        for name in ("IceImpact.fmu", "ModalStructure.fmu"):
-            z.write(fmus / name, f"resources/{name}")
+                   system_structure(ice, structure, flow_u, second_order, t_end, h, types))
+        z.writestr(SSV, parameter_values(ice, structure, flow_u, types))
+        for fmu in sources.values():
+            z.write(fmu, f"resources/{fmu.name}")
     return path
+
+
+def experiment(ssp: Path) -> tuple[float, float, float]:
+    """(start, stop, step) of the SSP: its DefaultExperiment and the OSP step libcosim reads."""
+    with zipfile.ZipFile(ssp) as z:
+        root = ElementTree.fromstring(z.read("SystemStructure.ssd"))
+    default = root.find("ssd:DefaultExperiment", _NAMESPACES)
+    step = default.find(".//osp:FixedStepAlgorithm", _NAMESPACES)
+    return (float(default.get("startTime", 0.0)), float(default.get("stopTime")),
+            float(step.get("baseStepSize")))
+
+
+def _communication_points(time: np.ndarray, columns: dict, t_end: float, h: float) -> dict:
+    """The values at the communication points 0, h, ..., t_end of a master whose clock adds h
+    up (t += h: FMPy's simulate_ssp, OMSimulator) or counts nanoseconds (libcosim): its k-th
+    point is taken for k h; a point beyond (an extra step to reach t_end with the summed
+    clock a little short of it) is left out."""
+    n = round(t_end / h)
+    if len(time) < n + 1 or np.max(np.abs(time[:n + 1] - np.arange(n + 1) * h)) > h / 2:
+        raise RuntimeError(f"the master's time points are not 0, h, ..., {t_end} s "
+                           f"(h = {h} s): {time[:3]} ... {time[-3:]}")
+    return {"time": time[:n + 1], **{k: v[:n + 1] for k, v in columns.items()}}
 
 
 # FMPy ---------------------------------------------------------------------------------------------
@@ -168,9 +320,9 @@ def fmpy_master(fmus: Path, t_end: float, h: float, scheme: str = "gauss-seidel"
                 second_order: bool = True) -> dict[str, np.ndarray]:
     """The coupled run through FMPy: time, the structure's x, the ice's contact.force and
     contact.count at the communication points (index k: time k h); ``count``: the last one."""
-    ice_fmu = Slave(fmus / "IceImpact.fmu", "ice",
+    ice_fmu = Slave(fmus / "IceImpact.fmu", ICE_COMPONENT,
                     {**ice, "coupling.scheme": SCHEMES[scheme], "flow.u": flow_u})
-    st = Slave(fmus / "ModalStructure.fmu", "structure", structure)
+    st = Slave(fmus / "ModalStructure.fmu", STRUCTURE_COMPONENT, structure)
     n = round(t_end / h)
     t, x, force, counts = np.arange(n + 1) * h, [st.get("x")], [0.0], [0]
     try:
@@ -209,27 +361,222 @@ def monolithic(fmus: Path, t_end: float, h: float, ice: dict = ICE,
             "counts": result["contact.count"], "count": int(result["contact.count"][-1])}
 
 
-# ecospy and libcosimpy ----------------------------------------------------------------------------
-def ecospy_run(ssp: Path, t_end: float, h: float) -> dict[str, np.ndarray]:
-    """The SSP through ECOS (its Jacobi fixed-step algorithm)."""
+# The masters that read the SSP --------------------------------------------------------------------
+def _floe(name: str) -> str:
+    return f"{ICE_COMPONENT}.{name}"
+
+
+def _structure(name: str) -> str:
+    return f"{STRUCTURE_COMPONENT}.{name}"
+
+
+def fmpy_ssp_run(ssp: Path, t_end: float | None = None,
+                 h: float | None = None) -> dict[str, np.ndarray]:
+    """The SSP through FMPy's ``simulate_ssp`` (Jacobi: every component steps, then the
+    connections are applied), with the SSP's own parameter set (FMPy applies no inline
+    binding); ``t_end`` and ``h`` by default the SSP's."""
+    from fmpy.ssp.simulation import simulate_ssp
+    from fmpy.ssp.ssd import read_ssv
+
+    _, stop, step = experiment(ssp)
+    t_end, h = t_end or stop, h or step
+    rows = simulate_ssp(str(ssp), stop_time=t_end, step_size=h,
+                        parameter_set=read_ssv(str(ssp), resource=SSV))
+    # a row holds the time at the start of a step and the outputs at its end; before the first
+    # step the system is at rest (x = 0, no force) in this scene
+    time = np.r_[0.0, rows["time"] + h]
+    return _ssp_result(time, np.r_[0.0, rows[_structure("x")]],
+                       np.r_[0.0, rows[_floe("contact.force")]],
+                       np.r_[0, rows[_floe("contact.count")]], t_end, h)
+
+
+def _ssp_result(time, x, force, counts, t_end: float, h: float) -> dict:
+    result = _communication_points(np.asarray(time, dtype=float),
+                                   {"x": np.asarray(x, dtype=float),
+                                    "force": np.asarray(force, dtype=float),
+                                    "counts": np.asarray(counts).astype(int)}, t_end, h)
+    result["count"] = int(result["counts"][-1])
+    return result
+
+
+def ecospy_run(ssp: Path, t_end: float | None = None,
+               h: float | None = None) -> dict[str, np.ndarray]:
+    """The SSP through ECOS (its Jacobi fixed-step algorithm), parameter set ``initialValues``;
+    ``t_end`` and ``h`` by default the SSP's."""
     import ecospy
 
-    rows: list[tuple[float, float, float]] = []
+    _, stop, step = experiment(ssp)
+    t_end, h = t_end or stop, h or step
+    x_name, force_name = f"{STRUCTURE_COMPONENT}::x", f"{ICE_COMPONENT}::contact.force"
+    count_name = f"{ICE_COMPONENT}::contact.count"
+    rows: list[tuple[float, float, float, int]] = []
+
+    def row() -> tuple[float, float, float, int]:
+        return (sim.get_time(), sim.get_real(x_name), sim.get_real(force_name),
+                sim.get_integer(count_name))
 
     class Recorder(ecospy.SimulationListener):
         def post(self, info):
-            rows.append((sim.get_time(), sim.get_real("structure::x"),
-                         sim.get_real("ice::contact.force")))
+            rows.append(row())
 
     with ecospy.EcosSimulation(ssp_path=str(ssp), step_size=h) as sim:
         sim.add_listener("recorder", Recorder())
-        sim.init(parameter_set="initialValues")
-        first = (0.0, sim.get_real("structure::x"), sim.get_real("ice::contact.force"))
+        sim.init(parameter_set=PARAMETER_SET)
+        rows.append((0.0, *row()[1:]))
         sim.step(round(t_end / h))
-        count = sim.get_integer("ice::contact.count")
         sim.terminate()
-    data = np.array([first] + rows)
-    return {"time": data[:, 0], "x": data[:, 1], "force": data[:, 2], "count": count}
+    time, x, force, counts = (np.array(column) for column in zip(*rows, strict=True))
+    return {"time": time, "x": x, "force": force, "counts": counts, "count": int(counts[-1])}
+
+
+def libcosim_ssp_run(ssp: Path, t_end: float | None = None) -> dict[str, np.ndarray]:
+    """The SSP through libcosim's own SSP loader, ``CosimExecution.from_ssp_file(path)`` with no
+    step size: the step is the SSP's OSP annotation, the parameters its inline set (the
+    first set of each component is libcosim's default). Its fixed-step algorithm is Jacobi;
+    its clock counts integer nanoseconds. ``t_end`` by default the SSP's."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    _, stop, h = experiment(ssp)
+    t_end = t_end or stop
+    # its debug log is a page per FMU; a warning (a binding it could not apply) still shows
+    log_output_level(CosimLogLevel.WARNING)
+    execution = CosimExecution.from_ssp_file(str(ssp))
+    index = {name: execution.slave_index_from_instance_name(name)
+             for name in (ICE_COMPONENT, STRUCTURE_COMPONENT)}
+    refs = {name: {v.name.decode(): v.reference for v in execution.slave_variables(i)}
+            for name, i in index.items()}
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    floe, structure = index[ICE_COMPONENT], index[STRUCTURE_COMPONENT]
+    rows = [(0.0, 0.0, 0.0, 0)]  # at rest before the first step, which it reports nothing of
+    for _ in range(round(t_end / h)):
+        execution.step()
+        rows.append((execution.status().current_time * 1e-9,
+                     observer.last_real_values(structure, [refs[STRUCTURE_COMPONENT]["x"]])[0],
+                     observer.last_real_values(floe, [refs[ICE_COMPONENT]["contact.force"]])[0],
+                     observer.last_integer_values(
+                         floe, [refs[ICE_COMPONENT]["contact.count"]])[0]))
+    time, x, force, counts = zip(*rows, strict=True)
+    return _ssp_result(time, x, force, counts, t_end, h)
+
+
+def read_mat(path: Path) -> dict[str, np.ndarray]:
+    """An OpenModelica result file (what OMSimulator writes as .mat): name -> values, a
+    parameter as its [start, end] pair."""
+    from scipy.io import loadmat
+
+    mat = loadmat(str(path), chars_as_strings=False)
+    names = ["".join(column).rstrip("\x00 ") for column in mat["name"].T]
+    data = {1: mat["data_1"], 2: mat["data_2"], 0: mat["data_2"]}  # 0: the time itself
+    return {name: np.sign(column) * data[block][abs(column) - 1]
+            for name, block, column in zip(names, *mat["dataInfo"][:2], strict=True)}
+
+
+def _omsimulator_result(mat: dict, prefix: str, t_end: float, h: float) -> dict:
+    """The communication points of an OMSimulator result and the floe's bound parameters as
+    the FMU had them. OMSimulator writes every time point twice (before and after passing the
+    outputs on): the last of each is kept."""
+    time = mat["time"]
+    last = np.r_[time[1:] != time[:-1], True]
+    result = _ssp_result(time[last], mat[prefix + _structure("x")][last],
+                         mat[prefix + _floe("contact.force")][last],
+                         mat[prefix + _floe("contact.count")][last], t_end, h)
+    result["parameters"] = {name[len(prefix) + len(ICE_COMPONENT) + 1:]: values[0]
+                            for name, values in mat.items()
+                            if name.startswith(prefix + ICE_COMPONENT + ".") and len(values) == 2}
+    return result
+
+
+def omsimulator_cli_run(ssp: Path, omsimulator: Path = OMSIMULATOR,
+                        t_end: float | None = None) -> dict:
+    """The SSP through OMSimulator's command line (``bin/OMSimulator`` of the build
+    ``omsimulator``): its fixed-step master (oms-ma, Jacobi) at the SSP's step. The command line
+    sets the stop time itself (default 1 s): ``--stopTime`` is the SSP's ``t_end`` unless
+    given. A binding OMSimulator cannot apply is an ``error:`` line in its output, exit status
+    0: that raises RuntimeError."""
+    executable = Path(omsimulator) / "bin" / "OMSimulator"
+    if not executable.is_file():
+        raise FileNotFoundError(f"no OMSimulator at {executable}")
+    _, stop, h = experiment(ssp)
+    t_end = t_end or stop
+    with tempfile.TemporaryDirectory() as tmp:
+        # it unpacks the SSP into a folder of its working directory
+        done = subprocess.run([str(executable), str(Path(ssp).resolve()), f"--stopTime={t_end!r}",
+                               "--resultFile=result.mat"], cwd=tmp, capture_output=True,
+                              text=True, timeout=600)
+        log = done.stdout + done.stderr
+        if done.returncode != 0 or "error:" in log:
+            raise RuntimeError(f"OMSimulator failed (exit status {done.returncode}):\n{log}")
+        mat = read_mat(Path(tmp) / "result.mat")
+    # names are the model's, the system's, then the component's
+    return _omsimulator_result(mat, "IceOnStructure.IceOnStructure.", t_end, h)
+
+
+#: What OMSimulator's Python API (3.0) leaves out of a bound name: every dot-separated part
+#: equal to a part of the instance's path, model.root.<component> (InstantiatedModel.validatePath)
+_OMS_API_PATH = ("model", "root")
+
+
+def omsimulator_api_run(ssp: Path, omsimulator: Path = OMSIMULATOR,
+                        t_end: float | None = None) -> dict:
+    """The SSP through OMSimulator's Python API (``SSP(path).instantiate()``, the package in
+    ``python/`` of the build ``omsimulator``), its fixed-step master (Jacobi) at the SSP's step.
+
+    The API drops each part of a bound name that is also a part of the instance's path
+    (``model``, ``root``, the component's name): ``structure.model`` and ``drag.model`` would
+    become ``structure`` and ``drag``, unknown, and the instantiation crashes. No form of the
+    SSP avoids it (inline, an SSV file or a system-level binding all go that way), so those
+    bindings, as the SSP has them, are taken out before ``instantiate()`` and set through the
+    instantiated model's ``setValue``, which maps the names correctly. Its master takes no step
+    size from the SSP: it is set to the SSP's. Run it in a process of its own: a failure in
+    OMSimulator may end the process."""
+    package = Path(omsimulator) / "python"
+    if not (package / "OMSimulator").is_dir():
+        raise FileNotFoundError(f"no OMSimulator Python package in {package}")
+    if str(package) not in sys.path:
+        sys.path.insert(0, str(package))
+    from OMSimulator import SSP, CRef
+    from OMSimulator.component import Component
+
+    _, stop, h = experiment(ssp)
+    t_end = t_end or stop
+    with tempfile.TemporaryDirectory() as tmp:
+        # OMSimulator's own temporary folders go in there (the instance's is never removed)
+        saved, tempfile.tempdir = tempfile.tempdir, tmp
+        try:
+            model = SSP(str(ssp))
+            system = model.activeVariant.system
+            deferred = []
+            for name, element in system.elements.items():
+                if isinstance(element, Component):
+                    path = {*_OMS_API_PATH, str(name)}
+                    for key in list(element.value.start_values):
+                        if path & set(str(key).split(".")):
+                            value = element.value.start_values.pop(key)[0]
+                            deferred.append((CRef(system.name, str(name), str(key)), value))
+            instance = model.instantiate()
+        finally:
+            tempfile.tempdir = saved
+        try:
+            for cref, value in deferred:
+                instance.setValue(cref, value)
+            instance.setFixedStepSize(h)
+            instance.setStopTime(t_end)
+            instance.setResultFile(str(Path(tmp) / "result.mat"))
+            instance.initialize()
+            instance.simulate()
+        finally:
+            # a model left alive is terminated at exit, after Python may be gone
+            try:
+                instance.terminate()
+            finally:
+                instance.delete()
+        mat = read_mat(Path(tmp) / "result.mat")
+    result = _omsimulator_result(mat, "IceOnStructure.", t_end, h)
+    result["deferred"] = sorted(cref.names[-1] for cref, _ in deferred)
+    return result
 
 
 def libcosimpy_run(fmus: Path, t_end: float, h: float, ice: dict = ICE,
@@ -243,32 +590,35 @@ def libcosimpy_run(fmus: Path, t_end: float, h: float, ice: dict = ICE,
     nanos = round(h * 1e9)
     execution = CosimExecution.from_step_size(step_size=nanos)
     slaves = {name: execution.add_local_slave(CosimLocalSlave(str(fmus / fmu), name))
-              for name, fmu in (("ice", "IceImpact.fmu"), ("structure", "ModalStructure.fmu"))}
+              for name, fmu in ((ICE_COMPONENT, "IceImpact.fmu"),
+                                (STRUCTURE_COMPONENT, "ModalStructure.fmu"))}
     refs = {}
     for name, index in slaves.items():
         refs[name] = {v.name.decode(): v.reference
                       for v in execution.slave_variables(index)}
-    ice = {**ice, "coupling.scheme": SCHEMES["jacobi"], "flow.u": flow_u}
-    for name, values in (("ice", ice), ("structure", structure)):
+    for name, values in bindings(ice, structure, flow_u).items():
         for key, value in values.items():
             if key in INTEGERS:
                 execution.integer_initial_value(slaves[name], refs[name][key], int(value))
             else:
                 execution.real_initial_value(slaves[name], refs[name][key], float(value))
-    for a, ca, b, cb in connections(second_order):
+    for role_a, ca, role_b, cb in connections(second_order):
+        a, b = COMPONENTS[role_a], COMPONENTS[role_b]
         execution.connect_real_variables(slaves[a], refs[a][ca], slaves[b], refs[b][cb])
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer)
     n = round(t_end / h)
+    floe, structure_index = slaves[ICE_COMPONENT], slaves[STRUCTURE_COMPONENT]
     rows = []
     for _ in range(n):
         execution.step()
-        rows.append((observer.last_real_values(slaves["structure"], [refs["structure"]["x"]])[0],
-                     observer.last_real_values(slaves["ice"], [refs["ice"]["contact.force"]])[0]))
+        rows.append((
+            observer.last_real_values(structure_index, [refs[STRUCTURE_COMPONENT]["x"]])[0],
+            observer.last_real_values(floe, [refs[ICE_COMPONENT]["contact.force"]])[0]))
     x = [0.0] + [r[0] for r in rows]
     force = [0.0] + [r[1] for r in rows]
     t = np.arange(n + 1) * h
-    count = observer.last_integer_values(slaves["ice"], [refs["ice"]["contact.count"]])[0]
+    count = observer.last_integer_values(floe, [refs[ICE_COMPONENT]["contact.count"]])[0]
     return {"time": t, "x": np.array(x), "force": np.array(force), "count": count}
 
 
@@ -285,26 +635,57 @@ def main(argv: list[str] | None = None) -> None:
                         help="folder with IceImpact.fmu and ModalStructure.fmu (default: dist)")
     parser.add_argument("--ssp", type=Path, default=None,
                         help="where to write IceOnStructure.ssp (default: a temporary folder)")
-    parser.add_argument("--t-end", type=float, default=6.0)
-    parser.add_argument("--step", type=float, default=1e-3)
+    parser.add_argument("--t-end", type=float, default=T_END)
+    parser.add_argument("--step", type=float, default=STEP)
     parser.add_argument("--no-libcosim", action="store_true")
+    parser.add_argument("--omsimulator", type=Path, default=OMSIMULATOR,
+                        help="OMSimulator build with bin/ and python/ (default: "
+                             "../shared/tools/omsimulator from the repository)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
-        ssp = write_ssp(args.fmus, args.ssp or Path(tmp) / "IceOnStructure.ssp")
+        ssp = write_ssp(args.fmus, args.ssp or Path(tmp) / "IceOnStructure.ssp",
+                        t_end=args.t_end, h=args.step)
         print(f"wrote {ssp}")
         mono = monolithic(args.fmus, args.t_end, args.step)
         runs = {"FMPy Gauss-Seidel": fmpy_master(args.fmus, args.t_end, args.step),
                 "FMPy Jacobi": fmpy_master(args.fmus, args.t_end, args.step, "jacobi"),
-                "ecospy (SSP)": ecospy_run(ssp, args.t_end, args.step)}
+                "FMPy simulate_ssp": fmpy_ssp_run(ssp),
+                "ecospy (SSP)": ecospy_run(ssp)}
         if not args.no_libcosim:
             runs["libcosimpy"] = libcosimpy_run(args.fmus, args.t_end, args.step)
+            runs["libcosim (SSP)"] = libcosim_ssp_run(ssp)
+        if (args.omsimulator / "bin" / "OMSimulator").is_file():
+            runs["OMSimulator CLI"] = omsimulator_cli_run(ssp, args.omsimulator)
+            # its own process: OMSimulator may end the process it runs in
+            runs["OMSimulator API"] = in_subprocess("omsimulator_api_run", ssp,
+                                                     args.omsimulator)
+        else:
+            print(f"OMSimulator skipped: no build at {args.omsimulator}")
     print(f"h = {args.step:g} s, {args.t_end:g} s; error: max |x - x_mono| / max |x_mono|")
     for name, result in runs.items():
-        print(f"  {name:20s} {relative_error(result, mono):9.3e}")
+        print(f"  {name:20s} {relative_error(result, mono):9.3e}  impacts {result['count']}")
     jacobi = runs["FMPy Jacobi"]
-    for name in ("ecospy (SSP)", "libcosimpy"):
-        if name in runs:
-            print(f"  {name} vs FMPy Jacobi: {relative_error(runs[name], jacobi):.3e}")
+    for name, result in runs.items():
+        if name not in ("FMPy Gauss-Seidel", "FMPy Jacobi"):
+            print(f"  {name} vs FMPy Jacobi: {relative_error(result, jacobi):.3e}")
+
+
+def in_subprocess(function: str, *args, timeout: float = 600) -> dict:
+    """``function(*args)`` of this module in a child process, so that a crash there (libcosim
+    and OMSimulator may end the process they run in) is a RuntimeError here; the arguments and
+    the result go through pickle files."""
+    with tempfile.TemporaryDirectory() as tmp:
+        call, out = Path(tmp) / "call.pickle", Path(tmp) / "result.pickle"
+        call.write_bytes(pickle.dumps((function, args)))
+        code = ("import pickle, sys; from pathlib import Path; sys.path.insert(0, sys.argv[1]); "
+                "import system; name, args = pickle.loads(Path(sys.argv[2]).read_bytes()); "
+                "Path(sys.argv[3]).write_bytes(pickle.dumps(getattr(system, name)(*args)))")
+        done = subprocess.run([sys.executable, "-c", code, str(Path(__file__).parent), str(call),
+                               str(out)], capture_output=True, text=True, timeout=timeout)
+        if done.returncode != 0 or not out.is_file():
+            raise RuntimeError(f"{function} failed (exit status {done.returncode}):\n"
+                               f"{done.stdout[-5000:]}{done.stderr[-5000:]}")
+        return pickle.loads(out.read_bytes())
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
  * Minimal FMI 2.0 Co-Simulation master in C, to run IceImpact.fmu outside Python.
  *
  *   host FMU_DIR [-n STEPS] [-h STEP] [-s NAME=VALUE]... [-o NAME]... [-k] [-N] [-S] [-E]
- *        [-P LIBPYTHON]
+ *        [-T] [-P LIBPYTHON]
  *
  * FMU_DIR is the extracted FMU (modelDescription.xml, binaries/linux64/<id>.so, resources/).
  * Sets the given parameters, steps STEPS communication steps of STEP seconds (default 2000 x 1 ms)
@@ -17,6 +17,8 @@
  *   -S  a logger that aborts on a NULL instance name or category, as OMSimulator's does (it
  *       builds a std::string from each);
  *   -E  exits without fmi2Terminate and fmi2FreeInstance (static destructors still run);
+ *   -T  prints "instantiate_seconds <s>": the time from the start of main to the return of the
+ *       first fmi2Instantiate (dlopen included), then frees the instance and exits;
  *   -P  embeds Python first (LIBPYTHON, RTLD_GLOBAL, Py_InitializeEx), as a Python host does,
  *       finalizes it after the last step, and then calls fmi2Terminate and fmi2FreeInstance, as
  *       OMSimulator's static destructor does after the host's Python exited; prints
@@ -33,6 +35,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 typedef void *fmi2Component;
 typedef void *fmi2ComponentEnvironment;
@@ -189,7 +192,9 @@ int main(int argc, char **argv) {
     const char *dir = argv[1];
     long n_steps = 2000;
     double h = 1e-3;
-    int keep_loaded = 0, null_calls = 0, exit_early = 0;
+    struct timespec started;
+    clock_gettime(CLOCK_MONOTONIC, &started);
+    int keep_loaded = 0, null_calls = 0, exit_early = 0, time_instantiate = 0;
     const char *embed_python = NULL;
     const char *sets[MAX_VARS];
     int n_sets = 0;
@@ -204,6 +209,7 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "-N")) null_calls = 1;
         else if (!strcmp(argv[i], "-S")) strict_logger = 1;
         else if (!strcmp(argv[i], "-E")) exit_early = 1;
+        else if (!strcmp(argv[i], "-T")) time_instantiate = 1;
         else if (!strcmp(argv[i], "-P") && i + 1 < argc) embed_python = argv[++i];
         else {
             fprintf(stderr, "host: unknown argument %s\n", argv[i]);
@@ -311,6 +317,14 @@ int main(int argc, char **argv) {
             printf("null-after-failure fmi2SetupExperiment %d\n",
                    (int)setup(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
         return 3;
+    }
+    if (time_instantiate) {
+        struct timespec now;
+        clock_gettime(CLOCK_MONOTONIC, &now);
+        printf("instantiate_seconds %.6f\n",
+               (double)(now.tv_sec - started.tv_sec) + 1e-9 * (double)(now.tv_nsec - started.tv_nsec));
+        free_instance(c);
+        return 0;
     }
 
     int status = 0;
