@@ -27,6 +27,7 @@ from native_host import (
     parse_csv,
     run_empty_env,
     without_numpy,
+    without_python,
 )
 
 FMI_ERROR = 3
@@ -84,24 +85,44 @@ def test_calls_after_the_hosts_python_was_finalized_touch_nothing(c_host, fmu_di
     assert rows["contact.count"][-1] > 0  # the FMU ran in the host's Python before
 
 
-def test_ecos_without_numpy_prints_the_reason_and_does_not_crash(fmu, tmp_path):
+#: The two machines the default FMU cannot run on, and what it says on each.
+MACHINES = {
+    "no Python": (without_python, "needs the shared library of Python"),
+    "Python without numpy": (without_numpy, "cannot import numpy"),
+}
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_ecos_prints_the_reason_and_does_not_crash(fmu, tmp_path, machine):
+    wrap, reason = MACHINES[machine]
     ecos = ecos_binary(tmp_path)
-    done = run(without_numpy([str(ecos), "simulate", "--path", str(fmu), "--stopTime", "0.01",
-                              "--stepSize", "0.001"]), cwd=tmp_path)
+    done = run(wrap([str(ecos), "simulate", "--path", str(fmu), "--stopTime", "0.01",
+                     "--stepSize", "0.001"]), cwd=tmp_path)
     assert done.returncode not in CRASHES, done.stderr[-3000:]
-    assert "cannot import numpy" in done.stderr  # ECOS shows FMU logs only with -l debug
+    assert reason in done.stderr  # ECOS shows FMU logs only with -l debug: the loader's stderr
     assert "fmi2SetupExperiment was called with a NULL instance" in done.stderr
 
 
 @pytest.mark.skipif(OMSIMULATOR is None, reason=OMSIMULATOR_ABSENT)
-def test_omsimulator_without_numpy_shows_the_reason_and_does_not_abort(fmu, tmp_path):
-    done = run(without_numpy([str(OMSIMULATOR), str(fmu), "--stopTime=0.01",
-                              "--stepSize=0.001", "--resultFile=r.mat"]), cwd=tmp_path)
+@pytest.mark.parametrize("machine", MACHINES)
+def test_omsimulator_shows_the_reason_and_does_not_abort(fmu, tmp_path, machine):
+    wrap, reason = MACHINES[machine]
+    done = run(wrap([str(OMSIMULATOR), str(fmu), "--stopTime=0.01", "--stepSize=0.001",
+                     "--resultFile=r.mat"]), cwd=tmp_path)
     assert done.returncode not in CRASHES, done.stdout[-2000:] + done.stderr[-2000:]
     assert "basic_string" not in done.stderr
     # through OMSimulator's own log, as an fmi2Fatal of category logStatusFatal
-    assert "IceImpact/logStatusFatal: Fatal py exception" in done.stderr, done.stderr[-3000:]
-    assert "cannot import numpy" in done.stderr
+    assert "IceImpact/logStatusFatal: " in done.stderr, done.stderr[-3000:]
+    assert reason in done.stderr
+
+
+@pytest.mark.parametrize("machine", MACHINES)
+def test_the_c_host_with_a_strict_logger_gets_the_reason(c_host, fmu_dir, machine):
+    wrap, reason = MACHINES[machine]
+    done = run(wrap([str(c_host), fmu_dir, "-n", "3", "-S", "-N"]))
+    assert done.returncode == 3, done.stderr[-3000:]
+    assert reason in done.stderr
+    assert "null-after-failure fmi2SetupExperiment 3" in done.stdout
 
 
 OMS_SCRIPT = """

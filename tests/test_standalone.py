@@ -4,8 +4,9 @@ Each native host runs in a private mount namespace that hides every Python insta
 site-packages of this machine, with an empty environment (``native_host.without_python``): the FMU
 can only run on the CPython, numpy and scipy it carries. Its results are those of the default FMU
 run by FMPy: the C host to the last bit on FMPy's grid, OMSimulator to the last bit against its
-own run of the default FMU on its grid, ECOS to its CSV's 6 decimals. In a Python host (FMPy) the
-standalone FMU runs on the host's interpreter instead, and equals the default FMU too.
+own run of the default FMU and against FMPy stepped on its grid, ECOS to its CSV's 6 decimals
+against its run of the default FMU. In a Python host (FMPy) the standalone FMU runs on the host's
+interpreter instead, and equals the default FMU too.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from fmu_host import DT, OUTPUTS
+from fmu_host import DT, OUTPUTS, build_module
 from native_host import (
     OMSIMULATOR,
     OMSIMULATOR_ABSENT,
@@ -139,7 +140,7 @@ def test_ecos_without_python_equals_the_default_fmu(standalone_fmu, fmu, tmp_pat
         assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
         results[name] = read_ecos_csv(folder / "IceImpact.csv")
     assert set(results["standalone"]) == set(results["default"])
-    for column, values in results["default"].items():
+    for column, values in results["default"].items():  # the same 6-decimal text
         np.testing.assert_array_equal(results["standalone"][column], values, err_msg=column)
     assert results["standalone"]["instance::contact.count[INT]"][-1] > 0
 
@@ -159,6 +160,38 @@ def test_omsimulator_without_python_equals_its_run_of_the_default_fmu(standalone
         np.testing.assert_array_equal(results["standalone"][o.name], results["default"][o.name],
                                       err_msg=o.name)
     assert results["standalone"]["contact.count"][-1] > 0
+    # and FMPy on OMSimulator's grid (t += h; each time point is written twice: the last)
+    time = results["standalone"]["time"]
+    last = np.r_[np.diff(time) != 0, True]
+    grid = time[last]
+    expected = fmpy_on_grid(fmu, grid)
+    for o in OUTPUTS:
+        np.testing.assert_array_equal(results["standalone"][o.name][last], expected[o.name],
+                                      err_msg=o.name)
+
+
+def fmpy_on_grid(fmu: Path, grid: np.ndarray) -> dict[str, np.ndarray]:
+    """The default FMU stepped by FMPy from each time of ``grid`` to the next."""
+    from fmpy import extract
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu))
+    refs = {v.name: v.valueReference for v in md.modelVariables}
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="grid")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    getters = {float: slave.getReal, int: slave.getInteger, bool: slave.getBoolean}
+    rows = []
+    for k in range(len(grid)):
+        if k:
+            slave.doStep(grid[k - 1], grid[k] - grid[k - 1])
+        rows.append({o.name: getters[o.kind]([refs[o.name]])[0] for o in OUTPUTS})
+    slave.terminate()
+    slave.freeInstance()
+    return {o.name: np.array([row[o.name] for row in rows], dtype=float) for o in OUTPUTS}
 
 
 # In a Python host ----------------------------------------------------------------------------
@@ -187,3 +220,23 @@ def test_in_a_python_without_numpy_the_bundled_site_packages_serve(standalone_di
     assert done.returncode == 0, done.stderr[-3000:]
     bundled = str(resources.parent / "binaries/linux64/python/lib/python3.11/site-packages")
     assert all(line.startswith(bundled) for line in done.stdout.split()), done.stdout
+
+
+# ModalStructure.fmu --------------------------------------------------------------------------
+def test_the_standalone_modal_structure_runs_without_python(c_host, tmp_path):
+    """ModalStructure.fmu standalone, without Python, equals the default FMU in the same host."""
+    from fmpy import extract
+
+    build = build_module()
+    default = build.build_modal(tmp_path / "dist")
+    standalone = build.make_standalone(default, tmp_path / "standalone", "ModalStructure")
+    assert (read_model_description(str(standalone)).coSimulation.needsExecutionTool is False)
+    runs = {}
+    for name, fmu, wrap in (("standalone", standalone, without_python),
+                            ("default", default, lambda c: ["env", "-i", *c])):
+        folder = extract(str(fmu), unzipdir=str(tmp_path / f"{name}_x"))
+        done = run(wrap([str(c_host), folder, "-n", "500", "-s", "force=1000"]))
+        assert done.returncode == 0, done.stderr[-3000:]
+        runs[name] = done.stdout
+    assert runs["standalone"] == runs["default"]  # %.17g: to the last bit
+    assert parse_csv(runs["standalone"])["x"][-1] > 0
