@@ -42,3 +42,15 @@ def standalone_fmu(fmu, tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def standalone_dir(standalone_fmu, tmp_path_factory) -> str:
     return extract(str(standalone_fmu), unzipdir=str(tmp_path_factory.mktemp("standalone_x")))
+
+
+@pytest.fixture(scope="session")
+def fmus(fmu, tmp_path_factory) -> Path:
+    """A folder with IceImpact.fmu (the session's build) and ModalStructure.fmu: the FMUs of the
+    coupled system (examples/system)."""
+    import shutil
+
+    folder = tmp_path_factory.mktemp("system_fmus")
+    shutil.copy(fmu, folder / "IceImpact.fmu")
+    build_module().build_modal(folder)
+    return folder

@@ -14,7 +14,6 @@ crash fails a test instead of ending pytest.
 from __future__ import annotations
 
 import importlib.util
-import shutil
 import sys
 import zipfile
 from pathlib import Path
@@ -22,8 +21,6 @@ from xml.etree import ElementTree
 
 import numpy as np
 import pytest
-
-from fmu_host import build_module
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples" / "system"))
@@ -74,15 +71,6 @@ def run_master(master: str, ssp: Path) -> dict:
     if master == "OMSimulator CLI":
         return system.omsimulator_cli_run(ssp, _need_omsimulator())
     return system.in_subprocess("omsimulator_api_run", ssp, _need_omsimulator(python_api=True))
-
-
-@pytest.fixture(scope="module")
-def fmus(fmu, tmp_path_factory) -> Path:
-    """A folder with IceImpact.fmu (the session's build) and ModalStructure.fmu."""
-    folder = tmp_path_factory.mktemp("ssp_fmus")
-    shutil.copy(fmu, folder / "IceImpact.fmu")
-    build_module().build_modal(folder)
-    return folder
 
 
 @pytest.fixture(scope="module")

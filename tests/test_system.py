@@ -13,13 +13,10 @@ tests/test_ssp_masters.py.
 
 from __future__ import annotations
 
-import shutil
 import sys
 from pathlib import Path
 
 import pytest
-
-from fmu_host import build_module
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples" / "system"))
@@ -27,15 +24,6 @@ sys.path.insert(0, str(ROOT / "examples" / "system"))
 import system  # noqa: E402
 
 T_END = 2.0
-
-
-@pytest.fixture(scope="module")
-def fmus(fmu, tmp_path_factory) -> Path:
-    """A folder with IceImpact.fmu (the session's build) and ModalStructure.fmu."""
-    folder = tmp_path_factory.mktemp("system_fmus")
-    shutil.copy(fmu, folder / "IceImpact.fmu")
-    build_module().build_modal(folder)
-    return folder
 
 
 @pytest.fixture(scope="module")
