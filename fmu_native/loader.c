@@ -486,6 +486,10 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
     inst->ours.logger = forward_log;
     inst->ours.componentEnvironment = inst;
     inst->name = copy_string(name ? name : MODEL_IDENTIFIER);
+    if (!inst->name) {
+        free(inst);
+        return NULL;
+    }
     inst->logging_on = loggingOn;
     inst->instantiating = 1;
     inst->component = real.Instantiate(inst->name, type, guid, resources, &inst->ours, visible,
