@@ -1,0 +1,36 @@
+"""Every number of the reference runs (tests/reference_digests.py) is the stored one, to the bit:
+with the compiled flight search where numba is installed, and with the pure one.
+
+The stored digests were made on cf97fa7 (the code before the codebase was restructured) and equal
+this tree's: restructuring moves and rewrites code without changing behaviour.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+import reference_digests
+from fmu_host import ROOT
+
+
+@pytest.mark.parametrize("case", [c[0] for c in reference_digests.CASES])
+def test_the_reference_run_reports_the_stored_numbers(case):
+    assert reference_digests.compute([case])[case] == reference_digests.stored()[case]
+
+
+def test_the_pure_flight_search_reports_the_stored_numbers_too(tmp_path):
+    out = tmp_path / "pure.json"
+    done = subprocess.run([sys.executable, str(ROOT / "tests" / "reference_digests.py"), str(out)],
+                          env={**os.environ, "ICEIMPACT_PURE": "1"}, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert json.loads(out.read_text()) == reference_digests.stored()
+
+
+def test_every_case_is_stored():
+    assert set(reference_digests.stored()) == {c[0] for c in reference_digests.CASES}
