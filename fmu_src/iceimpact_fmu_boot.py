@@ -14,11 +14,8 @@ On the first call it
    (or another build of this FMU) never makes the FMU run a core it was not built with;
 3. loads the slave (``resources/iceimpact_fmu/<class name>.py``: ``IceImpact.py``, or
    ``ModalStructure.py`` in ModalStructure.fmu) under a private name too; while its
-   body runs, ``import iceimpact...`` resolves to the private core and ``import
-   iceimpact_fmu_boot`` to this module (the host's own modules of these names, if any, are put
-   back afterwards).
-
-:func:`fail_call` is how the slave makes the current FMI call return ``fmi2Error``.
+   body runs, ``import iceimpact...`` resolves to the private core (the host's own modules of
+   that name, if any, are put back afterwards).
 
 Only the standard library is used here, and no extension module is imported before the
 environment is set up.
@@ -35,12 +32,7 @@ import os
 import sys
 
 CORE = "iceimpact"  # the package name the slave imports
-BOOT = "iceimpact_fmu_boot"  # the name the slave imports this module by
 
-# A message logged with this category fails the current FMI call with fmi2Error: the FMU's loader
-# (fmu_native/loader.c, FAIL_CATEGORY) forwards it to the host as an error (category
-# logStatusError), whether or not the host turned logging on.
-FAIL_CATEGORY = "fmi2Error"
 
 _loaded: dict[str, type] = {}
 
@@ -110,21 +102,6 @@ def _missing_message(name: str, exc: Exception, config: dict, resources: str, sa
             f"which carries its own Python, numpy and scipy (build_fmu.py --standalone)")
 
 
-def fail_call(slave, message: str) -> None:
-    """Make the FMI call in progress return ``fmi2Error`` and show ``message`` to the host.
-
-    ``slave`` is the :class:`pythonfmu.Fmi2Slave`; ``message`` is the text (FMI loggers treat it
-    as a printf format: escape ``%`` as ``%%``). The slave method then returns normally (for
-    ``do_step``, False or True: the status is fmi2Error either way). Without the loader (a host
-    that loads PythonFMU's library directly) the message is an ordinary error-level log message.
-    Do not use it in ``exit_initialization_mode``: libcosim terminates the process on an fmi2Error
-    from fmi2ExitInitializationMode; log the error there and fail the next ``do_step``.
-    """
-    from pythonfmu.enums import Fmi2Status
-
-    slave.log(message, Fmi2Status.error, FAIL_CATEGORY)
-
-
 class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """While the slave's body runs: ``iceimpact[.x]`` is the private core ``<private>[.x]``."""
 
@@ -132,12 +109,9 @@ class _Alias(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         self.private = private
 
     def find_spec(self, name, path=None, target=None):
-        if name == BOOT:
-            module = sys.modules[__name__]
-        elif name == CORE or name.startswith(CORE + "."):
-            module = importlib.import_module(self.private + name[len(CORE):])
-        else:
+        if not (name == CORE or name.startswith(CORE + ".")):
             return None
+        module = importlib.import_module(self.private + name[len(CORE):])
         spec = importlib.util.spec_from_loader(name, self,
                                                is_package=hasattr(module, "__path__"))
         spec.loader_state = (module, module.__spec__)
@@ -165,7 +139,7 @@ def _load(name: str, path: str, package_dir: str | None = None):
 
 def _aliases_removed() -> dict:
     return {k: sys.modules.pop(k) for k in list(sys.modules)
-            if k in (CORE, BOOT) or k.startswith(CORE + ".")}
+            if k == CORE or k.startswith(CORE + ".")}
 
 
 #: In the host's environment, "1" lets the FMU's core compile its flight search where the
@@ -220,7 +194,6 @@ def load_slave(build_id: str, class_name: str = "IceImpact") -> type:
         try:
             for name in [k for k in sys.modules if k == private or k.startswith(private + ".")]:
                 sys.modules[CORE + name[len(private):]] = sys.modules[name]
-            sys.modules[BOOT] = sys.modules[__name__]
             slave = _load(slave_name,
                           os.path.join(resources, "iceimpact_fmu", f"{class_name}.py"))
         finally:

@@ -45,7 +45,7 @@ from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError
-from iceimpact.scene import (
+from iceimpact.limits import (
     DRAG_RATE_MAX,
     ODE_EXPLICIT_RATE_MAX,
     OMEGA_MAX_EXACT,

@@ -18,9 +18,7 @@ from scipy.optimize import brentq
 from iceimpact import ParameterError, Scene, Simulator, load_scene
 from iceimpact.cli import main as cli_main
 from iceimpact.fmi.adapter import FmuModel
-from iceimpact.physics.ice import LinearDrag, QuadraticDrag
-from iceimpact.physics.structure import Oscillator
-from iceimpact.scene import (
+from iceimpact.limits import (
     DRAG_RATE_MAX,
     OMEGA_MAX_EXACT,
     OMEGA_MAX_ODE,
@@ -28,6 +26,8 @@ from iceimpact.scene import (
     TAYLOR_RATE_MAX,
     TIME_RESOLUTION,
 )
+from iceimpact.physics.ice import LinearDrag, QuadraticDrag
+from iceimpact.physics.structure import Oscillator
 from iceimpact.solvers.base import GAP_ROUNDING
 from iceimpact.solvers.contact_rules import CHATTER_FRACTION
 from iceimpact.solvers.event import Flight, LinearStick
@@ -1269,7 +1269,7 @@ def test_method_3_a_stiff_drag_on_a_slow_structure_does_not_integrate_far_ahead(
     for two steps. Chunks are now at most CHUNK_RATE / rate = 0.016 s: the integration stays
     within one chunk of the time asked, and its work within ~5 evaluations per step of
     STABLE_STEP / rate (the bound) over the time integrated."""
-    from iceimpact.scene import integrated_rate
+    from iceimpact.limits import integrated_rate
     from iceimpact.solvers.ode import CHUNK_RATE, STABLE_STEP
 
     scene = Scene(structure_m=0.00031837387396693875, structure_c=8.662664593413903e-07,
@@ -1292,7 +1292,7 @@ def test_method_3_explicit_integrators_have_a_rate_limit_from_their_cost():
     bound: the rate rules of method 3 refuse above ODE_EXPLICIT_RATE_MAX = 3e5 1/s (10 s per
     simulated second), naming the combination, its value, the limit and the integrator, and
     pointing at LSODA, which keeps DRAG_RATE_MAX; method 1 keeps DRAG_RATE_MAX too."""
-    from iceimpact.scene import ODE_EXPLICIT_RATE_MAX
+    from iceimpact.limits import ODE_EXPLICIT_RATE_MAX
 
     assert ODE_EXPLICIT_RATE_MAX == 3e5 and DRAG_RATE_MAX == 1e6
     light = dict(ice_M=1e-3, ice_A=1.0, ice_Cd=1.0, drag_model=1, solver_method=3)
@@ -1324,7 +1324,7 @@ def test_method_3_work_per_simulated_second_is_proportional_to_the_rate(kind):
     the work over the time integrated is proportional to the rate, 7 to 9 evaluations x rate
     per simulated second (DOP853: 15 per step of at most STABLE_STEP / rate, with rejected
     steps and restarts), the cost the limit was derived from; independent of CPU speed."""
-    from iceimpact.scene import ODE_EXPLICIT_RATE_MAX
+    from iceimpact.limits import ODE_EXPLICIT_RATE_MAX
 
     rate = 0.99 * ODE_EXPLICIT_RATE_MAX
     if kind == "over-damped flight":
@@ -1362,7 +1362,7 @@ def test_method_3_sticking_steps_are_bounded_by_the_rate_of_the_bodies_together(
     flight, which bounded the sticking steps to 1.7e-5 s (6,094 evaluations for its first
     3 ms, stuck from 9e-9 s). The rate of the bodies together is a mediant of the flight's:
     never above the larger of (c + b_s) / (m + m_a) and b / M (or 2 B speed / M)."""
-    from iceimpact.scene import integrated_rate
+    from iceimpact.limits import integrated_rate
     from iceimpact.solvers.contact_rules import Phase
     from iceimpact.solvers.ode import STABLE_STEP
 
@@ -1401,7 +1401,7 @@ def test_method_3_light_floe_near_the_rate_limit_costs_the_rate_rules_work():
     b / M per simulated second, checked at every step (DOP853: 15 per step of at most
     STABLE_STEP / rate = 1 / (5 rate) s, so 3 rate, plus the restarts at flow changes and
     impacts); independent of CPU speed."""
-    from iceimpact.scene import integrated_rate
+    from iceimpact.limits import integrated_rate
     from random_search import flow_at
 
     case = LIGHT_FLOE_NEAR_THE_RATE_LIMIT
@@ -1453,7 +1453,7 @@ def test_method_3_radau_has_limits_from_its_steps_per_period_and_tolerance():
     per simulated second). With solver.ode_method = 4 omega_n is held to 1e3 rad/s at rtol 1e-8,
     scaled as rtol^(1/4) up to OMEGA_MAX_ODE, and solver.rtol to >= 1e-10; the messages name
     the variable, its value and the range. LSODA keeps OMEGA_MAX_ODE and every rtol."""
-    from iceimpact.scene import RADAU_OMEGA_MAX, RADAU_RTOL_MIN, omega_limit
+    from iceimpact.limits import RADAU_OMEGA_MAX, RADAU_RTOL_MIN, omega_limit
 
     assert (RADAU_OMEGA_MAX, RADAU_RTOL_MIN) == (1e3, 1e-10)
     ringing = dict(structure_m=1.0, structure_k=1e8, structure_c=200.0, structure_x0=0.01,
@@ -2059,7 +2059,7 @@ def test_the_search_tells_a_run_busy_integrating_at_its_rate_from_a_stall():
     busy, not as a TIMEOUT fault, while its evaluations keep within ODE_WORK of them per unit
     rate and simulated second (plus ODE_RESTART_WORK per step and ODE_WORK_FLOOR); beyond,
     and for the other methods or an implicit integrator, it is a fault."""
-    from iceimpact.scene import integrated_rate
+    from iceimpact.limits import integrated_rate
     from random_search import ODE_RESTART_WORK, ODE_WORK, ODE_WORK_FLOOR, busy_integrating
 
     scene = Scene(structure_m=0.026356702073031105, structure_c=7106.487429949025,

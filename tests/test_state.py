@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError, StateError, run
-from iceimpact.solvers.state import STATE_VERSION
+from iceimpact.record import STATE_VERSION
 
 METHODS = {"exact": dict(solver_method=1),
            "fixed-step": dict(solver_method=2, solver_detection=2),

@@ -8,11 +8,11 @@ conserve momentum with a coefficient of restitution.
     >>> result = run(Scene(), t_end=10.0)          # the article's Figure 2 scene
     >>> result.impacts["t"][:3]                    # impact times, s
 """
-
 from .contract import VERSION
-from .scene import PARAMETERS, ParameterError, Scene, load_scene
+from .errors import ParameterError, SolverError, StateError
+from .scene import PARAMETERS, Scene, load_scene
 from .simulator import Result, Simulator, StepReport, run
-from .solvers.base import Impact, SolverError, StateError
+from .solvers.base import Impact
 
 __all__ = ["PARAMETERS", "Impact", "ParameterError", "Result", "Scene", "Simulator",
            "SolverError", "StateError", "StepReport", "load_scene", "run"]

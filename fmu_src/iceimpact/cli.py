@@ -28,10 +28,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from .contract import BY_NAME
+from .errors import ParameterError, SolverError
 from .runspec import DEFAULT_DT, SpecError, apply, check_samples, parse_set
-from .scene import ParameterError, Scene, load_scene
+from .scene import Scene, load_scene
 from .simulator import Result, run
-from .solvers.base import SolverError
 
 #: Columns of ``simulate --out``: the FMU's output names for the sampled states (SI units),
 #: with the Result field each comes from. ``contact.active`` is 1 while the bodies stick.

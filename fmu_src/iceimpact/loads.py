@@ -38,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from .impacts import impact_statistics
+
 #: Wöhler (S-N curve) exponents of the damage-equivalent loads in the summary: 3, 4, 5 for
 #: welded steel details, 10 for composites (blades).
 WOHLER_EXPONENTS: tuple[int, ...] = (3, 4, 5, 10)
@@ -258,8 +260,6 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
     contact force is made of the sample intervals that start at or after ``transient``. A
     displacement that is not finite gives nan DELs (no exception).
     """
-    from .analysis import impact_statistics
-
     t, x, window = sample_window(t, x, transient)
     t_end = float(t[-1])
     t_w = t[window]

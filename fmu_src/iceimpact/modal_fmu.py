@@ -21,6 +21,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from .errors import ParameterError, StateError
 from .fmi.lifecycle import ERROR, FmuLifecycle
 from .fmi.state_codec import StateCodec, check_keys, check_number, check_values
 from .modal import ModalStructure, Mode
@@ -32,8 +33,6 @@ from .modal_contract import (
     PARAMETERS,
     VERSION,
 )
-from .scene import ParameterError
-from .solvers.state import StateError
 
 __all__ = ["ModalFmuModel", "StateError", "check_record", "decode", "default_values", "encode",
            "structure_from_values"]

@@ -20,13 +20,14 @@ from typing import Any
 import numpy as np
 
 from .contract import STRUCTURE_INPUTS
-from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, ParameterError, Scene, validate_flow
-from .solvers.base import GAP_ROUNDING, Impact, Solver, SolverError
+from .errors import ParameterError, SolverError, StateError
+from .record import STATE_VERSION, Record, check_version
+from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_flow
+from .solvers.base import GAP_ROUNDING, Impact, Solver
 from .solvers.event import EventSolver
 from .solvers.external import ExternalSolver
 from .solvers.fixed_step import FixedStepSolver
 from .solvers.ode import OdeSolver
-from .solvers.state import STATE_VERSION, Record, StateError, check_version
 
 _SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STEP: FixedStepSolver,
                                      METHOD_ODE: OdeSolver}

@@ -26,9 +26,9 @@ from operator import itemgetter
 from typing import Any
 
 from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES, STRUCTURE_INPUTS
-from ..scene import ParameterError, Scene
+from ..errors import ParameterError, SolverError
+from ..scene import Scene
 from ..simulator import Simulator, StepReport
-from ..solvers.base import SolverError
 from . import state
 from .lifecycle import ERROR, WARNING, FmuLifecycle
 

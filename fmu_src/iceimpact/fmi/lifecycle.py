@@ -28,7 +28,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..contract import Variable
-from ..scene import ParameterError
+from ..errors import ParameterError
 from .state_codec import StateCodec
 
 # FMI 2.0 status codes used in log messages.

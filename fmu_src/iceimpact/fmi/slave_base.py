@@ -23,7 +23,8 @@ a variable of the call's type (or, for fmi2Set, an output) is refused with ``fmi
 message naming it, and the call then reads or sets nothing.
 
 Only slaves import this module (it needs PythonFMU); they import it as ``iceimpact.fmi...``,
-which inside an FMU is the FMU's private copy of the core (``iceimpact_fmu_boot``).
+which inside an FMU is the FMU's private copy of the core (``iceimpact_fmu_boot``). It imports
+nothing outside the package.
 """
 
 from __future__ import annotations
@@ -45,12 +46,29 @@ from pythonfmu import (
 )
 from pythonfmu.enums import Fmi2Status
 
-from iceimpact_fmu_boot import fail_call
-
 from ..contract import CONTINUOUS, DISCRETE, FIXED, INPUT, OUTPUT, PARAMETER, TUNABLE, Variable
-from ..scene import ParameterError
+from ..errors import ParameterError
 from .lifecycle import FmuLifecycle
 from .pythonfmu_fixes import guard_native_exit
+
+#: A message logged with this category fails the current FMI call with fmi2Error: the FMU's loader
+#: (fmu_native/loader.c, FAIL_CATEGORY) forwards it to the host as an error (category
+#: logStatusError), whether or not the host turned logging on.
+FAIL_CATEGORY = "fmi2Error"
+
+
+def fail_call(slave: Fmi2Slave, message: str) -> None:
+    """Make the FMI call in progress return ``fmi2Error`` and show ``message`` to the host.
+
+    ``message`` is the text (FMI loggers treat it as a printf format: escape ``%`` as ``%%``).
+    The slave method then returns normally (for ``do_step``, False or True: the status is
+    fmi2Error either way). Without the loader (a host that loads PythonFMU's library directly)
+    the message is an ordinary error-level log message. Not in ``exit_initialization_mode``:
+    libcosim terminates the process on an fmi2Error from fmi2ExitInitializationMode; log the
+    error there and fail the next ``do_step``.
+    """
+    slave.log(message, Fmi2Status.error, FAIL_CATEGORY)
+
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 #: The FMI types, by the contract's kind, as the FMI functions name them (fmi2GetReal).

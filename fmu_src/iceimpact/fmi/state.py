@@ -22,7 +22,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..contract import FLOW_INPUT, MODEL_IDENTIFIER, PARAMETERS, STRUCTURE_INPUTS, VERSION
-from ..solvers.state import StateError
+from ..errors import StateError
 from .state_codec import FORMAT, StateCodec, check_keys, check_number, check_values
 
 __all__ = ["CODEC", "FORMAT", "MAGIC", "MAX_BYTES", "check_record", "decode", "encode"]

@@ -23,7 +23,7 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from ..solvers.state import StateError
+from ..errors import StateError
 
 #: The layout version every FMU writes and reads.
 FORMAT = 1

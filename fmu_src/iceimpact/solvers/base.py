@@ -16,25 +16,18 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..contract import INT32_MAX
+from ..errors import SolverError, StateError
 from ..physics.contact import Impact
 from ..physics.ice import make_structure_drag
+from ..record import STATE_VERSION, Record, check_version
 from ..scene import Scene
 from .contact_rules import sticking_start
-from .state import STATE_VERSION, Record, StateError, check_version
 
 __all__ = ["GAP_ROUNDING", "Impact", "Solver", "SolverError", "State", "StateError"]
 
 #: Gaps between -GAP_ROUNDING and 0 (m) are rounding of x - z at contact: the simulator reports
 #: them as 0, and the exact method never accepts a graze deeper than this as a touch.
 GAP_ROUNDING = 1e-12
-
-
-class SolverError(RuntimeError):
-    """A method cannot continue the run (an unstable explicit step, a failed integration); the
-    message says why and what to change. The simulator keeps its state from before the step.
-
-    Its sibling :class:`StateError` (a malformed saved state) is defined in
-    :mod:`iceimpact.solvers.state` and exported from here and from :mod:`iceimpact`."""
 
 
 @dataclass

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from ..physics.contact import Impact, contact_force, impact, impact_impulse
-from .state import Record
+from ..record import Record
 
 #: A Zeno sequence whose remaining impacts would all happen within this time (s) is closed by
 #: one plastic impact: the motion it skips is below ~ closing speed * ZENO_TIME (sub-nanometre).

@@ -30,10 +30,13 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from ..errors import SolverError, StateError
+from ..limits import TIME_RESOLUTION
 from ..physics.ice import downstream_speed_bound, make_drag
 from ..physics.structure import UNDER, DraggedStructure, Oscillator, morison_oscillator
+from ..record import Record
 from ..scene import Scene
-from .base import GAP_ROUNDING, Solver, SolverError, State
+from .base import GAP_ROUNDING, Solver, State
 from .contact_rules import (
     EXACT_POLICY,
     ROUNDING_SPEED,
@@ -48,7 +51,6 @@ from .contact_rules import (
 )
 from .flight_search import COMPILED, FlightSearch
 from .rootfind import RootSearch
-from .state import Record, StateError
 from .taylor import StepEnd, StickingTaylor, TaylorStep
 
 _NO_STATE = (math.nan, math.nan, math.nan)
@@ -77,7 +79,7 @@ _MAX_STEPS = 8
 
 def _time_eps(t: float) -> float:
     scale = abs(t)
-    return 8.9e-16 * (scale if scale > 1.0 else 1.0)  # max(1.0, |t|)
+    return TIME_RESOLUTION * (scale if scale > 1.0 else 1.0)  # max(1.0, |t|)
 
 
 class _SearchedSegment:

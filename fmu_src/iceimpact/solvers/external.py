@@ -60,14 +60,15 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+from ..errors import StateError
 from ..physics.contact import contact_force
 from ..physics.external import ExtrapolatedStructure
 from ..physics.ice import make_drag
+from ..record import Record
 from ..scene import Scene
 from .base import Solver, State
 from .contact_rules import EXACT_POLICY, ContactRules, Phase, separates
 from .event import EventSolver
-from .state import Record, StateError
 
 
 class ExternalStick:

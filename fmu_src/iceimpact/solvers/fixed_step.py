@@ -50,12 +50,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..errors import SolverError, StateError
+from ..limits import EULER_STABILITY_LIMIT
 from ..physics.contact import Impact, impact, impact_impulse
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator, morison_oscillator
-from ..scene import DETECTION_WINDOW, EULER_STABILITY_LIMIT, Scene
-from .base import Solver, SolverError, State
-from .state import Record, StateError
+from ..record import Record
+from ..scene import DETECTION_WINDOW, Scene
+from .base import Solver, State
 
 #: Tolerance window of eq. 26: Delta = WINDOW_FRACTION * min(|v dt|, |w dt|).
 WINDOW_FRACTION = 0.1

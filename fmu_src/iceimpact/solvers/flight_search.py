@@ -33,6 +33,7 @@ import warnings
 from math import cos, exp, expm1, sin, sqrt
 from typing import Any
 
+from ..limits import TIME_RESOLUTION
 from .rootfind import RootSearch
 
 #: The outcomes of :func:`flight_root`: the frontier passed the horizon with no root, a root was
@@ -43,7 +44,7 @@ PASSED, ROOT, GENERIC = 0, 1, 2
 # against rootfind's)
 _DESCENT_STEPS = 12
 _BRACKET_STEPS = 1100
-_ROOT_RTOL = 8.9e-16
+_ROOT_RTOL = TIME_RESOLUTION
 _ROOT_XTOL = 1e-15
 _FOREVER = 1e300
 _SCALED_ABOVE = 1e100
@@ -223,7 +224,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         if h_free > _FOREVER:
             return (PASSED, math.inf, math.nan, iterations + 1, creep, probed_at, pf, pdf,
                     pd2, pbound, pjerk, math.nan, math.nan, math.nan, math.nan)
-        if h_free < time_eps + 8.9e-16 * a:
+        if h_free < time_eps + TIME_RESOLUTION * a:
             break  # (a tangent or degenerate start: RootSearch's creep)
         b = a + h_free
         # the sign test at b by the full probe, which the next step starts from

@@ -53,10 +53,13 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from ..errors import SolverError, StateError
+from ..limits import integrated_rate
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
-from ..scene import Scene, integrated_rate
-from .base import Solver, SolverError, State
+from ..record import Record
+from ..scene import Scene
+from .base import Solver, State
 from .contact_rules import (
     INTEGRATED_POLICY,
     ContactRules,
@@ -66,7 +69,6 @@ from .contact_rules import (
     make_together,
     reanchor_on_flow_change,
 )
-from .state import Record, StateError
 
 #: Events at one instant before the bodies are held together briefly (a degenerate contact).
 MAX_EVENTS_AT_ONE_INSTANT = 8

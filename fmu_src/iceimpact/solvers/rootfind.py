@@ -41,7 +41,8 @@ from typing import Any
 
 from scipy.optimize import brentq
 
-from .state import Record
+from ..limits import TIME_RESOLUTION
+from ..record import Record
 
 #: Iterations before the search gives up proving and reports a touch where it stands
 #: (only a pathological, exactly tangent contact gets there; the touch is then real to rounding).
@@ -55,8 +56,8 @@ DESCENT_STEPS = 12
 #: search can make, up to 1e300 s, to 1e-15 s within them).
 BRACKET_STEPS = 1100
 
-#: Relative tolerance on a located root, as brentq's ``rtol`` (4 ulps).
-ROOT_RTOL = 8.9e-16
+#: Relative tolerance on a located root, as brentq's ``rtol`` (4 ulps): the time resolution.
+ROOT_RTOL = TIME_RESOLUTION
 
 #: Absolute tolerance on a located root (s), as brentq's ``xtol``.
 ROOT_XTOL = 1e-15
@@ -299,7 +300,7 @@ class RootSearch:
             self.a = math.inf
             return
         step = max_step if max_step < h_free else h_free  # min(h_free, max_step)
-        eps = self.time_eps + 8.9e-16 * a  # a few ulps of the absolute time
+        eps = self.time_eps + TIME_RESOLUTION * a  # a few ulps of the absolute time
         if step < eps:
             if df < 0.0 or self.iterations > MAX_ITERATIONS:
                 # tangent approach to within rounding: f here is below bound*eps^2, a touch

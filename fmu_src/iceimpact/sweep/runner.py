@@ -31,7 +31,7 @@ Task = tuple[Scene, tuple[str, ...], list[tuple[int, tuple[Value, ...]]], float,
 
 def status_text(exc: BaseException) -> str:
     """The status of a failed run: a ParameterError's own message, else ``Type: message``."""
-    from ..scene import ParameterError
+    from ..errors import ParameterError
 
     text = str(exc) if isinstance(exc, ParameterError) else f"{type(exc).__name__}: {exc}"
     return " ".join(text.split()) or type(exc).__name__

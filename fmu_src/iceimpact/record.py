@@ -12,20 +12,7 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
-
-class StateError(ValueError):
-    """A saved state (a snapshot of a solver or a simulator) is malformed; the message names the
-    field, its value and what was expected. Nothing was changed."""
-
-    def __init__(self, field: str, value: Any, expected: str):
-        self.field = field
-        self.value = value
-        self.expected = expected
-        text = repr(value)
-        if len(text) > 80:
-            text = text[:77] + "..."
-        super().__init__(f"state field {field} = {text} is not allowed: {expected}")
-
+from .errors import StateError
 
 #: Version of the snapshot layout written by the solvers and the simulator.
 STATE_VERSION = 1
