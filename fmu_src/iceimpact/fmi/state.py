@@ -13,7 +13,7 @@ The record holds the master's values, times, pending tunable values, the error t
 instance if any, and the simulator's own snapshot (scene, the current segment's anchor, counters,
 latest impact time, pending impulse; never the impact history), so its size does not grow with
 the run (a few kB). A blob larger than :data:`MAX_BYTES`, with NaN, duplicate keys or any field of
-the wrong type or range is refused with a :class:`~iceimpact.solvers.state.StateError` that names
+the wrong type or range is refused with a :class:`~iceimpact.errors.StateError` that names
 the field. Nothing in it can name a class or a function to call.
 """
 

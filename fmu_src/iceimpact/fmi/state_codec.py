@@ -11,7 +11,7 @@ version of the FMU): it is data, never code. Every FMU writes the same layout::
 
 JSON is parsed with the standard library; a blob larger than the FMU's size limit, with duplicate
 keys, with NaN (unless the FMU allows it), or with another layout, format or FMU version is refused
-with a :class:`~iceimpact.solvers.state.StateError` naming the field. The instance record is then
+with a :class:`~iceimpact.errors.StateError` naming the field. The instance record is then
 checked by the FMU's own function (``check_record``), which refuses it the same way. Nothing in a
 blob can name a class or a function to call.
 """

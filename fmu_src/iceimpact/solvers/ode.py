@@ -13,7 +13,7 @@ The integrator is ``solver.ode_method`` (1 = RK45, 2 = DOP853, 3 = LSODA, 4 = Ra
 are of the order of a millimetre). The implicit ones (LSODA, Radau) are given the exact Jacobian
 of each right-hand side (its ``jacobian``, from the drag laws' ``force_rate``) instead of
 estimating it by finite differences; Radau's own limits on omega_n and rtol are in
-:func:`iceimpact.scene.omega_limit` and ``RADAU_RTOL_MIN``.
+:func:`iceimpact.limits.omega_limit` and ``RADAU_RTOL_MIN``.
 
 Sticking follows the contact rules shared with the exact solver
 (:mod:`iceimpact.solvers.contact_rules`, with its :data:`INTEGRATED_POLICY`), in place of the
@@ -91,7 +91,7 @@ CHUNK_PERIODS = 20.0
 CHUNK_MAX = 5.0
 
 #: ... and at most CHUNK_RATE / rate (s), rate being the fastest relaxation rate the segment
-#: integrates (:func:`iceimpact.scene.integrated_rate`: c / m, the drag rates): near their
+#: integrates (:func:`iceimpact.limits.integrated_rate`: c / m, the drag rates): near their
 #: stability bound the explicit integrators take ~3.3 / rate to ~6 / rate per step, so a chunk
 #: is at most ~600 steps, ~0.06 s of CPU (3e-5 s x rate per simulated second), however slow the
 #: structure. A slow structure with a stiff drag integrated whole chunks of 5 s ahead of a run
@@ -100,7 +100,7 @@ CHUNK_MAX = 5.0
 CHUNK_RATE = 2000.0
 
 #: The explicit integrators' steps are at most STABLE_STEP[method] / rate, rate being
-#: the fastest relaxation rate integrated (:func:`~iceimpact.scene.integrated_rate`, the
+#: the fastest relaxation rate integrated (:func:`~iceimpact.limits.integrated_rate`, the
 #: quadratic drags' at the speeds of the call's start, see ``OdeSolver._max_step``): inside
 #: each method's stability interval on the negative real axis (about 3.3 for RK45, 6 for
 #: DOP853). Where the states are far below the absolute tolerance (a structure at rest to

@@ -22,7 +22,7 @@ the polynomials are the dense output. A mode of rate lambda (the stiffest of the
 equation's: sqrt(k / (m + M)), c / (m + M), the drag's 2 B |u - v| / (m + M)) has terms
 (lambda h)^n / n!, so steps are about 5 / lambda long (measured 0.1-0.3 steps x lambda per
 simulated second) whatever the motion's amplitude: the work per simulated second is
-proportional to lambda, which the validation holds to ``scene.TAYLOR_RATE_MAX``. A step ends early
+proportional to lambda, which the validation holds to ``limits.TAYLOR_RATE_MAX``. A step ends early
 
 - where r changes sign (the drag's polynomial changes): the next step starts with v = u exactly
   and takes the sign r moves to;
