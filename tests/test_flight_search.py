@@ -82,6 +82,23 @@ def test_constants_are_root_searchs():
     assert flight_search._SPREAD == rootfind.SPREAD
 
 
+@settings(max_examples=200, deadline=None)
+@given(x0=st.floats(-1e3, 1e3), v0=st.floats(-1e3, 1e3), w0=st.floats(-1e2, 1e2),
+       u=st.floats(-10.0, 10.0), t=st.floats(0.0, 1e3))
+def test_the_closed_forms_on_their_constants_are_the_physics(x0, v0, w0, u, t):
+    """Flight builds the motions of its compiled search from Oscillator.under_constants and
+    LinearDrag.flight_constants: the same numbers as the physics' own increments, to the bit."""
+    from iceimpact.physics.ice import linear_response, make_drag
+    from iceimpact.physics.structure import UNDER, Oscillator, under_response
+
+    scene = Scene()
+    osc = Oscillator(scene.structure_m, scene.structure_c, scene.structure_k, 1e-4)
+    assert osc.regime == UNDER
+    assert under_response(*osc.under_constants(x0, v0))(t) == osc.increment(x0, v0)(t)
+    drag = make_drag(scene)
+    assert linear_response(*drag.flight_constants(w0, u))(t) == drag.increment(w0, u)(t)
+
+
 @pytest.mark.parametrize("name", list(SCENES))
 def test_runs_equal_root_search_to_the_bit(name, pure_function, monkeypatch):
     """run() with the flights' searches in flight_root gives RootSearch's arrays, bit for bit,

@@ -51,6 +51,19 @@ class _DragLaw:
         return self.motion_array(0.0, w0, u, t)
 
 
+def linear_response(kappa: float, w0: float, r0: float) -> Callable[[float], tuple[float, float]]:
+    """The free flight under the linear drag ``t -> (z(t) - z0, w(t))`` with the constants of
+    :meth:`LinearDrag.flight_constants` (eq. 6-7)."""
+    def linear(t: float, kappa=kappa, w0=w0, r0=r0) -> tuple[float, float]:
+        x = kappa * t
+        if x < 1e-2:  # series, truncation ~ x^6 / 5040
+            lag = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
+        else:
+            lag = -expm1(-x) / x - 1.0
+        return w0 * t + r0 * t * lag, w0 + r0 * expm1(-x)
+    return linear
+
+
 class LinearDrag(_DragLaw):
     """Linearised Morison drag ``M w' = -b (w - u)`` (eq. 4-5)."""
 
@@ -88,18 +101,17 @@ class LinearDrag(_DragLaw):
         behind coasting at w0, free of cancellation at small x (its series), so it is exact to
         rounding even when far below the rounding of u t. The velocity is
         ``w0 + r0 (e^{-x} - 1)``: exactly w0 at t = 0 and without drag, even when |w0| << |u|.
-        (The returned function takes t alone; its constants are bound as its default values,
-        which solvers/flight_search.py reads: its _motion repeats this form operation for
-        operation.)"""
+        (The returned function takes t alone; its constants, :meth:`flight_constants`, are bound
+        as its default values; solvers/flight_search.py's _motion repeats this form operation
+        for operation on the same constants.)"""
 
-        def linear(t: float, kappa=self.kappa, w0=w0, r0=w0 - u) -> tuple[float, float]:
-            x = kappa * t
-            if x < 1e-2:  # series, truncation ~ x^6 / 5040
-                lag = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
-            else:
-                lag = -expm1(-x) / x - 1.0
-            return w0 * t + r0 * t * lag, w0 + r0 * expm1(-x)
-        return linear
+        return linear_response(self.kappa, w0, w0 - u)
+
+    def flight_constants(self, w0: float, u: float) -> tuple[float, float, float]:
+        """The constants of the free flight from velocity w0 at flow speed u: ``(kappa, w0,
+        r0 = w0 - u)``, as :meth:`increment` binds them and the compiled flight search
+        (solvers/flight_search.py) takes them."""
+        return self.kappa, w0, w0 - u
 
     def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
         """z(t) - z0 and w(t) of a free flight: :meth:`increment` at one time."""

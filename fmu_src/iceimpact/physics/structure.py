@@ -57,6 +57,31 @@ def _decay_pair(arg: float) -> tuple[float, float]:
     return 1.0 + decay_m1, decay_m1
 
 
+def under_response(neg_sigma: float, omega: float, y0: float, p: float, q: float,
+                   v0: float) -> Callable[[float], tuple[float, float]]:
+    """The under-damped free response ``t -> (y(t) - y0, y'(t))`` with the constants of
+    :meth:`Oscillator.under_constants` (eq. 9-10): y = y0 C + p S, v = v0 C - q S."""
+    def under(t: float, neg_sigma=neg_sigma, omega=omega, y0=y0, p=p, q=q,
+              v0=v0) -> tuple[float, float]:
+        # _decay_pair(neg_sigma * t), written out: the free structure's form, evaluated
+        # several times per impact (and again, operation for operation, in
+        # solvers/flight_search.py's _motion, on under_constants)
+        arg = neg_sigma * t
+        if arg < -0.7:
+            decay = exp(arg)
+            decay_m1 = decay - 1.0
+        else:
+            decay_m1 = expm1(arg)
+            decay = 1.0 + decay_m1
+        wt = omega * t
+        cos_wt = cos(wt)
+        half = sin(0.5 * wt)
+        s = decay * sin(wt) / omega
+        return (y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s,
+                v0 * (decay * cos_wt) - q * s)
+    return under
+
+
 class Oscillator:
     """Linear damped oscillator ``mass y'' + damping y' + stiffness (x - offset) = 0``."""
 
@@ -179,6 +204,16 @@ class Oscillator:
         local variables, and no closure cells to make per anchor)."""
         return self.deviation_increment(x0 - self.offset, v0)
 
+    def under_constants(self, x0: float, v0: float) -> tuple[float, ...]:
+        """The constants of the under-damped free response from the anchor (x0, v0):
+        ``(-sigma, omega, y0, p, q, v0)`` with y0 = x0 - offset, p = v0 + sigma y0 and
+        q = omega^2 y0 + sigma v0, so that y = y0 C + p S and v = v0 C - q S (eq. 9-10). They
+        are the ones :meth:`increment`'s under-damped function binds, and the compiled flight
+        search (solvers/flight_search.py) takes them in this order."""
+        y0 = x0 - self.offset
+        return (-self.sigma, self.omega, y0, v0 + self.sigma * y0,
+                self.omega2 * y0 + self.sigma * v0, v0)
+
     def deviation_increment(self, y0: float, v0: float) -> Callable[[float], tuple[float, float]]:
         """:meth:`increment` from the deviation y0 = x0 - offset itself: ``t -> (y(t) - y0,
         y'(t))``. Any free response given by its value and rate serves (the linear sticking
@@ -203,25 +238,7 @@ class Oscillator:
         p = v0 + self.sigma * y0                   # y = y0 C + p S
         q = self.omega2 * y0 + self.sigma * v0     # v = v0 C - q S
         if regime == UNDER:
-            def under(t: float, neg_sigma=neg_sigma, omega=omega, y0=y0, p=p, q=q,
-                      v0=v0) -> tuple[float, float]:
-                # _decay_pair(neg_sigma * t), written out: the free structure's form, evaluated
-                # several times per impact (and again, operation for operation, in
-                # solvers/flight_search.py's _motion, which reads these defaults)
-                arg = neg_sigma * t
-                if arg < -0.7:
-                    decay = exp(arg)
-                    decay_m1 = decay - 1.0
-                else:
-                    decay_m1 = expm1(arg)
-                    decay = 1.0 + decay_m1
-                wt = omega * t
-                cos_wt = cos(wt)
-                half = sin(0.5 * wt)
-                s = decay * sin(wt) / omega
-                return (y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s,
-                        v0 * (decay * cos_wt) - q * s)
-            return under
+            return under_response(neg_sigma, omega, y0, p, q, v0)
 
         if regime == CRITICAL:
             def critical(t: float, neg_sigma=neg_sigma, y0=y0, p=p, q=q,

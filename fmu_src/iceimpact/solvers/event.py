@@ -32,8 +32,14 @@ from scipy.integrate import solve_ivp
 
 from ..errors import SolverError, StateError
 from ..limits import TIME_RESOLUTION
-from ..physics.ice import downstream_speed_bound, make_drag
-from ..physics.structure import UNDER, DraggedStructure, Oscillator, morison_oscillator
+from ..physics.ice import downstream_speed_bound, linear_response, make_drag
+from ..physics.structure import (
+    UNDER,
+    DraggedStructure,
+    Oscillator,
+    morison_oscillator,
+    under_response,
+)
 from ..record import Record
 from ..scene import Scene
 from .base import GAP_ROUNDING, Solver, State
@@ -147,7 +153,7 @@ class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
     __slots__ = ("osc", "drag", "t0", "x0", "v0", "z0", "w0", "u", "start", "gap0", "_last",
-                 "search", "_x_motion", "_z_motion")
+                 "search", "_x_motion", "_z_motion", "closed_form_constants")
     phase = Phase.FLIGHT
     ANCHOR = ("x0", "v0", "z0", "w0")
     #: the search may be flight_search's (the gap and bounds are this class's closed forms);
@@ -170,22 +176,32 @@ class Flight(_SearchedSegment):
         self.gap0 = x0 - z0
         # the anchor itself: no increments, the anchor's velocities (the search starts there)
         self._last: tuple[float, float, float, float, float] = (0.0, 0.0, v0, 0.0, w0)
-        # each body's closed form from the anchor, its constants computed once
-        self._x_motion = osc.increment(x0, v0)
-        self._z_motion = drag.increment(w0, u)
-        # (the common flight, an under-damped Oscillator, not a structure from outside or under
-        # the quadratic Morison drag, and the linear drag: its search in one function,
-        # flight_search)
+        # each body's closed form from the anchor, its constants computed once. The common
+        # flight (an under-damped Oscillator, not a structure from outside or under the
+        # quadratic Morison drag, and the linear drag) has its search in one function
+        # (flight_search), which evaluates the same closed forms on the same constants.
         if (self._ONE_FUNCTION and type(osc) is Oscillator and osc.regime == UNDER
                 and not drag.quadratic):
+            x_constants = osc.under_constants(x0, v0)
+            z_constants = drag.flight_constants(w0, u)
+            self._x_motion = under_response(*x_constants)
+            self._z_motion = linear_response(*z_constants)
+            self.closed_form_constants = x_constants + z_constants
             self.search = FlightSearch(start, _time_eps(t0))
         else:
+            self._x_motion = osc.increment(x0, v0)
+            self._z_motion = drag.increment(w0, u)
             self.search = RootSearch(start, _time_eps(t0))
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
     def anchor(self) -> tuple[float, float, float, float]:
         return self.x0, self.v0, self.z0, self.w0
+
+    def remember(self, state: tuple[float, float, float, float, float]) -> None:
+        """Keep ``(tau, x - x0, v, z - z0, w)``, a state found by the compiled search (a root),
+        as :meth:`_motion` keeps the last one it evaluates."""
+        self._last = state
 
     def _motion(self, tau: float) -> tuple[float, float, float, float, float]:
         """(tau, x - x0, v, z - z0, w) at tau; the last one is kept, since the root search asks

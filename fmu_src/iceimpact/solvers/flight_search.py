@@ -317,12 +317,12 @@ class FlightSearch(RootSearch):
             return RootSearch.next_root_of(self, horizon, signal)
         osc = signal.osc
         # the constants of the flight's closed forms: the structure's (neg_sigma, omega, y0,
-        # p, q, v0), the ice's (kappa, w0, r0), as their scalar functions hold them
+        # p, q, v0: Oscillator.under_constants), the ice's (kappa, w0, r0:
+        # LinearDrag.flight_constants)
         out = self.kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
                           *(self._probed or _UNPROBED), self.time_eps, signal.gap0, signal.x0,
                           signal.z0, osc.offset, osc.mass, osc.damping, osc.stiffness,
-                          osc.omega2, *signal._x_motion.__defaults__,
-                          *signal._z_motion.__defaults__, signal.u)
+                          osc.omega2, *signal.closed_form_constants, signal.u)
         outcome, a, root, iterations, creep, probed_at = out[:6]
         if a != a or (outcome == ROOT and root != root):
             # a NaN where Python's math would have raised (a domain error): the compiled
@@ -336,7 +336,7 @@ class FlightSearch(RootSearch):
             self._probed = out[6:11]
         if outcome == ROOT:
             self.root = root
-            signal._last = (root, *out[11:])  # (the state there, as Flight._motion keeps it)
+            signal.remember((root, *out[11:]))  # the state there
             return root if root <= horizon else None
         if outcome == GENERIC:
             self.handed_back = True
