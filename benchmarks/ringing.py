@@ -100,7 +100,7 @@ def _worker(limit: float) -> dict:
     import signal
 
     from iceimpact import Scene, Simulator
-    from iceimpact.solvers.event import Flight
+    from iceimpact.solvers.exact import Flight
 
     probes = [0]
     probe = Flight.probe

@@ -188,7 +188,7 @@ def test_flight_clearance_proves_the_gap_open(drag_model):
     over which the gap stays open (checked on a dense grid of the closed forms, and against the
     envelope margin computed here: offset - amplitude - z over the bound max(w, u, 0) on the
     ice's speed); with the ice at or past the structure's equilibrium, nothing (0)."""
-    from iceimpact.solvers.event import EventSolver, Flight
+    from iceimpact.solvers.exact import EventSolver, Flight
 
     solver = EventSolver(Scene(structure_k=1e9, drag_model=drag_model))
     omega = math.sqrt(1e9 / 1600.0)
@@ -345,7 +345,7 @@ def test_impact_at_contact_decides_as_at_contact_then_impact(e):
     impact step, and ``parts`` exactly when at_contact, asked after it, says FLIGHT with an
     opening speed (not after a plastic or chatter-closing impact, nor a rounding-level one)."""
     from iceimpact.solvers.contact_rules import Outcome
-    from iceimpact.solvers.event import EventSolver
+    from iceimpact.solvers.exact import EventSolver
     solver = EventSolver(Scene())
     rules = solver.rules
     u = solver.u

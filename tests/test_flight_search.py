@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError, run
 from iceimpact.solvers import flight_search, rootfind
-from iceimpact.solvers.event import Flight
+from iceimpact.solvers.exact import Flight
 from iceimpact.solvers.flight_search import GENERIC, PASSED, ROOT, FlightSearch, flight_root
 from random_search import FLOWS, flow_at, scale_scenes
 
@@ -184,7 +184,7 @@ def test_search_from_a_flight_directly(pure_function):
 
 def test_pure_environment_keeps_pure_path():
     """ICEIMPACT_PURE=1: no compiled function, every flight on RootSearch."""
-    code = ("from iceimpact.solvers import flight_search as f; from iceimpact.solvers.event "
+    code = ("from iceimpact.solvers import flight_search as f; from iceimpact.solvers.exact "
             "import Flight; print(f.COMPILED is None, Flight._ONE_FUNCTION)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True, env={**os.environ, "PYTHONPATH": str(SRC),

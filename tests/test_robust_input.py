@@ -30,7 +30,7 @@ from iceimpact.physics.ice import LinearDrag, QuadraticDrag
 from iceimpact.physics.structure import Oscillator
 from iceimpact.solvers.base import GAP_ROUNDING
 from iceimpact.solvers.contact_rules import CHATTER_FRACTION
-from iceimpact.solvers.event import Flight, LinearStick
+from iceimpact.solvers.exact import Flight, LinearStick
 from iceimpact.solvers.rootfind import RootSearch
 
 # --- a contact that pulls ---------------------------------------------------------------------

@@ -499,7 +499,7 @@ def test_run_samples_what_the_simulator_reports_to_rounding(name):
 def test_run_marches_a_segment_without_array_forms_sample_by_sample(monkeypatch):
     """A kind of segment with neither closed forms for arrays nor dense steps is sampled as the
     simulator steps it: the same states, impulses and impacts as the vectorised sampling."""
-    from iceimpact.solvers.event import QuadraticStick
+    from iceimpact.solvers.exact import QuadraticStick
 
     values, t_end = SAMPLED_SCENES["quadratic sticking parts"]
     scene = Scene(**values)

@@ -14,7 +14,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from iceimpact import Scene, Simulator, SolverError
-from iceimpact.solvers.event import EventSolver, QuadraticStick
+from iceimpact.solvers.exact import EventSolver, QuadraticStick
 from iceimpact.solvers.taylor import ORDER, StepEnd, StickingTaylor, TaylorStep, horner
 
 RTOL = 1e-12

@@ -24,8 +24,7 @@ from .errors import ParameterError, SolverError, StateError
 from .record import STATE_VERSION, Record, check_version
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_flow
 from .solvers.base import GAP_ROUNDING, Impact, Solver
-from .solvers.event import EventSolver
-from .solvers.external import ExternalSolver
+from .solvers.exact import EventSolver, ExternalSolver
 from .solvers.fixed_step import FixedStepSolver
 from .solvers.ode import OdeSolver
 

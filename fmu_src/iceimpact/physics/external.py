@@ -1,6 +1,6 @@
 """The structure as the ice sees it: the motion interface, and the external structure within a step.
 
-The event solver's flights (:class:`iceimpact.solvers.event.Flight`) ask the structure for its
+The event solver's flights (:class:`iceimpact.solvers.exact.Flight`) ask the structure for its
 motion from an anchor and for bounds on the derivatives of its displacement over the rest of the
 flight; nothing else. Two structures answer:
 
@@ -12,7 +12,8 @@ flight; nothing else. Two structures answer:
 
 Within one step the external structure is a point mass ``m`` (``structure.m``, its effective mass
 at the contact point) under a constant force ``F_o``, the structure's own forces (spring,
-damping, other loads) as estimated for the flight's anchor (:mod:`iceimpact.solvers.external`):
+damping, other loads) as estimated for the flight's anchor
+(:mod:`iceimpact.solvers.exact.external`):
 ``x_s(tau) = x_a + v_a tau + a tau^2 / 2`` with ``a = F_o / m``. An impact makes the mass jump
 in velocity (the impact law with ``m``), and the next flight is anchored on that jump, so the ice
 meets a structure that felt the impact. The displacement is a polynomial: ``x_s'' = a`` and

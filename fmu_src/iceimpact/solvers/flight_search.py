@@ -6,7 +6,7 @@ A flight of Figure 2 spends most of its time in its root search: two probes of t
 bounds, a Taylor stretch, a monotone stretch and one or two Newton points, some 80 calls of small
 Python functions. :func:`flight_root` makes the same steps on plain floats, with the closed forms
 and bounds written out, so that it compiles as one function; the solver calls it for each flight
-it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.event`).
+it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.exact`).
 
 Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
 (``Oscillator.deviation_increment``'s under-damped form, ``LinearDrag.increment``, ``bounds``,
@@ -294,7 +294,7 @@ _UNPROBED = (math.nan,) * 5
 class FlightSearch(RootSearch):
     """The root search of a flight's gap (structure under-damped, ice under the linear drag):
     RootSearch, whose common steps :func:`flight_root` makes. The signal is the
-    :class:`~iceimpact.solvers.event.Flight` itself (its anchor, its oscillator and the
+    :class:`~iceimpact.solvers.exact.Flight` itself (its anchor, its oscillator and the
     constants of its closed forms)."""
 
     __slots__ = ("handed_back",)

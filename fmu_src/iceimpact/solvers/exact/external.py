@@ -21,7 +21,7 @@ Within a step (docs/coupling.md, "External-structure mode"):
   ``structure.m``, the effective (impulse) mass at the contact point.
 - **Flight.** From each anchor (step start, impact, separation) the structure moves as a mass
   ``m`` under ``F_o`` at the anchor (:class:`~iceimpact.physics.external.ExtrapolatedStructure`):
-  a polynomial, so the event solver's :class:`~iceimpact.solvers.event.Flight` finds every impact
+  a polynomial, so the event solver's :class:`~iceimpact.solvers.exact.Flight` finds every impact
   as the exact first root of the gap, with its no-miss guarantee. An impact applies eq. 16-17 with
   ``m`` and the flight that follows is anchored on the structure's velocity jump. The chatter and
   Zeno closures are those of :mod:`~iceimpact.solvers.contact_rules` (their time scale is the
@@ -60,15 +60,15 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from ..errors import StateError
-from ..physics.contact import contact_force
-from ..physics.external import ExtrapolatedStructure
-from ..physics.ice import make_drag
-from ..record import Record
-from ..scene import Scene
-from .base import Solver, State
-from .contact_rules import EXACT_POLICY, ContactRules, Phase, separates
-from .event import EventSolver
+from ...errors import StateError
+from ...physics.contact import contact_force
+from ...physics.external import ExtrapolatedStructure
+from ...physics.ice import make_drag
+from ...record import Record
+from ...scene import Scene
+from ..base import Solver, State
+from ..contact_rules import EXACT_POLICY, ContactRules, Phase, separates
+from .solver import EventSolver
 
 
 class ExternalStick:

@@ -1,0 +1,450 @@
+"""The flight segments of the exact method: both bodies free, each on its closed form
+(:class:`Flight`), or the structure under the quadratic Morison drag integrated
+(:class:`DraggedFlight`); their gap, its rate and the clearances that prove a stretch of the
+flight free of contact."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from ...errors import SolverError, StateError
+from ...physics.ice import downstream_speed_bound, linear_response
+from ...physics.structure import (
+    UNDER,
+    Oscillator,
+    under_response,
+)
+from ...record import Record
+from ..base import GAP_ROUNDING
+from ..contact_rules import Phase
+from ..flight_search import COMPILED, FlightSearch
+from ..rootfind import RootSearch
+from .segment import GAP_ULPS, _floats, _SearchedSegment, _time_eps
+
+if TYPE_CHECKING:
+    from .solver import EventSolver
+
+
+#: The period search looks no further than omega_n t = this (rad): beyond, one ulp of the phase
+#: nears a degree.
+DRIFT_PHASE_LIMIT = 2.0 ** 46
+
+#: The ice's acceleration bound proves a stretch of the flight open (Flight.clearance) only when
+#: it spans at least this much of the structure's phase omega_n t (rad), 256 periods.
+ACCEL_CLEARANCE_PHASE = 512.0 * math.pi
+
+
+class Flight(_SearchedSegment):
+    """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
+
+    __slots__ = ("osc", "drag", "t0", "x0", "v0", "z0", "w0", "u", "start", "gap0", "_last",
+                 "search", "_x_motion", "_z_motion", "closed_form_constants")
+    phase = Phase.FLIGHT
+    ANCHOR = ("x0", "v0", "z0", "w0")
+    #: the search may be flight_search's (the gap and bounds are this class's closed forms);
+    #: it is where numba compiled it
+    _ONE_FUNCTION = COMPILED is not None
+
+    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
+                 w0: float, u: float, start: float = 0.0):
+        # (structure_osc called only with a Morison drag: a flight starts at each impact)
+        self.osc = osc = solver.structure_osc(u) if solver.structure_b else solver.osc
+        self.drag = drag = solver.drag
+        # (one store a statement: a multiple assignment of six builds and unpacks a tuple)
+        self.t0 = t0
+        self.x0 = x0
+        self.v0 = v0
+        self.z0 = z0
+        self.w0 = w0
+        self.u = u
+        self.start = start
+        self.gap0 = x0 - z0
+        # the anchor itself: no increments, the anchor's velocities (the search starts there)
+        self._last: tuple[float, float, float, float, float] = (0.0, 0.0, v0, 0.0, w0)
+        # each body's closed form from the anchor, its constants computed once. The common
+        # flight (an under-damped Oscillator, not a structure from outside or under the
+        # quadratic Morison drag, and the linear drag) has its search in one function
+        # (flight_search), which evaluates the same closed forms on the same constants.
+        if (self._ONE_FUNCTION and type(osc) is Oscillator and osc.regime == UNDER
+                and not drag.quadratic):
+            x_constants = osc.under_constants(x0, v0)
+            z_constants = drag.flight_constants(w0, u)
+            self._x_motion = under_response(*x_constants)
+            self._z_motion = linear_response(*z_constants)
+            self.closed_form_constants = x_constants + z_constants
+            self.search = FlightSearch(start, _time_eps(t0))
+        else:
+            self._x_motion = osc.increment(x0, v0)
+            self._z_motion = drag.increment(w0, u)
+            self.search = RootSearch(start, _time_eps(t0))
+
+    # Displacements are evaluated as increments from the anchor, so that the gap near contact
+    # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
+    def anchor(self) -> tuple[float, float, float, float]:
+        return self.x0, self.v0, self.z0, self.w0
+
+    def remember(self, state: tuple[float, float, float, float, float]) -> None:
+        """Keep ``(tau, x - x0, v, z - z0, w)``, a state found by the compiled search (a root),
+        as :meth:`_motion` keeps the last one it evaluates."""
+        self._last = state
+
+    def _motion(self, tau: float) -> tuple[float, float, float, float, float]:
+        """(tau, x - x0, v, z - z0, w) at tau; the last one is kept, since the root search asks
+        again for the point it just tested (a probe after a sign test, the state at a root)."""
+        last = self._last
+        if last[0] == tau:
+            return last
+        dx, v = self._x_motion(tau)
+        dz, w = self._z_motion(tau)
+        self._last = last = (tau, dx, v, dz, w)
+        return last
+
+    def state(self, tau: float) -> tuple[float, float, float, float]:
+        last = self._last  # (the state at a root: the point the search tested last)
+        _, dx, v, dz, w = last if last[0] == tau else self._motion(tau)
+        return self.x0 + dx, v, self.z0 + dz, w
+
+    def state_array(self, anchor, tau):
+        x0, v0, z0, w0 = anchor
+        dx, v = self.osc.displacement_change_array(x0, v0, tau)
+        dz, w = self.drag.displacement_change_array(w0, self.u, tau)
+        return x0 + dx, v, z0 + dz, w
+
+    def gap(self, tau: float) -> float:
+        _, dx, _, dz, _ = self._motion(tau)
+        return self.gap0 + (dx - dz)
+
+    def gap_and_rate(self, tau: float) -> tuple[float, float]:
+        """Gap and its rate v - w. (Newton's method asks at new points only: the motion is
+        evaluated at once, and kept as :meth:`_motion` keeps it.)"""
+        dx, v = self._x_motion(tau)
+        dz, w = self._z_motion(tau)
+        self._last = (tau, dx, v, dz, w)
+        return self.gap0 + (dx - dz), v - w
+
+    # the root search's signal: the gap (a subclass with its own gap names them again)
+    value, value_and_rate = gap, gap_and_rate
+
+    def probe(self, tau: float) -> tuple[float, float, float, float, float]:
+        """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times."""
+        last = self._last
+        if last[0] == tau:  # (at the anchor)
+            _, dx, v, dz, w = last
+        else:  # (the end of a search step: a new point) as _motion
+            dx, v = self._x_motion(tau)
+            dz, w = self._z_motion(tau)
+            self._last = (tau, dx, v, dz, w)
+        a_x, a_x_max, j_x_max = self.osc.bounds(self.x0 + dx, v)
+        a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
+        return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
+
+    def clearance(self, tau: float) -> float:
+        """Time from tau (s) during which the gap provably stays open, from the structure's
+        envelope: the free structure never goes below ``offset - R``, R its amplitude bound
+        (its energy never grows, eq. 8-10), and the ice moves downstream no faster than
+        :func:`~iceimpact.physics.ice.downstream_speed_bound`. So the gap stays above
+        ``offset - R - z(tau) - speed s`` (beyond the rounding of the positions).
+
+        A stiff structure ringing with a large amplitude while the ice is still outside its
+        reach costs the Taylor steps of the root search a few evaluations per period (its bound
+        on the gap's curvature is omega_n^2 R); this spans those periods at once.
+
+        A tangent ringing: the ice holding still (no downstream speed) exactly at the lowest
+        point of the envelope, ``offset - R - z`` zero to within the rounding of the positions.
+        The structure then grazes the ice once a period with no closing speed, and the gap can
+        dip below zero by at most twice that rounding, and never by more than GAP_ROUNDING
+        (1e-12 m): no impact, and nothing a root search could resolve (it located a touch at
+        each period, to its time resolution, and took the structure's speed there, curvature x
+        resolution, for a closing speed). The whole future is proven free of impacts.
+
+        The ice's downstream displacement over a time s is also at most ``w s + A s^2 / 2``, A
+        its acceleration bound for all later times (|w - u| only decays, eq. 5, 32), which is
+        what bounds it when the flow speed u is large but the ice is slow to follow it: a heavy
+        ice moving upstream (w < 0 < u) that the flow turns back takes about ``2 |w| / A`` to
+        return to where it is, and longer to cross the margin, a time ``margin / u`` would cut
+        into pieces far shorter than a period. The stretch is the longer of the two, and the
+        tangent ringing above with the ice moving upstream (w < 0) is proven for the time
+        ``2 |w| / A`` during which the ice stays upstream of where it is now."""
+        offset = self.osc.offset
+        if offset is None:  # an extrapolated (external) structure: no envelope, nothing proven
+            return 0.0
+        last = self._last  # (the search asks right after its probe at tau)
+        if last[0] != tau:
+            last = self._motion(tau)
+        z = self.z0 + last[3]
+        if z >= offset:  # the margin below is <= 0 for any reach >= 0 (most calls: ice at contact)
+            return 0.0
+        _, dx, v, _, w = last
+        x = self.x0 + dx
+        reach = self.osc.amplitude_bound(x - offset, v)
+        lowest = offset - reach - z  # the envelope's lowest gap, now
+        rounding = GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
+        speed = downstream_speed_bound(w, self.u, self.drag.drags)
+        margin = lowest - rounding
+        if margin <= 0.0:
+            if speed == 0.0 or w < 0.0:
+                touch = lowest >= -rounding and margin >= -GAP_ROUNDING
+                if not touch:
+                    return 0.0
+                return math.inf if speed == 0.0 else self._accel_clearance(w, 0.0)
+            return self._drift_clearance(tau, x - offset, v, w, reach, lowest, speed)
+        if speed == 0.0:
+            return math.inf
+        cleared = margin / speed
+        if w < 0.5 * speed:  # the ice is slow to follow the flow: the longer bound may win
+            by_accel = self._accel_clearance(w, margin)
+            if by_accel > cleared:
+                return by_accel
+        return cleared
+
+    def _accel_clearance(self, w: float, margin: float) -> float:
+        """The time (s) during which the ice's downstream displacement stays within ``margin``
+        (m, >= 0) by the bound ``w s + A s^2 / 2`` on it (``clearance``), A the ice's
+        acceleration bound for all later times: the positive root of ``A s^2 / 2 + w s =
+        margin``, taken 1e-12 short of it (the rounding of the root). 0 (nothing proven) when
+        that spans less than ``ACCEL_CLEARANCE_PHASE`` of the structure's phase: the root search
+        crosses a few periods in a few steps by itself, and its path (so every impact time of
+        an ordinary scene) stays as it was."""
+        _, accel_bound, _ = self.drag.accel_bounds(w, self.u)
+        if not accel_bound > 0.0:
+            root = margin / w if w > 0.0 else math.inf
+        else:
+            disc = math.sqrt(w * w + 2.0 * accel_bound * margin)
+            root = (2.0 * margin / (w + disc) if w > 0.0 else (disc - w) / accel_bound)
+            root *= 1.0 - 1e-12
+        if root * math.sqrt(self.osc.omega2) < ACCEL_CLEARANCE_PHASE:
+            return 0.0
+        return root
+
+    def _drift_clearance(self, tau: float, y: float, v: float, w: float, reach: float,
+                         lowest: float, speed: float) -> float:
+        """Time from tau (s) during which the gap provably stays open, the ice drifting
+        downstream at the lowest point of an undamped structure's envelope (``clearance``'s
+        margin is gone): the periods whose troughs the ice has not yet reached, found by
+        bisection over the periods instead of period by period. 0 where it does not apply.
+
+        Undamped (eq. 9-10 with c = 0), the structure repeats itself exactly every period T,
+        x(t + T) = x(t), and the ice never moves upstream (its velocity stays between w and u,
+        eq. 5, 32, both >= 0), so g(t + T) = x(t) - z(t + T) <= g(t): no period's lowest gap is
+        above the next one's, and if one period's dip stays >= 0, so do all the periods before
+        it. Near a trough (x - offset <= -R/2, a sixth of a period either side) the gap is
+        convex, ``g'' = -omega^2 (x - offset) - z'' >= omega^2 R / 2 - A = m`` (A the ice's
+        acceleration bound), so its one minimum there lies within s = |g'(t_r)| / m of any
+        point t_r, and by Taylor's theorem it is at least
+        ``g(t_r) - g'(t_r)^2 / (2 g''(t_r)) - G s^3 / 6``, G a bound on |g'''| within s of
+        t_r (omega^2 |v| + the ice's jerk bound): the dip, taken one Newton step from the
+        trough. G s^3 is then about R (omega dt)^4 for the time dt between representable
+        times, 1e-33 m at t = 1 s and omega = 4e7 rad/s, so a dip of 1e-19 m that no
+        representable time can show is still seen. Away from the troughs
+        x - offset > -R/2, and with the ice's drift over a period below R/8 the gap stays above
+        R/4 there. The first period whose dip goes below zero is found by doubling, then
+        bisection, from tau's period; the periods before it are root-free, and the stretch ends
+        at the crest before it, where the gap is about 2R. There the search takes over and
+        locates the impact as anywhere else. Each call evaluates at most 4 log2(periods) + 4
+        probes however slowly the ice drifts. A dip within the rounding of the gap (a few ulps of
+        the positions) may be taken for a touch, as fix 13's holding-still ice is.
+
+        The doubling stops where omega t reaches ``DRIFT_PHASE_LIMIT`` (beyond, one ulp of the
+        phase nears a degree); the search then goes on period by period."""
+        osc = self.osc
+        u = self.u
+        if (osc.sigma != 0.0 or osc.regime != UNDER or not reach > 0.0 or lowest < -0.25 * reach
+                or w < 0.0 or (u < 0.0 and self.drag.drags)):
+            return 0.0  # damped, deep inside the envelope, or the ice can move upstream
+        omega = osc.omega
+        period = 2.0 * math.pi / omega
+        _, accel_bound, jerk_bound = self.drag.accel_bounds(w, u)
+        omega2 = omega * omega
+        curvature = omega2 * reach
+        if speed * period > 0.125 * reach or accel_bound > 0.25 * curvature:
+            return 0.0  # the ice's drift over a period is no small change: nothing to gain
+        convexity = 0.5 * curvature - accel_bound  # m above, > 0
+        # y = R cos(omega s - phi) from tau: the next trough at omega s = phi + pi
+        to_trough = (math.atan2(v / omega, y) + math.pi) / omega  # in [0, T]
+        if to_trough > 5.0 * period / 6.0:
+            return 0.0  # within a sixth of a period after a trough: the search rises out of it
+        probe = self.probe
+
+        def closes(k: int) -> bool:
+            """Whether the gap may go below zero at the k-th trough after tau."""
+            t_k = tau + (to_trough + k * period)
+            g, dg, d2, _, _ = probe(t_k)
+            if d2 > 0.0 and abs(dg) <= d2 * period / 12.0:
+                t_k -= dg / d2  # a Newton step towards the bottom
+                g, dg, d2, _, _ = probe(t_k)
+            if not d2 >= convexity:
+                return True  # (rounding: nothing proven)
+            # the bottom is within s of t_k; on the way |g'''| <= omega^2 |v| + J_z, and
+            # |v| <= |v(t_k)| + omega^2 R s
+            s = abs(dg) / convexity
+            v_k = self._motion(t_k)[2]
+            rest = (omega2 * (abs(v_k) + curvature * s) + jerk_bound) * s * s * s / 6.0
+            return g - 0.5 * dg * (dg / d2) - rest < 0.0
+
+        if closes(0):
+            return 0.0
+        lo, stride, hi = 0, 1, None
+        while omega * (tau + to_trough + (lo + stride) * period) <= DRIFT_PHASE_LIMIT:
+            if closes(lo + stride):
+                hi = lo + stride
+                break
+            lo += stride
+            stride *= 2
+        if hi is not None:
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if closes(mid):
+                    hi = mid
+                else:
+                    lo = mid
+        return to_trough + (lo + 0.5) * period  # to the crest after trough lo
+
+    def impulse(self, tau_a: float, tau_b: float) -> float:
+        return 0.0  # no contact force in flight
+
+
+#: Tolerances of the integration of the structure's flight under the quadratic Morison drag.
+DRAGGED_RTOL = 1e-12
+DRAGGED_ATOL = (1e-15, 1e-15)  # x - x0 (m), v (m/s)
+
+
+class _FlightChunk:
+    """One solve_ivp call of an integrated flight: from ``lo`` (state ``y_lo``) to ``hi`` =
+    ``lo + length``, its dense output ``sol``."""
+
+    __slots__ = ("lo", "hi", "y_lo", "sol", "length")
+
+    def __init__(self, lo: float, hi: float, y_lo: np.ndarray, sol: object | None,
+                 length: float):
+        self.lo, self.hi, self.y_lo, self.sol, self.length = lo, hi, y_lo, sol, length
+
+
+class DraggedFlight(Flight):
+    """Flight with the quadratic Morison drag on the structure (docs/morison.md), which has no
+    closed form: the structure's increment ``[x - x0, v]`` is integrated with DOP853 (rtol 1e-12)
+    in chunks fixed from the anchor (so results do not depend on the communication step): the
+    first 1/128 of the longest, each one twice the previous, up to 2 periods (0.05 to 5 s), so
+    that the short bounces of a chatter integrate little beyond their end. The ice keeps its
+    closed form. The root search is the same as :class:`Flight`'s: its
+    bounds on the gap's second and third derivatives for all later times come from the
+    structure's equation of motion (:meth:`DraggedStructure.bounds`, a non-growing energy of
+    (v, x'')) and the ice's ``accel_bounds``; the values are the dense output's, so no root is
+    skipped beyond the integration's accuracy."""
+
+    FRONTIER_ONLY = False  # its integration chunks change while marching
+    _ONE_FUNCTION = False  # (its motion is integrated)
+    state_array = None     # no closed form: sampled point by point
+    clearance = None       # no closed-form envelope of the structure's motion
+
+    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
+                 w0: float, u: float, start: float = 0.0):
+        self.structure = solver.dragged_structure
+        self.chunk = self.longest_chunk(solver)
+        self.hi = 0.0                       # integrated up to here, s from the anchor
+        self.y_hi = np.array([0.0, v0])
+        self.next_length = self.chunk / 128.0  # of the chunk from hi, s
+        self.chunks: list[_FlightChunk] = []
+        super().__init__(solver, t0, x0, v0, z0, w0, u, start)
+        # a search step never asks for the flight more than a chunk past its frontier
+        self.search.max_step = self.chunk
+
+    @staticmethod
+    def longest_chunk(solver: EventSolver) -> float:
+        """Longest integration chunk, s: 2 natural periods, 0.05 to 5 s."""
+        period = 2.0 * math.pi / math.sqrt(solver.k / solver.m)
+        return min(max(0.05, 2.0 * period), 5.0)
+
+    def _rhs(self, tau: float, y: np.ndarray) -> list[float]:
+        return [y[1], self.structure.acceleration(self.x0 + y[0], y[1], self.u)]
+
+    def _integrate(self, lo: float, hi: float, y_lo: np.ndarray):
+        res = solve_ivp(self._rhs, (lo, hi), y_lo, method="DOP853",
+                        rtol=DRAGGED_RTOL, atol=DRAGGED_ATOL, dense_output=True)
+        if not res.success:
+            raise SolverError(f"integration of the structure's flight failed at t = "
+                              f"{self.t0 + lo}: {res.message}")
+        return res
+
+    def _structure(self, tau: float) -> tuple[float, float]:
+        """x - x0 (m) and v (m/s) at tau (s from the anchor)."""
+        while tau > self.hi or (not self.chunks and tau > 0.0):  # (restored: none yet)
+            hi = self.hi + self.next_length
+            res = self._integrate(self.hi, hi, self.y_hi)
+            self.chunks.append(_FlightChunk(self.hi, hi, self.y_hi, res.sol, self.next_length))
+            self.hi, self.y_hi = hi, res.y[:, -1]
+            self.next_length = min(2.0 * self.next_length, self.chunk)
+        if tau <= 0.0:
+            return 0.0, self.v0
+        for chunk in reversed(self.chunks):
+            if chunk.lo <= tau <= chunk.hi:
+                if chunk.sol is None:  # restored from a snapshot: the same call, the same output
+                    chunk.sol = self._integrate(chunk.lo, chunk.hi, chunk.y_lo).sol
+                y = chunk.sol(tau)
+                return float(y[0]), float(y[1])
+        raise SolverError(f"the structure's flight is not integrated at t = {self.t0 + tau}")
+
+    def state(self, tau: float) -> tuple[float, float, float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self._z_motion(tau)
+        # the solver never looks back before its current time: drop chunks that end before it
+        while len(self.chunks) > 1 and self.chunks[0].hi < tau:
+            self.chunks.pop(0)
+        return self.x0 + dx, v, self.z0 + dz, w
+
+    def gap(self, tau: float) -> float:
+        dx, _ = self._structure(tau)
+        dz, _ = self._z_motion(tau)
+        return self.gap0 + (dx - dz)
+
+    def gap_and_rate(self, tau: float) -> tuple[float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self._z_motion(tau)
+        return self.gap0 + (dx - dz), v - w
+
+    value, value_and_rate = gap, gap_and_rate  # the root search's signal, as Flight's
+
+    def probe(self, tau: float) -> tuple[float, float, float, float, float]:
+        dx, v = self._structure(tau)
+        dz, w = self._z_motion(tau)
+        a_x, a_x_max, j_x_max = self.structure.bounds(self.x0 + dx, v, self.u)
+        a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
+        return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
+
+    def snapshot(self, tau: float) -> dict[str, Any]:
+        # The chunk holding tau is enough: integrated again from its start, it and the chunks
+        # after it come out the same, to the last bit (the solver never looks back before tau).
+        # (lengths: the chunk's own, then doubling as before)
+        chunk = next((c for c in self.chunks if c.hi >= tau), None)
+        if chunk is None:
+            lo, y_lo, length = self.hi, self.y_hi, self.next_length
+        else:
+            lo, y_lo, length = chunk.lo, chunk.y_lo, chunk.length
+        data = super().snapshot(tau)
+        data["integrated"] = {"lo": lo, "y_lo": _floats(y_lo), "length": length}
+        return data
+
+    @classmethod
+    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
+        """Validate a :meth:`snapshot` record; return the function that builds the segment."""
+        rec.expect_keys(cls._SEARCHED_KEYS + ("integrated",))
+        flight = Record({k: v for k, v in rec.data.items() if k != "integrated"}, rec.path)
+        make_flight = super().read(solver, flight, u)
+        integrated = rec.record("integrated")
+        integrated.expect_keys(("lo", "y_lo", "length"))
+        lo = integrated.real("lo", low=0.0)
+        y_lo = integrated.reals("y_lo", 2)
+        longest = cls.longest_chunk(solver)
+        length = integrated.real("length", low=0.0, high=longest)
+        if length <= 0.0:
+            raise StateError(integrated.field("length"), length, f"in (0, {longest!r}] s")
+
+        def make() -> DraggedFlight:
+            seg = make_flight()
+            seg.hi, seg.y_hi, seg.next_length, seg.chunks = lo, np.array(y_lo), length, []
+            return seg
+        return make

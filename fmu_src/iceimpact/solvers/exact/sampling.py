@@ -1,0 +1,145 @@
+"""The exact method's vectorised sampler: the states and impulses at many sample times of one
+march, evaluated in closed forms per group of segments (:meth:`EventSolver.sample`)."""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_left
+from operator import attrgetter
+from typing import Any
+
+import numpy as np
+
+from ..base import State
+from ..contact_rules import Phase
+from .segment import _SearchedSegment
+
+
+def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
+    """The first index j >= i with ``times[j] - t0 >= tau_event``: the first sample a march
+    reaches after the event (the test advance_to makes; it holds from its first j on, since
+    times increase and rounding is monotone). Most events are a few samples apart: the first
+    ones are tested in turn, then a bisection on the absolute times and a check of the exact
+    test around it."""
+    n = len(times)
+    j = i
+    stop = i + 8
+    if stop > n:
+        stop = n
+    while j < stop:
+        if times[j] - t0 >= tau_event:
+            return j
+        j += 1
+    if j == n:
+        return n
+    j = bisect_left(times, t0 + tau_event, j, n)
+    while j > i and times[j - 1] - t0 >= tau_event:
+        j -= 1
+    while j < n and times[j] - t0 < tau_event:
+        j += 1
+    return j
+
+
+#: How :meth:`EventSolver.sample` evaluates a kind of segment (or by a _SampleGroup).
+_STEPPED, _MARCHED = "stepped", "marched"
+
+
+def _sampling_kind(seg: Any) -> Any:
+    """_STEPPED for segments of Taylor steps (dense output per segment), a new _SampleGroup
+    for those with array closed forms (all their samples at once), else _MARCHED (stepped to
+    each sample)."""
+    if hasattr(seg, "states_at"):
+        return _STEPPED
+    if getattr(seg, "state_array", None) is not None:
+        return _SampleGroup(seg)
+    return _MARCHED
+
+
+class Samples:
+    """States (m, m/s), contact impulses (N.s) and sticking flags at a run's sample times."""
+
+    __slots__ = ("x", "v", "z", "w", "impulse", "sticking")
+
+    def __init__(self, n: int):
+        self.x, self.v, self.z, self.w = (np.empty(n) for _ in range(4))
+        self.impulse = np.zeros(n)
+        self.sticking = np.zeros(n, dtype=bool)
+
+    def set(self, i: int, state: State, sticking: bool) -> None:
+        self.x[i], self.v[i], self.z[i], self.w[i] = state.x, state.v, state.z, state.w
+        self.sticking[i] = sticking
+
+
+class _SampleGroup:
+    """The samples falling in segments of one kind (Flight or LinearStick), gathered during a
+    sampled march and evaluated at once by the representative segment's array closed forms."""
+
+    def __init__(self, representative: _SearchedSegment):
+        self.rep = representative
+        # per segment its anchor's values, flat (floats: no tuple per segment for the cyclic
+        # garbage collector to track)
+        self.anchors: list[float] = []
+        self.t0: list[float] = []
+        self.first: list[int] = []                  # its samples: first..stop-1
+        self.stop: list[int] = []
+        # force-carrying pieces, one run per segment: anchor index, tau_from, samples i..j-1,
+        # tau_event (nan: none), position of the first piece in the impulse values
+        self.pieces: list[tuple[int, float, int, int, float, int]] = []
+        # the anchor's values of a segment of this kind (the ANCHOR fields, read at once), and
+        # the lists' appends, bound once (add runs for most segments of a sampled run)
+        self._anchor_of = attrgetter(*representative.ANCHOR)
+        self._add_anchor, self._add_t0 = self.anchors.extend, self.t0.append
+        self._add_first, self._add_stop = self.first.append, self.stop.append
+        self._pushes = representative.PUSHES
+
+    def add(self, seg: _SearchedSegment, tau_from: float, i: int, j: int,
+            tau_event: float | None, targets: list[int], values: list[float]) -> None:
+        """Samples i..j-1 in ``seg`` (from ``tau_from``); its event, if any, before sample j.
+
+        A segment with a contact force adds one impulse piece per sample (from the previous
+        sample, or ``tau_from``, to it) and one to its event, in the order the scalar march adds
+        them; their values are filled in by :meth:`evaluate`."""
+        self._add_anchor(self._anchor_of(seg))
+        self._add_t0(seg.t0)
+        self._add_first(i)
+        self._add_stop(j)
+        if not self._pushes:
+            return
+        k = len(self.t0) - 1
+        self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
+                            len(values)))
+        targets.extend(range(i, j))
+        values.extend([0.0] * (j - i))
+        if tau_event is not None:
+            targets.append(j)
+            values.append(0.0)
+
+    def evaluate(self, times: np.ndarray, out: Samples, values: np.ndarray) -> None:
+        first = np.array(self.first, dtype=int)
+        counts = np.array(self.stop, dtype=int) - first
+        rows = np.repeat(np.arange(len(counts)), counts)
+        # sample indices: each segment's run first..stop-1, concatenated
+        index = np.arange(len(rows)) + np.repeat(first - (np.cumsum(counts) - counts), counts)
+        width = len(self.rep.ANCHOR)
+        anchors = np.array(self.anchors, dtype=float).reshape(len(self.t0), width)
+        t0 = np.array(self.t0)
+        tau = times[index] - t0[rows]
+        x, v, z, w = self.rep.state_array(tuple(anchors[rows].T), tau)
+        out.x[index], out.v[index], out.z[index], out.w[index] = x, v, z, w
+        out.sticking[index] = self.rep.phase is Phase.STICK
+        if self.pieces:
+            k, tau_from, i, j, tau_event, position = (np.array(c) for c in
+                                                       zip(*self.pieces, strict=True))
+            n_samples = j - i
+            n_pieces = n_samples + ~np.isnan(tau_event)
+            run = np.repeat(np.arange(len(k)), n_pieces)  # the run of each piece
+            o = np.arange(len(run)) - np.repeat(np.cumsum(n_pieces) - n_pieces, n_pieces)
+            m = i[run] + o  # its sample (its end), or j for the piece to the event
+            seg_t0 = t0[k[run]]
+            # as the march: each piece from the previous sample (or tau_from) to its sample
+            # (or the event), the times from the anchor as times[m] - t0
+            tau_b = np.where(o < n_samples[run], times[np.minimum(m, len(times) - 1)] - seg_t0,
+                             tau_event[run])
+            tau_a = np.where(o == 0, tau_from[run], times[np.maximum(m - 1, 0)] - seg_t0)
+            values[position[run] + o] = self.rep.impulse_array(tuple(anchors[k[run]].T),
+                                                               tau_a, tau_b)

@@ -1,0 +1,383 @@
+""":class:`EventSolver`: method 1, the exact event-driven solver (the package docstring says how it
+works): its state, the march from event to event, the rules at each event, sampling many times in
+one march, snapshots."""
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ...errors import StateError
+from ...physics.ice import make_drag
+from ...physics.structure import (
+    DraggedStructure,
+    Oscillator,
+    morison_oscillator,
+)
+from ...record import Record
+from ...scene import Scene
+from ..base import Solver, State
+from ..contact_rules import (
+    EXACT_POLICY,
+    ContactRules,
+    Outcome,
+    Phase,
+    reanchor_on_flow_change,
+)
+from .flight import DraggedFlight, Flight
+from .sampling import _MARCHED, Samples, _first_sample_after, _SampleGroup, _sampling_kind
+from .segment import _SearchedSegment
+from .sticking import LinearStick, QuadraticStick
+
+#: Enum members as module constants (an enum class's attribute is looked up through its
+#: metaclass, about 20 times the cost of a global; these are asked at every event).
+_FLIGHT = Phase.FLIGHT
+_IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
+
+
+class EventSolver(Solver):
+    """Exact event-driven solver (method 1)."""
+
+    name = "exact"
+
+    # no Morison drag on the structure unless __init__ finds it (subclasses with their own
+    # structure, such as the external one, keep these)
+    structure_b = 0.0
+    dragged_structure: DraggedStructure | None = None
+    _flight_cls: type[Flight] = Flight
+    _osc_by_flow: tuple[float, Oscillator] | None = None
+
+    def __init__(self, scene: Scene, record_impacts: bool = True):
+        super().__init__(scene, record_impacts)
+        self.osc = Oscillator(self.m, self.c, self.k)
+        self.drag = make_drag(scene)
+        # Morison drag on the structure (docs/morison.md): linearised, a damping b_s and an offset
+        # b_s u / k of the closed form (structure_osc); quadratic, an integrated flight
+        # (DraggedFlight). Off: b_s = 0 and the flight is today's closed form.
+        drag_s = self.structure_drag
+        self.structure_b = drag_s.b if drag_s is not None and not drag_s.quadratic else 0.0
+        self.dragged_structure = (DraggedStructure(self.m, self.c, self.k, drag_s)
+                                  if drag_s is not None and drag_s.quadratic else None)
+        self._flight_cls = Flight if self.dragged_structure is None else DraggedFlight
+        self._osc_by_flow: tuple[float, Oscillator] | None = None
+        self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels, EXACT_POLICY)
+        self.u = scene.flow_u
+        self.tau = 0.0  # position within the current segment
+        self.pending_impulse = 0.0
+        s = self.state
+        self.seg = None
+        self._begin(0.0, s.x, s.v, s.z, s.w, self.u)  # an impact at t = 0 goes to the 1st step
+
+    # segment construction -----------------------------------------------------------------------
+    def structure_osc(self, u: float) -> Oscillator:
+        """The structure's closed form in a flow of speed u: the oscillator of m, c, k, with the
+        linearised Morison drag's damping and offset when it is on (the last one is kept)."""
+        if not self.structure_b:
+            return self.osc
+        if self._osc_by_flow is None or self._osc_by_flow[0] != u:
+            self._osc_by_flow = (u, morison_oscillator(self.m, self.c, self.k,
+                                                       self.structure_b, u))
+        return self._osc_by_flow[1]
+
+    def _structure_bounds(self, x: float, v: float, u: float) -> tuple[float, float, float]:
+        """The structure's acceleration and bounds on |x''| and |x'''| for all later times."""
+        if self.dragged_structure is not None:
+            return self.dragged_structure.bounds(x, v, u)
+        return self.structure_osc(u).bounds(x, v)
+
+    def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
+        if self.dragged_structure is not None:
+            a_x = self.dragged_structure.acceleration(x, v, u)
+        else:
+            # (structure_osc called only with a Morison drag: this runs at every impact)
+            osc = self.structure_osc(u) if self.structure_b else self.osc
+            a_x = osc.acceleration(x, v)
+        return a_x, self.drag.accel_bounds(w, u)[0]
+
+    def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
+               reanchor: bool = False, after_impact: bool = False) -> None:
+        """Start the segment that follows time t from state (x, v, z, w) (``reanchor``: after a
+        change of the flow speed; ``after_impact``: the velocities after an impact; neither is
+        a contact re-forming, see :meth:`ContactRules.at_contact`)."""
+        self.u = u
+        self.tau = 0.0
+        if x - z > 0.0:
+            self._fly(t, x, v, z, w, u)
+            return
+        decision = self.rules.at_contact(t, x, v, w, u, reanchor or after_impact)
+        outcome = decision.outcome
+        if outcome is _IMPACT:
+            self._impact(t, x, decision.v, decision.w, u)
+        elif outcome is _STICK_OUTCOME:
+            self._stick(t, x, decision.v, u, hold=decision.hold)
+        else:
+            self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
+
+    def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
+        self.seg = self._flight_cls(self, t, x, v, z, w, u, start)
+        if self.sticking:  # (apart already: nothing to change)
+            self._set_sticking(False, t)
+
+    def _fly_from_contact(self, t: float, x: float, v: float, w: float, u: float,
+                          lam: float) -> None:
+        """Flight starting at zero gap with separating (or zero) relative velocity.
+
+        With an opening speed s > 0 the search starts at 0, where g = 0 and g' = s > 0 are no
+        root, and its first stretch proves ``g >= s h - K h^2/2 > 0`` beyond. With s = 0 it
+        starts beyond the trivial root at 0, at the end of an interval proven root-free,
+        ``g >= g2 h^2/2 - J h^3/6`` (gap curvature g2 = -lam / mu > 0, J a bound on |g'''|).
+        """
+        opening = v - w
+        if opening > 0.0:
+            # the search's first stretch from 0 proves the opening: g(0) = 0, g'(0) = s > 0
+            self._fly(t, x, v, x, w, u, 0.0)
+            return
+        a_x, _, j_x_max = self._structure_bounds(x, v, u)
+        a_z, _, j_z_max = self.drag.accel_bounds(w, u)
+        curvature = a_x - a_z
+        jerk_bound = j_x_max + j_z_max
+        start = 0.0
+        if curvature > 0.0 and jerk_bound > 0.0:
+            start = 2.0 * curvature / jerk_bound
+        self._fly(t, x, v, x, w, u, start)
+
+    def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
+        """Bodies together from time t; separation is not looked for before ``t + hold``."""
+        cls = QuadraticStick if self.drag.quadratic else LinearStick
+        self.seg = cls(self, t, x, v, u, start=hold)
+        self._set_sticking(True, t)
+
+    def _impact(self, t: float, x: float, v_minus: float, w_minus: float, u: float) -> None:
+        """The impact step (eq. 16-18, chatter and Zeno closure) at time t; what follows."""
+        impact = self.rules.impact(t, x, v_minus, w_minus, self.e, u)
+        self._record(impact)
+        self.pending_impulse += impact.impulse
+        self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
+
+    def _flight_end(self, t: float, x: float, v: float, w: float, u: float) -> None:
+        """A flight's gap closing at time t, position x: :meth:`_begin` at zero gap, with the
+        common case, an impact after which the bodies part (a bounce), decided in one call
+        (:meth:`ContactRules.impact_at_contact`: the same decisions, the same flight)."""
+        impact, parts = self.rules.impact_at_contact(t, x, v, w, self.e, u)
+        if impact is None:
+            self._begin(t, x, v, x, w, u)
+            return
+        self._record(impact)
+        self.pending_impulse += impact.impulse
+        if parts:  # at_contact's FLIGHT with an opening speed: the search from 0
+            self.u = u
+            self.tau = 0.0
+            # _fly, from a flight (so not sticking: a flight and the sticking flag never
+            # coexist, as _read checks of a snapshot)
+            self.seg = self._flight_cls(self, t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
+        else:
+            self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
+
+    # marching -----------------------------------------------------------------------------------
+    def advance_to(self, t_end: float, u: float) -> float:
+        if u != self.u:  # zero-order hold: a new flow speed re-anchors the closed forms here
+            x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
+                                                 self.seg.phase is Phase.STICK)
+            self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+        return self._march(t_end, u)
+
+    def _march(self, t_end: float, u: float) -> float:
+        """Run the segments from the current one to ``t_end``; the impulse on the structure."""
+        impulse = self.pending_impulse
+        self.pending_impulse = 0.0
+        while True:
+            seg = self.seg
+            tau_end = t_end - seg.t0
+            tau_event = seg.next_event(tau_end)
+            if tau_event is None:
+                impulse += seg.impulse(self.tau, tau_end)
+                self.tau = tau_end
+                break
+            impulse += seg.impulse(self.tau, tau_event)
+            impulse += self._event(seg, tau_event, u)
+        x, v, z, w = self.seg.state(self.tau)
+        self.state = State(t_end, x, v, z, w)
+        return impulse
+
+    def _event(self, seg, tau_event: float, u: float) -> float:
+        """The event ending ``seg`` at ``tau_event``: the segments that follow; the impulse of
+        its impacts."""
+        x, v, z, w = seg.state(tau_event)
+        t_event = seg.t0 + tau_event
+        if seg.phase is _FLIGHT:
+            self._flight_end(t_event, x, v, w, u)  # impact, or a touch without speed
+        else:  # contact force turns tensile: separate with equal velocities
+            self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
+        impulse, self.pending_impulse = self.pending_impulse, 0.0
+        return impulse
+
+    def sample(self, times: np.ndarray, u: float) -> Samples:
+        """Advance to each of ``times`` (increasing, after the current time) in turn with flow
+        speed u, as ``advance_to(t, u)`` at each would, and return what each step reports.
+
+        The march visits the same segments and events; the states at the sample times and the
+        contact impulses are then evaluated per kind of segment in one vectorised pass of the
+        closed forms (equal to the scalar ones to rounding). A quadratic-drag sticking phase,
+        which has no closed form, evaluates its Taylor steps' polynomials at all its samples at
+        once (:meth:`QuadraticStick.states_at`, equal to :meth:`QuadraticStick.state` to
+        rounding); a segment with neither is marched sample by sample. Each sample interval
+        has its own impact budget (solver.max_impacts), as each step of a Simulator has."""
+        try:
+            return self._sample(times, u)
+        finally:
+            self.end_step()
+
+    def _sample(self, times: np.ndarray, u: float) -> Samples:
+        if u != self.u:
+            x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
+                                                 self.seg.phase is Phase.STICK)
+            self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+        t_list = times.tolist()
+        n = len(t_list)
+        out = Samples(n)
+        # impulse contributions in the order the scalar march adds them: (sample, value); the
+        # values of force-carrying pieces are filled in by the vectorised pass
+        targets: list[int] = [0]
+        values: list[float] = [self.pending_impulse]
+        self.pending_impulse = 0.0
+        # per kind of segment: _STEPPED, _MARCHED or the _SampleGroup of its samples
+        kinds: dict[type, Any] = {}
+        # the kind of the last segment's type, and whether its segments go to a _SampleGroup
+        # (most segments follow one of their own type: a bounce's flight another flight)
+        last_type: type | None = None
+        kind: Any = None
+        grouped = False
+        event = self._event
+        add_target, add_value = targets.append, values.append
+        i = 0
+        horizon = t_list[-1]
+        interval = 0  # the sample interval whose impact budget runs
+        self.begin_step()
+        while i < n:
+            seg = self.seg
+            if type(seg) is not last_type:
+                last_type = type(seg)
+                kind = kinds.get(last_type)
+                if kind is None:
+                    kind = kinds[last_type] = _sampling_kind(seg)
+                grouped = isinstance(kind, _SampleGroup)
+            if kind is _MARCHED:  # march to the sample
+                if interval != i:
+                    interval = i
+                    self.begin_step(t_list[i - 1])
+                add_target(i)
+                add_value(self._march(t_list[i], u))
+                out.set(i, self.state, self.sticking)
+                i += 1
+                continue
+            t0 = seg.t0
+            if grouped:  # a _SearchedSegment: its next_event, without that call
+                tau_event = seg.search.next_root_of(horizon - t0, seg)
+            else:
+                tau_event = seg.next_event(horizon - t0)
+            if tau_event is None:
+                j = n
+            elif t_list[i] - t0 >= tau_event:  # (several events before one sample: no call)
+                j = i
+            elif i + 1 == n or t_list[i + 1] - t0 >= tau_event:  # (nor one: 3 in 4 of the
+                j = i + 1  # bounces with a sample in Figure 2)
+            else:
+                j = _first_sample_after(t_list, i + 2, t0, tau_event)
+            if grouped:
+                if i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
+                    kind.add(seg, self.tau, i, j, tau_event, targets, values)
+            else:
+                self._sample_steps(seg, times, i, j, tau_event, out, targets, values)
+            if tau_event is None:
+                self.tau = horizon - t0
+                x, v, z, w = seg.state(self.tau)
+                self.state = State(horizon, x, v, z, w)
+                break
+            add_target(j)
+            if interval != j:  # (the event is sample j's: the first at or after it)
+                interval = j
+                self.begin_step(t_list[j - 1])
+            add_value(event(seg, tau_event, u))
+            i = j
+        impulse = np.zeros(n)
+        values_array = np.array(values)
+        for group in kinds.values():
+            if isinstance(group, _SampleGroup):
+                group.evaluate(times, out, values_array)
+        np.add.at(impulse, targets, values_array)
+        out.impulse = impulse
+        return out
+
+    def _sample_steps(self, seg: QuadraticStick, times: np.ndarray, i: int, j: int,
+                      tau_event: float | None, out: Samples, targets: list[int],
+                      values: list[float]) -> None:
+        """Samples i..j-1 in a sticking phase of Taylor steps, from the current position in it
+        (and its end at ``tau_event`` before sample j, if it ends): states and the impulse
+        pieces the scalar march adds, in its order, all evaluated at once."""
+        tau = times[i:j] - seg.t0
+        ends = tau if tau_event is None else np.append(tau, tau_event)
+        tau_all = np.concatenate(([self.tau], ends))
+        y = seg.states_at(tau_all)
+        x, v = y[1:j - i + 1, 0], y[1:j - i + 1, 1]
+        out.x[i:j], out.v[i:j], out.z[i:j], out.w[i:j] = x, v, x, v
+        out.sticking[i:j] = seg.phase is Phase.STICK
+        targets.extend(range(i, j))
+        if tau_event is not None:
+            targets.append(j)
+        values.extend(seg.impulses_between(tau_all, y).tolist())
+
+    # snapshots ----------------------------------------------------------------------------------
+    def checkpoint(self) -> Any:
+        """The solver's fields and the segment object with its search frontier: a flight or a
+        linear sticking phase changes nothing else while marching (a quadratic one, with its
+        Taylor steps, takes a full snapshot)."""
+        seg = self.seg
+        if not isinstance(seg, _SearchedSegment) or not seg.FRONTIER_ONLY:
+            return super().checkpoint()
+        search = seg.search
+        degenerate = self.rules.degenerate
+        return (self.state, self.e, self.impact_count, self.t_last, len(self.impacts),
+                self.sticking, self.sticking_since, self.u, self.tau, self.pending_impulse,
+                degenerate.run, degenerate.last, seg, search.a, search.root, search.iterations,
+                search.creep)
+
+    def rollback(self, checkpoint: Any) -> None:
+        if isinstance(checkpoint, dict):
+            super().rollback(checkpoint)
+            return
+        (self.state, self.e, self.impact_count, self.t_last, n_impacts, self.sticking,
+         self.sticking_since, self.u, self.tau, self.pending_impulse, run, last, seg,
+         *frontier) = checkpoint
+        del self.impacts[n_impacts:]
+        self.rules.degenerate.set((run, last))
+        seg.search.set_frontier(tuple(frontier))
+        self.seg = seg
+
+    _KEYS = ("u", "tau", "pending_impulse", "degenerate", "segment")
+
+    def _snapshot(self) -> dict[str, Any]:
+        return {"u": self.u, "tau": self.tau, "pending_impulse": self.pending_impulse,
+                "degenerate": self.rules.degenerate.snapshot(),
+                "segment": self.seg.snapshot(self.tau)}
+
+    def _read(self, rec: Record, t: float) -> Callable[[], None]:
+        u = rec.real("u")
+        tau = rec.real("tau", low=0.0)
+        pending = rec.real("pending_impulse")
+        degenerate = self.rules.degenerate.read(rec.record("degenerate"))
+        seg_rec = rec.record("segment")
+        phase = seg_rec.text("phase", [p.value for p in Phase])
+        if (phase == Phase.STICK.value) != rec.data["sticking"]:
+            raise StateError(seg_rec.field("phase"), phase, "stick exactly when sticking is true")
+        if phase == Phase.FLIGHT.value:
+            cls = self._flight_cls
+        else:
+            cls = QuadraticStick if self.drag.quadratic else LinearStick
+        make_segment = cls.read(self, seg_rec, u)
+
+        def apply() -> None:
+            self.seg = make_segment()
+            self.u, self.tau, self.pending_impulse = u, tau, pending
+            self.rules.degenerate.set(degenerate)
+        return apply
