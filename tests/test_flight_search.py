@@ -337,3 +337,20 @@ def test_the_fmu_runs_the_pure_search_unless_the_host_opts_in(fmu_dir, opt_in):
     seen = json.loads(out.stdout.strip().splitlines()[-1])
     assert seen["pure_env"] is None  # the host's environment as it was
     assert seen["compiled"] == [opt_in and flight_search.COMPILED is not None]
+
+
+@pytest.mark.parametrize("handed_back", [False, True])
+def test_a_rollback_gives_the_search_back_whole(handed_back):
+    """EventSolver.rollback restores all a flight's search holds: its frontier, the probe kept
+    at its end and whether the compiled search handed it back (RootSearch.checkpoint)."""
+    sim = Simulator(Scene(ice_M=800.0))
+    sim.advance(0.5)
+    solver = sim.solver
+    search = solver.seg.search
+    search.handed_back = handed_back
+    saved, before = solver.checkpoint(), search.checkpoint()
+    solver.advance_to(solver.t + 0.7, sim.scene.flow_u)  # impacts: new segments, new searches
+    assert solver.seg is not saved[12]
+    solver.rollback(saved)
+    assert solver.seg.search is search and search.checkpoint() == before
+    assert search.handed_back is handed_back

@@ -497,14 +497,15 @@ def test_run_samples_what_the_simulator_reports_to_rounding(name):
 
 
 def test_run_marches_a_segment_without_array_forms_sample_by_sample(monkeypatch):
-    """A kind of segment with neither closed forms for arrays nor dense steps is sampled as the
-    simulator steps it: the same states, impulses and impacts as the vectorised sampling."""
+    """A kind of segment with neither closed forms for arrays nor dense steps (its SAMPLING is
+    "marched") is sampled as the simulator steps it: the same states, impulses and impacts as the
+    vectorised sampling."""
     from iceimpact.solvers.exact import QuadraticStick
 
     values, t_end = SAMPLED_SCENES["quadratic sticking parts"]
     scene = Scene(**values)
     vectorised = run(scene, t_end, dt=0.02)
-    monkeypatch.delattr(QuadraticStick, "states_at")
+    monkeypatch.setattr(QuadraticStick, "SAMPLING", "marched")
     marched = run(scene, t_end, dt=0.02)
     assert np.array_equal(marched.impacts["t"], vectorised.impacts["t"])
     assert np.array_equal(marched.sticking, vectorised.sticking)

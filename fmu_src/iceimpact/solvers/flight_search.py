@@ -307,6 +307,13 @@ class FlightSearch(RootSearch):
         # structure's rest position, mostly, where every step asks Flight.clearance)
         self.handed_back = False
 
+    def checkpoint(self) -> tuple:
+        return RootSearch.checkpoint(self), self.handed_back
+
+    def rollback(self, saved: tuple) -> None:
+        RootSearch.rollback(self, saved[0])
+        self.handed_back = saved[1]
+
     def next_root_of(self, horizon: float, signal: Any) -> float | None:
         root = self.root
         if root is not None:

@@ -189,6 +189,14 @@ class RootSearch:
     def set_frontier(self, values: tuple[float, float | None, int, int]) -> None:
         self.a, self.root, self.iterations, self.creep = values
 
+    def checkpoint(self) -> tuple:
+        """All the search holds, for a rollback in memory: the frontier and the probe kept at
+        its end (a snapshot keeps the frontier only; the probe is evaluated again from it)."""
+        return self.a, self.root, self.iterations, self.creep, self._probed_at, self._probed
+
+    def rollback(self, saved: tuple) -> None:
+        self.a, self.root, self.iterations, self.creep, self._probed_at, self._probed = saved
+
     def next_root_before(self, horizon: float,
                          probe: Callable[[float], tuple[float, float, float, float, float]],
                          value: Callable[[float], float],

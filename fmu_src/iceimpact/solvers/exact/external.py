@@ -58,16 +58,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 from ...errors import StateError
 from ...physics.contact import contact_force
 from ...physics.external import ExtrapolatedStructure
-from ...physics.ice import make_drag
 from ...record import Record
 from ...scene import Scene
 from ..base import Solver, State
-from ..contact_rules import EXACT_POLICY, ContactRules, Phase, separates
+from ..contact_rules import Phase, separates
 from .solver import EventSolver
 
 
@@ -139,6 +138,18 @@ class ExternalStick:
         return 0.5 * lam * parting / h
 
 
+class LastStep(NamedTuple):
+    """What the external solver keeps of the last step (its snapshot's ``previous`` is the first
+    four fields, ``other_force`` the last two)."""
+
+    v_in: float            # the structure's velocity input at the step start, m/s
+    h: float               # the step's length, s
+    felt: float            # the contact force the structure felt over it, N
+    returned: float        # the contact force IceImpact returned for it, N
+    raw: float | None      # the raw estimate of F_o made at its start, N (None: none)
+    raw_time: float        # the time that estimate refers to, s
+
+
 class ExternalSolver(EventSolver):
     """The exact event-driven method against an external structure (see the module docstring).
 
@@ -148,16 +159,10 @@ class ExternalSolver(EventSolver):
     name = "external"
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
-        Solver.__init__(self, scene, record_impacts)
+        super().__init__(scene, record_impacts)
         self.inputs = (scene.structure_x_in, scene.structure_v_in, scene.structure_a_in)
         self.state = State(0.0, scene.structure_x_in, scene.structure_v_in, scene.ice_z0,
                            scene.ice_v0)
-        self.osc = ExtrapolatedStructure(0.0)
-        self.drag = make_drag(scene)
-        self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels, EXACT_POLICY)
-        self.u = scene.flow_u
-        self.tau = 0.0
-        self.pending_impulse = 0.0
         self.jacobi = scene.jacobi
         #: the structure's own force F_o at the step start (N), its rate over the step (N/s)
         self.other_force = 0.0
@@ -168,11 +173,19 @@ class ExternalSolver(EventSolver):
         self.coupling_force = 0.0
         self.lead = 0.0
         self.stick_impulse = 0.0  # contact impulse of the riding ice in the current step, N.s
-        #: the last step: v_in, its length, the contact force the structure felt over it, the
-        #: contact force IceImpact returned for it, the raw estimate of F_o made at its start and
-        #: the time that estimate refers to (None before the first step)
-        self.previous: tuple[float, float, float, float, float | None, float] | None = None
-        self.seg = None
+        #: the last step (None before the first)
+        self.previous: LastStep | None = None
+
+    def _structure(self) -> ExtrapolatedStructure:
+        """The structure from outside, extrapolated from its inputs at each step start."""
+        return ExtrapolatedStructure(0.0)
+
+    def _structure_drag(self) -> None:
+        """No Morison drag here: the structure's loads live in the other FMU."""
+        return None
+
+    def _start(self) -> None:
+        """Nothing yet: the first segment starts at the first step, from its inputs."""
 
     # the structure's inputs and force are state too: a full snapshot undoes a step
     checkpoint = Solver.checkpoint
@@ -185,7 +198,7 @@ class ExternalSolver(EventSolver):
         force, which the master holds on the structure over this step of length h."""
         if not self.jacobi or self.previous is None:
             return 0.0
-        return self.previous[3] * h
+        return self.previous.returned * h
 
     def measure_other_force(self, t: float, v_in: float,
                             a_in: float) -> tuple[float | None, float]:
@@ -195,7 +208,7 @@ class ExternalSolver(EventSolver):
         previous = self.previous
         if previous is None:
             return (self.m * a_in if a_in != 0.0 else None), t
-        v_prev, h_prev, felt = previous[0], previous[1], previous[2]
+        v_prev, h_prev, felt = previous.v_in, previous.h, previous.felt
         if a_in != 0.0:
             return self.m * a_in - felt, t
         return self.m * (v_in - v_prev) / h_prev - felt, t - 0.5 * h_prev
@@ -208,8 +221,8 @@ class ExternalSolver(EventSolver):
             return 0.0, 0.0
         previous = self.previous
         rate = 0.0
-        if previous is not None and previous[4] is not None and ref > previous[5]:
-            rate = (raw - previous[4]) / (ref - previous[5])
+        if previous is not None and previous.raw is not None and ref > previous.raw_time:
+            rate = (raw - previous.raw) / (ref - previous.raw_time)
         return raw + rate * (t - ref), rate
 
     def other_force_at(self, t: float) -> float:
@@ -271,7 +284,7 @@ class ExternalSolver(EventSolver):
         returned = (self.jacobi_force(impulse, h, started_riding) if self.jacobi
                     else impulse / h)
         felt = (unfelt / h) if self.jacobi else returned
-        self.previous = (v_in, h, felt, returned, raw, ref)
+        self.previous = LastStep(v_in, h, felt, returned, raw, ref)
         self.coupling_force = returned
         return impulse
 
@@ -330,7 +343,7 @@ class ExternalSolver(EventSolver):
 
         def apply() -> None:
             self.u = u
-            self.previous = None if previous is None else (*previous, *other)
+            self.previous = None if previous is None else LastStep(*previous, *other)
             self.coupling_force, self.lead = coupling_force, lead
             self.rules.degenerate.set(degenerate)
             self.seg = None

@@ -338,8 +338,9 @@ class DraggedFlight(Flight):
 
     FRONTIER_ONLY = False  # its integration chunks change while marching
     _ONE_FUNCTION = False  # (its motion is integrated)
-    state_array = None     # no closed form: sampled point by point
-    clearance = None       # no closed-form envelope of the structure's motion
+    SAMPLING = "marched"   # no closed form: stepped to each sample
+    clearance = None       # no closed-form envelope of the structure's motion (RootSearch's
+                           # signal takes None for "none")
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):

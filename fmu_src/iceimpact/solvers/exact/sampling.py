@@ -40,19 +40,16 @@ def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float)
     return j
 
 
-#: How :meth:`EventSolver.sample` evaluates a kind of segment (or by a _SampleGroup).
-_STEPPED, _MARCHED = "stepped", "marched"
+#: How :meth:`EventSolver.sample` evaluates a kind of segment, as each segment class declares
+#: in its ``SAMPLING``: all its samples at once in array closed forms (a _SampleGroup), per
+#: segment from dense output (``states_at``, Taylor steps), or stepped to each sample.
+GROUPED, _STEPPED, _MARCHED = "grouped", "stepped", "marched"
 
 
 def _sampling_kind(seg: Any) -> Any:
-    """_STEPPED for segments of Taylor steps (dense output per segment), a new _SampleGroup
-    for those with array closed forms (all their samples at once), else _MARCHED (stepped to
-    each sample)."""
-    if hasattr(seg, "states_at"):
-        return _STEPPED
-    if getattr(seg, "state_array", None) is not None:
-        return _SampleGroup(seg)
-    return _MARCHED
+    """The segment's ``SAMPLING``, with a new _SampleGroup for GROUPED."""
+    kind = seg.SAMPLING
+    return _SampleGroup(seg) if kind == GROUPED else kind
 
 
 class Samples:

@@ -45,6 +45,8 @@ class _SearchedSegment:
     #: marching changes nothing in the segment but its search frontier, so a checkpoint of the
     #: frontier undoes a step (:meth:`EventSolver.checkpoint`)
     FRONTIER_ONLY = True
+    #: how the vectorised sampler evaluates this kind (sampling.GROUPED: by state_array)
+    SAMPLING = "grouped"
 
     def anchor(self) -> tuple[float, ...]:
         return tuple(getattr(self, name) for name in self.ANCHOR)

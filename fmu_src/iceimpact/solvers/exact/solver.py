@@ -41,21 +41,14 @@ class EventSolver(Solver):
 
     name = "exact"
 
-    # no Morison drag on the structure unless __init__ finds it (subclasses with their own
-    # structure, such as the external one, keep these)
-    structure_b = 0.0
-    dragged_structure: DraggedStructure | None = None
-    _flight_cls: type[Flight] = Flight
-    _osc_by_flow: tuple[float, Oscillator] | None = None
-
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
-        self.osc = Oscillator(self.m, self.c, self.k)
+        self.osc = self._structure()
         self.drag = make_drag(scene)
         # Morison drag on the structure (docs/morison.md): linearised, a damping b_s and an offset
         # b_s u / k of the closed form (structure_osc); quadratic, an integrated flight
         # (DraggedFlight). Off: b_s = 0 and the flight is today's closed form.
-        drag_s = self.structure_drag
+        drag_s = self._structure_drag()
         self.structure_b = drag_s.b if drag_s is not None and not drag_s.quadratic else 0.0
         self.dragged_structure = (DraggedStructure(self.m, self.c, self.k, drag_s)
                                   if drag_s is not None and drag_s.quadratic else None)
@@ -65,9 +58,23 @@ class EventSolver(Solver):
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
         self.pending_impulse = 0.0
-        s = self.state
         self.seg = None
-        self._begin(0.0, s.x, s.v, s.z, s.w, self.u)  # an impact at t = 0 goes to the 1st step
+        self._start()
+
+    # what a subclass with a structure of its own changes ------------------------------------------
+    def _structure(self) -> Oscillator:
+        """The structure's closed form without a flow: the oscillator of m, c, k."""
+        return Oscillator(self.m, self.c, self.k)
+
+    def _structure_drag(self):
+        """The Morison drag on the structure (a drag law), or None when it is off."""
+        return self.structure_drag
+
+    def _start(self) -> None:
+        """The first segment, from the scene's initial state (an impact at t = 0 goes to the
+        first step)."""
+        s = self.state
+        self._begin(0.0, s.x, s.v, s.z, s.w, self.u)
 
     # segment construction -----------------------------------------------------------------------
     def structure_osc(self, u: float) -> Oscillator:
@@ -329,9 +336,10 @@ class EventSolver(Solver):
 
     # snapshots ----------------------------------------------------------------------------------
     def checkpoint(self) -> Any:
-        """The solver's fields and the segment object with its search frontier: a flight or a
-        linear sticking phase changes nothing else while marching (a quadratic one, with its
-        Taylor steps, takes a full snapshot)."""
+        """The solver's fields and the segment object with all its search holds (frontier, the
+        probe at its end, a compiled search handed back): a flight or a linear sticking phase
+        changes nothing else while marching (a quadratic one, with its Taylor steps, takes a full
+        snapshot)."""
         seg = self.seg
         if not isinstance(seg, _SearchedSegment) or not seg.FRONTIER_ONLY:
             return super().checkpoint()
@@ -339,8 +347,7 @@ class EventSolver(Solver):
         degenerate = self.rules.degenerate
         return (self.state, self.e, self.impact_count, self.t_last, len(self.impacts),
                 self.sticking, self.sticking_since, self.u, self.tau, self.pending_impulse,
-                degenerate.run, degenerate.last, seg, search.a, search.root, search.iterations,
-                search.creep)
+                degenerate.run, degenerate.last, seg, search.checkpoint())
 
     def rollback(self, checkpoint: Any) -> None:
         if isinstance(checkpoint, dict):
@@ -348,10 +355,10 @@ class EventSolver(Solver):
             return
         (self.state, self.e, self.impact_count, self.t_last, n_impacts, self.sticking,
          self.sticking_since, self.u, self.tau, self.pending_impulse, run, last, seg,
-         *frontier) = checkpoint
+         search) = checkpoint
         del self.impacts[n_impacts:]
         self.rules.degenerate.set((run, last))
-        seg.search.set_frontier(tuple(frontier))
+        seg.search.rollback(search)
         self.seg = seg
 
     _KEYS = ("u", "tau", "pending_impulse", "degenerate", "segment")

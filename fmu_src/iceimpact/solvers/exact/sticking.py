@@ -345,6 +345,7 @@ class QuadraticStick:
     keeps the start of the steps still needed, which a restored segment takes again to the bit."""
 
     phase = Phase.STICK
+    SAMPLING = "stepped"  # its dense output per segment (states_at)
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
