@@ -20,9 +20,9 @@ import morison_off_cases
 from iceimpact import ParameterError, Scene, Simulator
 from iceimpact.simulator import run
 from iceimpact.solvers import contact_rules
-from iceimpact.solvers.exact import solver as event_solver
 from iceimpact.solvers import fixed_step as fixed_step_solver
 from iceimpact.solvers import ode as ode_solver
+from iceimpact.solvers.exact import solver as event_solver
 from ode_reference import simulate as ode_simulate
 
 RHO = Scene().fluid_rho

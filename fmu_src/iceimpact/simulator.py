@@ -223,16 +223,12 @@ class Simulator:
             if not math.isfinite(report.t + report.x + report.v + report.z + report.w + report.gap
                                  + report.penetration + report.impulse + report.force
                                  + report.t_last + report.spring_force):
-                bad = [name for name in _REAL_REPORT_FIELDS
-                       if not math.isfinite(getattr(report, name))]
-                if bad:
-                    raise SolverError(f"the method produced a non-finite {', '.join(bad)} at "
-                                      f"t = {t_end!r} s")
+                check_finite({name: getattr(report, name) for name in _REAL_REPORT_FIELDS},
+                             np.array([t_end]))
         except BaseException as exc:
             solver.rollback(checkpoint)  # a refused step changes nothing
             if isinstance(exc, SolverError):
-                self.failed = (f"the run stopped at t = {self.solver.t!r} s (the step to "
-                               f"{t_end!r} s was refused; the state is as before it): {exc}")
+                self.failed = stopped(self.solver.t, t_end, exc)
                 raise SolverError(self.failed) from exc
             raise
         finally:
@@ -405,6 +401,37 @@ def _sample_times(t_end: float, dt: float, sample_times: Any) -> np.ndarray:
     return times
 
 
+class NonFiniteError(SolverError):
+    """A method produced a value that is not finite (at ``t``, the first such time; the time
+    before it is ``t_before``)."""
+
+    def __init__(self, names: list[str], t: float, t_before: float):
+        self.t, self.t_before = t, t_before
+        super().__init__(f"the method produced a non-finite {', '.join(names)} at t = {t!r} s")
+
+
+def check_finite(values: dict[str, Any], times: np.ndarray) -> None:
+    """Refuse NaN and inf in what a step or a run reports: ``values`` are the reported fields,
+    each a number or an array over ``times``; raises :class:`NonFiniteError` naming every field
+    that is not finite at the first time where one is not."""
+    arrays = {name: np.atleast_1d(np.asarray(value, dtype=float))
+              for name, value in values.items()}
+    bad_any = np.zeros(len(times), dtype=bool)
+    for array in arrays.values():
+        bad_any |= ~np.isfinite(array)
+    if not bad_any.any():
+        return
+    i = int(np.argmax(bad_any))
+    names = [name for name, array in arrays.items() if not math.isfinite(array[i])]
+    raise NonFiniteError(names, float(times[i]), float(times[i - 1]) if i > 0 else math.nan)
+
+
+def stopped(t: float, t_end: float, reason: Exception) -> str:
+    """How a refused step (or sample interval) is reported, by every path that steps."""
+    return (f"the run stopped at t = {t!r} s (the step to {t_end!r} s was refused; the state is "
+            f"as before it): {reason}")
+
+
 def run(scene: Scene, t_end: float, dt: float = 1e-2,
         sample_times: np.ndarray | None = None) -> Result:
     """Simulate ``scene`` at its constant flow speed from 0 to ``t_end`` (s).
@@ -418,7 +445,7 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
     times = _sample_times(t_end, dt, sample_times)
     sim = Simulator(scene)
     u = scene.flow_u
-    if isinstance(sim.solver, EventSolver) and not scene.external:
+    if sim.solver.SAMPLES_AT_ONCE:
         return _run_sampled(sim, times, u)
     reports = [sim.report]
     for t in times.tolist():
@@ -438,18 +465,19 @@ def _run_sampled(sim: Simulator, times: np.ndarray, u: float) -> Result:
     impulses evaluated in vectorised closed forms (:meth:`EventSolver.sample`); the same values
     as stepping the simulator, to rounding."""
     first = sim.report
-    samples = sim.solver.sample(times, u)
+    samples = sim.solver.sample(times, u)  # (a refusal names its own time: the impact budget)
 
     def column(name: str, dtype: type = float) -> np.ndarray:
         return np.concatenate(([getattr(first, name)], getattr(samples, name))).astype(dtype)
 
     x, z = column("x"), column("z")
     gap, penetration = reported_gap(x - z)
-    for name in ("x", "v", "z", "w", "impulse"):
-        bad = ~np.isfinite(getattr(samples, name))
-        if bad.any():  # as Simulator.advance: no NaN or inf reaches an output
-            raise SolverError(f"the method produced a non-finite {name} at "
-                              f"t = {times[np.argmax(bad)]!r} s")
+    try:  # as Simulator.advance: no NaN or inf reaches an output
+        check_finite({"x": x, "v": column("v"), "z": z, "w": column("w"),
+                      "gap": gap, "penetration": penetration, "impulse": column("impulse")},
+                     np.concatenate(([first.t], times)))
+    except SolverError as exc:
+        raise SolverError(stopped(exc.t_before, exc.t, exc)) from exc
     return Result(scene=sim.scene, t=np.concatenate(([first.t], times)), x=x, v=column("v"),
                   z=z, w=column("w"), impulse=column("impulse"),
                   sticking=column("sticking", bool), impacts=impacts_array(sim.impacts),

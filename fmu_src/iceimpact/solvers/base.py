@@ -58,6 +58,9 @@ class Solver:
 
     #: short name used in reports, benchmarks and snapshots
     name = "base"
+    #: The solver has ``sample(times, u)``: many sample times in one march, evaluated at once
+    #: (run() takes it; otherwise it steps to each sample time).
+    SAMPLES_AT_ONCE = False
 
     @property
     def penetration_cause(self) -> str:

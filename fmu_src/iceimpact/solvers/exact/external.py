@@ -157,6 +157,7 @@ class ExternalSolver(EventSolver):
     before :meth:`advance_to`; the simulator does it."""
 
     name = "external"
+    SAMPLES_AT_ONCE = False  # each step has its own structure inputs
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)

@@ -40,6 +40,7 @@ class EventSolver(Solver):
     """Exact event-driven solver (method 1)."""
 
     name = "exact"
+    SAMPLES_AT_ONCE = True
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
@@ -183,11 +184,15 @@ class EventSolver(Solver):
 
     # marching -----------------------------------------------------------------------------------
     def advance_to(self, t_end: float, u: float) -> float:
-        if u != self.u:  # zero-order hold: a new flow speed re-anchors the closed forms here
-            x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
-                                                 self.seg.phase is Phase.STICK)
-            self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+        if u != self.u:
+            self._reanchor(u)
         return self._march(t_end, u)
+
+    def _reanchor(self, u: float) -> None:
+        """Zero-order hold: a new flow speed re-anchors the closed forms at the current time."""
+        x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
+                                             self.seg.phase is Phase.STICK)
+        self._begin(self.state.t, x, v, z, w, u, reanchor=True)
 
     def _march(self, t_end: float, u: float) -> float:
         """Run the segments from the current one to ``t_end``; the impulse on the structure."""
@@ -237,9 +242,7 @@ class EventSolver(Solver):
 
     def _sample(self, times: np.ndarray, u: float) -> Samples:
         if u != self.u:
-            x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
-                                                 self.seg.phase is Phase.STICK)
-            self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+            self._reanchor(u)
         t_list = times.tolist()
         n = len(t_list)
         out = Samples(n)
