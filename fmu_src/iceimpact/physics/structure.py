@@ -277,7 +277,8 @@ class Oscillator:
         mode is above half its start (s2 t > ``MODE_VELOCITY_SWITCH``) the rate is therefore
         v0 plus its increments, ``v0 + A s1 (e^{s1 t} - 1) + B s2 (e^{s2 t} - 1)``: exactly v0 at
         t = 0, and rounding of the order of the increments; once the fast mode has decayed, the
-        sum of the two modes, whose rounding decays with them (fix 3)."""
+        sum of the two modes, whose rounding decays with them
+        (docs/robustness.md#over-damped-velocity)."""
         slow, fast = self._s_slow, self._s_fast
         gap = slow - fast  # 2 wo
         return (v0 - fast * y0) / gap, (slow * y0 - v0) / gap

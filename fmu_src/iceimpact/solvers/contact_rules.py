@@ -448,9 +448,8 @@ class ContactRules:
         degenerate contact: it follows a change of the flow speed (the closed forms restart at
         the bodies' state, :func:`reanchor_on_flow_change`), or an impact (the velocities after
         it, equal after a plastic one: the closing speed the impact resolved was real). Counted,
-        the plastic impacts of a floe knocked off and brought back more often than the chatter
-        time (fix 32: every 4 ms against 0.39 s) held the bodies from the ninth on, for up to
-        the chatter time, with no look for a separation.
+        repeated real impacts would hold the bodies with no look for a separation
+        (docs/robustness.md#contact-after-impact).
         """
         policy = self.policy
         closing = w - v

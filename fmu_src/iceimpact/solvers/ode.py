@@ -260,7 +260,8 @@ class OdeSolver(Solver):
         m + m_a + M (``integrated_rate(..., together=True)``, (c + b + b_s) / (m + m_a + M)
         with the linearised drags): the flight's rates bounded a light floe's sticking phases,
         b / M = 2.9e5 1/s where they integrate b / (m + M) = 53 1/s, to steps of 1.7e-5 s
-        (docs/robustness.md, fix 30). In flight the ice's quadratic drag is left out: its rate
+        (docs/robustness.md#holds-in-spans).
+        In flight the ice's quadratic drag is left out: its rate
         2 B |w - u| / M vanishes where the ice meets the flow, the only place its motion falls
         below the tolerance, and above it the error control sees an unstable step (a bound at
         the speed after a flow reversal, 2 |u|, held whole steps to that peak rate, which the
@@ -325,8 +326,8 @@ class OdeSolver(Solver):
     def _integrate(self, lo: float, y_lo: np.ndarray, hi: float):
         """One solve_ivp call from (lo, y_lo) to hi; within a forced hold, without the event
         and at most to the hold's end. A hold is integrated in the segment's spans like any
-        other time: whole, a hold of up to the chatter time (0.39 s for a slow structure) was
-        integrated ahead of 1 ms steps whose flow change discarded it (fix 30)."""
+        other time, not whole: a flow change may discard what lies ahead
+        (docs/robustness.md#holds-in-spans)."""
         events = self.event_fn
         if lo < self.hold_until:
             hi, events = min(hi, self.hold_until), None
@@ -364,8 +365,8 @@ class OdeSolver(Solver):
 
     def _hidden_event(self, res) -> float | None:
         """The first event of the segment inside one integrator step that scipy's event test
-        cannot see (s), or None (fix 33). solve_ivp tests the event's sign at the ends of its
-        steps only, so a dip below zero that starts and ends within one step goes unseen: in
+        cannot see (s), or None (docs/robustness.md#hidden-meeting). solve_ivp tests the
+        event's sign at the ends of its steps only, so a dip below zero that starts and ends within one step goes unseen: in
         flight, the gap (a step of 4 ms over a 3.5 ms dip let the ice through the structure by
         2.5e-7 m, the search with seed 57); sticking, the contact force (a pair ringing just
         beyond what its drag holds, held through its tensile moments: a pull). Such a dip has
@@ -414,7 +415,8 @@ class OdeSolver(Solver):
         """Start the segment that follows time t from state (x, v, z, w) (contact rules of
         :mod:`~iceimpact.solvers.contact_rules` with :data:`INTEGRATED_POLICY`; ``reanchor``:
         after a change of the flow speed, which is no event; ``after_impact``: the velocities
-        after an impact, an event, but no contact re-forming, fix 32)."""
+        after an impact, an event, but no contact re-forming:
+        docs/robustness.md#contact-after-impact)."""
         if not reanchor:
             if _same_instant(t, self._last_event_t):
                 self._events_here += 1

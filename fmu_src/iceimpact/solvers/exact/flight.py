@@ -247,7 +247,7 @@ class Flight(_SearchedSegment):
         at the crest before it, where the gap is about 2R. There the search takes over and
         locates the impact as anywhere else. Each call evaluates at most 4 log2(periods) + 4
         probes however slowly the ice drifts. A dip within the rounding of the gap (a few ulps of
-        the positions) may be taken for a touch, as fix 13's holding-still ice is.
+        the positions) may be taken for a touch (docs/robustness.md#tangent-ringing).
 
         The doubling stops where omega t reaches ``DRIFT_PHASE_LIMIT`` (beyond, one ulp of the
         phase nears a degree); the search then goes on period by period."""

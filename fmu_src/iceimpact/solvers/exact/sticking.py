@@ -229,7 +229,9 @@ class LinearStick(_SearchedSegment):
 
     def _tension_unresolvable(self, push: float, reach: float) -> bool:
         """Whether every tensile stretch of the contact force from here on is too slight to
-        part the bodies resolvably, so that they are held together through it (fix 28).
+        part the bodies resolvably, so that they are held together through it (otherwise a
+        stiff pair parts and re-contacts once a period without end:
+        docs/robustness.md#stick-part-cycle).
 
         Under-damped, q = -b y' - M y'' is a free response (see :meth:`clearance`); in its
         phase plane ``q = rho cos(theta)``, ``q' = -omega0 rho sin(theta)`` (omega0^2 =
@@ -247,11 +249,7 @@ class LinearStick(_SearchedSegment):
         from such a separation re-contacts at a closing speed the contact merges: what
         holding the bodies gives, without a flight the positions cannot resolve. The step
         impulse stays >= -s mu >= -ROUNDING_SPEED mu |u|, below 1e-12 of the phase's momentum
-        scale (m + M) |u|.
-
-        Fix 14's stiff pair (omega0 3.9e7 rad/s, b u = 2.1e4 N) rang 23 N beyond b u: a
-        tension of 2.4e-9 s a period (s = 3e-11 m/s against 6.5e-9 m/s, a gap of ~2e-19 m);
-        the exact motion parted and re-contacted once a period, and the step never ended."""
+        scale (m + M) |u|."""
         osc = self.osc
         if not (push > 0.0 and osc.regime == UNDER):
             return False
@@ -306,22 +304,18 @@ class LinearStick(_SearchedSegment):
 
         - integral: the contact force's integral as ``lam0 (tau_b - tau_a)`` plus that of
           q - q0 (:meth:`Oscillator.deviation_integral`, from the modes of the anchor's
-          (q0, q0')). Far from the equilibrium (fix 21), b (dx - u dt) is a difference of
-          displacements whose rounding (b ulp(dx), 5e-15 N.s for 1e-4 m under b = 4e5 kg/s)
-          exceeds an impulse of 1e-11 N over 1 ms; this form has none. But lam0 is the
-          anchor's force, and its rounding stays while the motion decays: a 29 mg pair sticking
-          from 0.24 m on k = 5.6e8 N/m (no flow) was at rest by t = 0.03 s, where a 0.01 s
-          step's impulse came out as +-2.3e-10 N.s, one ulp of lam0 dt = 1.5e6 N.s, alternately
-          tensile; an over-damped pair (zeta 50) decaying at 1e-14 m/s gave steps of 3e-14,
-          1.4e-13 and -8.3e-14 N.s for a true 6e-20.
+          (q0, q0')). Far from the equilibrium, b (dx - u dt) is a difference of displacements
+          whose rounding exceeds small impulses; this form has none. But lam0 is the anchor's
+          force, and its rounding stays while the motion decays
+          (docs/robustness.md#far-equilibrium-sticking has the cases).
         - balance: the step's momentum balance on its own modes, the drag impulse on the ice
           ``b (u dt - dy)`` minus its momentum change ``M dy'``, with dy = d1 + d2 and
           dy' = s1 d1 + s2 d2 the changes of the two modes over the step
           (:meth:`Oscillator.mode_steps`, from the modes of the anchor's deviation):
           ``b u dt - (b + M s1) d1 - (b + M s2) d2``, whose rounding decays with the motion
           (b |u| dt aside, large where the equilibrium is far). From the displacement
-          increments of the anchor instead, dy_b - dy_a carries the rounding of the anchor's
-          scale: the zeta 50 pair's steps were 6e-20 N.s, or -3e-23."""
+          increments of the anchor instead, dy_b - dy_a would carry the rounding of the
+          anchor's scale."""
         osc, b, M = self.osc, self.b, self.M
         duration = tau_b - tau_a
         i_slow_b, i_fast_b = osc.deviation_integral_terms(*q_modes, tau_b)
