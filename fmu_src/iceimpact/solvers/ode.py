@@ -366,10 +366,9 @@ class OdeSolver(Solver):
     def _hidden_event(self, res) -> float | None:
         """The first event of the segment inside one integrator step that scipy's event test
         cannot see (s), or None (docs/robustness.md#hidden-meeting). solve_ivp tests the
-        event's sign at the ends of its steps only, so a dip below zero that starts and ends within one step goes unseen: in
-        flight, the gap (a step of 4 ms over a 3.5 ms dip let the ice through the structure by
-        2.5e-7 m, the search with seed 57); sticking, the contact force (a pair ringing just
-        beyond what its drag holds, held through its tensile moments: a pull). Such a dip has
+        event's sign at the ends of its steps only, so a dip below zero that starts and ends
+        within one step goes unseen: in flight, the gap (the ice would pass through the
+        structure); sticking, the contact force (a pull held through). Such a dip has
         its lowest point inside the step, where the event's rate turns from negative to
         positive (in flight v - w, sticking :meth:`Together.contact_force_rate`); so wherever
         it changes sign that way between two step ends (before scipy's own event, if any), the
