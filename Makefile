@@ -48,7 +48,7 @@ regime-map: $(STAMP)
 	$(PY) examples/regime_map.py
 
 lint: $(STAMP)
-	$(PY) -m ruff check fmu_src tests benchmarks examples build_fmu.py
+	$(PY) -m ruff check fmu_src tests tools benchmarks examples build_fmu.py
 
 clean:
 	rm -rf dist out build .pytest_cache

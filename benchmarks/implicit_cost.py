@@ -2,7 +2,7 @@
 
     python benchmarks/implicit_cost.py [--quick] [--base COMMIT]
 
-Scenes: the four stiff scene kinds of ``tests/ode_rate_cost.py`` (an over-damped structure in
+Scenes: the four stiff scene kinds of ``tools/ode_rate_cost.py`` (an over-damped structure in
 flight, c / m = rate; the same structure pushed by a 1 g floe in contact; a 1 g floe under a
 linear drag, b / M = rate; a 0.1 mg floe under a quadratic drag, 2 B |u| / M = rate), the flow
 reversed at every 1 ms step or held, at rates from 1e3 to 9.9e5 1/s; a lightly damped structure

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
 from fmpy import extract, read_model_description
 
 from fmu_host import build_module
+
+# the search and cost scripts (tools/) that some tests drive
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 
 
 @pytest.fixture(scope="session")

@@ -311,7 +311,7 @@ def test_cli_refuses_a_scene_it_cannot_run_in_bounded_time():
     assert status == 2 and "omega_n <=" in err and "Traceback" not in err
 
 
-# --- faults the random search found (tests/random_search.py --scales --flows) -----------------
+# --- faults the random search found (tools/random_search.py --scales --flows) -----------------
 
 def test_a_stiff_structure_ringing_far_from_the_ice_costs_no_work_per_period():
     """Method 1, a stiff undamped structure (omega_n 1.3e7 rad/s) ringing with 0.6 m amplitude
@@ -663,7 +663,7 @@ def _pair(omega_n: float, zeta: float, drag_rate: float, **fields) -> dict:
 def test_sticking_phases_too_slow_for_the_taylor_steps_are_refused_for_method_1():
     """Method 1's quadratic-drag sticking phase takes Taylor steps of about 1 / rate (0.1 to
     0.3 steps x rate per simulated second), up to ~2e-5 s of CPU x rate per simulated second
-    (tests/taylor_rate_cost.py). Under the former limit of 1e6 1/s the search found an
+    (tools/taylor_rate_cost.py). Under the former limit of 1e6 1/s the search found an
     over-damped structure (omega_n 1.6e4 rad/s, zeta 6.1) under a drag rate 2 B u / M of
     2.9e5 1/s sticking at ~3.2 s of CPU per simulated second, and stiff pairs (sqrt(k / (m + M))
     of 3.7e5-5.4e5 rad/s) at 4.5-10 s. The rule now holds each rate of the sticking equation,
@@ -707,7 +707,7 @@ def test_sticking_phases_too_slow_for_the_taylor_steps_are_refused_for_method_1(
 
 @pytest.mark.parametrize("kind", ["stiff", "over-damped", "stiff drag"])
 def test_taylor_sticking_steps_per_simulated_second_are_proportional_to_the_rate(kind):
-    """Just inside TAYLOR_RATE_MAX, the scenes of tests/taylor_rate_cost.py (a 1 kg floe stuck
+    """Just inside TAYLOR_RATE_MAX, the scenes of tools/taylor_rate_cost.py (a 1 kg floe stuck
     from rest on a 9 kg structure whose sqrt(k / (m + M)), c / (m + M) or sticking drag rate is
     the given rate), the flow switched at every 1 ms step as there (1 and 0.5 m/s): the Taylor
     steps per simulated second stay below 0.6 x rate (measured 0.1-0.3 at 1e5 1/s), the work
@@ -819,7 +819,7 @@ def test_a_graze_deeper_than_rounding_is_still_an_impact(v0):
     assert abs(hit.w_minus - hit.v_minus - v0) <= resolution
 
 
-#: the random search's scene (tests/random_search.py --method 1 --seed 12 --scales --flows): the
+#: the random search's scene (tools/random_search.py --method 1 --seed 12 --scales --flows): the
 #: bodies together at -0.57 m/s, omega of the bodies together 3.9e7 rad/s, a linear drag b u of
 #: 5.7e6 N (flow 6478 m/s); run at 0.37 s steps with the flow reversing at every step
 RINGING_IN_CONTACT = dict(
@@ -1170,7 +1170,7 @@ def test_scenes_at_the_ends_of_double_precision_run_soundly(name):
     assert sim.impact_count == 0
 
 
-# --- method 3: stiffness, found by tests/random_search.py --method 3 --scales --flows ----------
+# --- method 3: stiffness, found by tools/random_search.py --method 3 --scales --flows ----------
 
 def _search_case(scene: dict, h: float, flow: str, signs: list[bool]) -> dict:
     """A case as the random search prints it on its REPLAY line (defaults for the other

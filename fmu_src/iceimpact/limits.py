@@ -310,7 +310,7 @@ DRAG_RATE_MAX = 1e6
 #: 5 / rate long whatever the motion: their last terms (rate h)^36 / 36! must stay below 1e-16
 #: of it, and a higher order's longer steps would lose to cancellation (terms up to
 #: e^(rate h)) the digits they gain. Measured 0.1 to 0.3 steps and up to TAYLOR_COST s of CPU
-#: x rate per simulated second at 1e5 to 1e6 1/s (tests/taylor_rate_cost.py,
+#: x rate per simulated second at 1e5 to 1e6 1/s (tools/taylor_rate_cost.py,
 #: docs/robustness.md), so that at this limit 1 s of simulated time costs at most ~2 s of CPU
 #: (at 1e6 1/s, the limit before, 4-11 s in those scenes; the random search's scenes at
 #: 3.7e5-5.4e5 1/s took 4.5-10 s).
@@ -330,7 +330,7 @@ EXPLICIT_ODE_METHODS = {1: "RK45", 2: "DOP853"}
 #: limit instead of DRAG_RATE_MAX. Near its stability bound such an integrator costs about
 #: 3e-5 s of CPU x rate per simulated second (measured 2.6e-5 to 3.5e-5 s at 2.9e5 1/s in
 #: the four stiff scene kinds of docs/robustness.md, with the flow reversed every 1 ms step:
-#: 3.3-10.1 s per simulated second at 2.9e5 1/s, 28 s at 1e6; tests/ode_rate_cost.py), so that
+#: 3.3-10.1 s per simulated second at 2.9e5 1/s, 28 s at 1e6; tools/ode_rate_cost.py), so that
 #: 1 s of simulated time costs at most ~10 s of CPU. LSODA (solver.ode_method = 3) switches to
 #: an implicit method when stiff: at most 7.6 s per simulated second at 9.9e5 1/s in the same
 #: scenes; it and Radau keep DRAG_RATE_MAX.

@@ -1,7 +1,7 @@
 """CPU time per simulated second of method 3 against the stiffest rate it integrates.
 
-    python tests/ode_rate_cost.py                      # RK45, DOP853 at 1e5, 3e5 1/s
-    python tests/ode_rate_cost.py --ode 3 --rates 9.9e5
+    python tools/ode_rate_cost.py                      # RK45, DOP853 at 1e5, 3e5 1/s
+    python tools/ode_rate_cost.py --ode 3 --rates 9.9e5
 
 Four stiff scene kinds (docs/robustness.md, "Limits from the numerics"), the flow reversed at
 every 1 ms step: an over-damped structure in flight (c / m = rate, the ice 1 m away, no drag),

@@ -1,8 +1,8 @@
 """CPU time and Taylor steps per simulated second of method 1's quadratic-drag sticking phase
 against the rates it integrates.
 
-    python tests/taylor_rate_cost.py                          # 1e4, 1e5, 3e5, 1e6 1/s
-    python tests/taylor_rate_cost.py --rates 1e5 --budget 10
+    python tools/taylor_rate_cost.py                          # 1e4, 1e5, 3e5, 1e6 1/s
+    python tools/taylor_rate_cost.py --rates 1e5 --budget 10
 
 Three scene kinds (docs/robustness.md, "Limits from the numerics"), a 1 kg floe stuck from the
 start on a 9 kg structure at rest at x = 0 (so m + M = 10 kg), the flow switched between 1 and

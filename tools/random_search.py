@@ -1,7 +1,7 @@
 """Random search for faults at the extremes: hypothesis scenes, each run with a time limit.
 
-    python tests/random_search.py --method 1 --seed 23 --examples 2000
-    python tests/random_search.py --method 1 --seed 5 --examples 3000 --scales --flows
+    python tools/random_search.py --method 1 --seed 23 --examples 2000
+    python tools/random_search.py --method 1 --seed 5 --examples 3000 --scales --flows
 
 Each random scene (the strategy of tests/test_properties.py, with the chosen solver method;
 method 2 uses the gap-sign test unless --detection 1) runs for 3 s (method 3: 1 s) at a random
@@ -26,7 +26,7 @@ Each flagged scene is followed by a line ``REPLAY {...}``: a JSON object with ev
 used (every scene field at full precision, the step, the flow sequence, its sign list and the
 time limit). Re-run that one case with
 
-    python tests/random_search.py --replay '{"scene": {...}, "h": 0.0001, ...}'
+    python tools/random_search.py --replay '{"scene": {...}, "h": 0.0001, ...}'
 
 or from Python with :func:`replay` (the tests pin faults this way): the same steps, flows and
 checks as the search.
@@ -39,7 +39,9 @@ import dataclasses
 import json
 import math
 import signal
+import sys
 import time
+from pathlib import Path
 
 from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
@@ -55,7 +57,9 @@ from iceimpact.limits import (
 )
 from iceimpact.solvers.contact_rules import chatter_time
 from iceimpact.solvers.ode import ATOL_SCALE, ODE_METHODS, PARTING_NOISE, STABLE_STEP
-from test_properties import scenes
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from test_properties import scenes  # noqa: E402  (the property tests' scene strategies)
 
 TIME_LIMIT = 30.0  # s of CPU time per scene (not wall time: the machine may be shared)
 # m; method 3: 10 atol; method 2 reports its grid penetration instead
