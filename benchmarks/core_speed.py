@@ -292,7 +292,8 @@ def markdown(rows: list[dict], base: str, members: int = 0, move: float = SPREAD
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--base", default="060a0a0", help="reference commit (before)")
+    parser.add_argument("--base", default="7c9c6ad",
+                        help="reference commit (before; default 7c9c6ad, release 0.2.0)")
     parser.add_argument("--quick", action="store_true", help="10 and 100 s, one round")
     parser.add_argument("--lengths", type=float, nargs="+", help="run lengths, s")
     parser.add_argument("--scenes", nargs="+", choices=list(SCENES), default=list(SCENES))
