@@ -113,15 +113,17 @@ class Probe:
         assert self.valid(values), base
         return values
 
-    def start(self, values: dict) -> tuple[dict, dict]:
+    def start(self, values: dict, in_initialization=None) -> tuple[dict, dict]:
         """Reset, set ``values`` and initialize: the outputs read in Initialization Mode (after
-        the values are set) and after it."""
+        the values are set, and after ``in_initialization()`` if given) and after it."""
         self.inst.fmu.reset()
         self.inst.messages.clear()
         self.inst.fmu.setupExperiment(startTime=0.0)
         for name, value in values.items():
             self.set(name, value)
         self.inst.fmu.enterInitializationMode()
+        if in_initialization is not None:
+            in_initialization()
         during = self.outputs()
         self.inst.fmu.exitInitializationMode()
         errors = [m for status, _, m in self.inst.messages if status >= FMI_ERROR]
@@ -185,15 +187,7 @@ def measure_step(probe: Probe, base: dict, steps: int = 5) -> dict[str, set[str]
             probe.set(spec.name, values[spec.name])
             assert probe.outputs() == before
 
-    probe.inst.fmu.reset()
-    probe.inst.messages.clear()
-    probe.inst.fmu.setupExperiment(startTime=0.0)
-    for name, value in values.items():
-        probe.set(name, value)
-    probe.inst.fmu.enterInitializationMode()
-    probe_inputs()
-    probe.inst.fmu.exitInitializationMode()
-    assert not [m for status, _, m in probe.inst.messages if status >= FMI_ERROR], base
+    probe.start(values, in_initialization=probe_inputs)
     for k in range(steps):
         assert probe.inst.step(k * H, H) == FMI_OK, probe.inst.messages
     probe_inputs()
