@@ -18,8 +18,8 @@ finish reports how far it got. Cases, each a 1 s run:
 - ``drifting at W m/s, omega_n O``: the tangent ringing's structure (omega_n 4.1e7 or 4.1e5
   rad/s), the ice coasting at W (no drag) from W / 2 s below the lowest point of its swing,
   which it reaches at 0.5 s: the first impact is at the first trough after that (the exact one
-  in 60-digit decimal arithmetic is in ``tests/test_robust_input.py``), after up to 1e7 periods
-  at the bottom of the envelope;
+  in 60-digit decimal arithmetic is in ``tests/solvers/test_exact_flight.py``), after up to 1e7
+  periods at the bottom of the envelope;
 - ``at rest 1e-15 m below, linear drag, u = 1e-6``: the ice pushed there by a weak flow;
 - ``stopping 5e-16 m short``: the ice coasting in at 1.6e-17 m/s under a linear drag and no
   flow, which stops it short of the structure's lowest point: no impact ever.

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from iceimpact import Scene, Simulator, run
+from iceimpact.fmi.adapter import FmuModel
 from iceimpact.scene import METHOD_ODE
 from iceimpact.simulator import make_solver
 from iceimpact.solvers.ode import OdeSolver
-from scenes import ELASTIC_CHATTER
+from scenes import ELASTIC_CHATTER, toggled_flow
 
 FIG2 = Scene()
 FIG8 = Scene(impact_e=0.5)
@@ -214,3 +215,55 @@ def test_the_contact_after_an_impact_is_not_a_degenerate_contact(monkeypatch, me
     assert outcome.fault is None and not outcome.refused
     assert outcome.impacts > 10
     assert holds == []
+
+
+# --- a contact only pushes -----------------------------------------------------------------------
+#: the ice resting on the structure (Figure 2 scene otherwise)
+RESTING = {"structure_x0": 0.0, "ice_z0": 0.0, "ice_v0": 0.0}
+
+
+@pytest.mark.parametrize("method", [1, 2, 3])
+@pytest.mark.parametrize("h", [1e-4, 5e-4])
+def test_a_contact_never_pulls(method, h):
+    """With the flow turning, the bodies separate: no step's contact impulse is tensile (the
+    degenerate-contact hold used to count each re-anchor at a flow change as a contact
+    re-forming and then held the bodies together against the drag)."""
+    for drag in (1, 2):
+        sim = Simulator(Scene(**RESTING, drag_model=drag, solver_method=method,
+                              solver_detection=2))
+        steps = 40 if method == 3 else 400
+        for i in range(steps):
+            r = sim.advance(h, toggled_flow(i))
+            assert r.impulse >= 0.0, (i, r)
+            if i % 4 == 3 and method != 2:  # the drag pulls the ice away: the bodies part
+                assert not r.sticking, (i, r)
+            assert r.gap >= 0.0
+
+
+def test_a_reversed_flow_does_not_pin_method_2():
+    """Method 2's steady state (eq. 27-29) presses the ice on the structure with F = b u: with
+    u < 0 it would pull, so the ice drifts away instead."""
+    for drag in (1, 2):
+        sim = Simulator(Scene(**RESTING, drag_model=drag, solver_method=2, flow_u=-1e-5))
+        for _ in range(50):
+            r = sim.advance(0.1)
+            assert r.impulse >= 0.0 and not r.sticking
+        assert sim.solver.state.z < 0.0
+
+
+def test_a_contact_never_pulls_through_the_fmu():
+    logs: list[str] = []
+    for method in (1, 3):
+        fmu = FmuModel(lambda status, text: logs.append(text))
+        for name, value in {"structure.x0": 0.0, "ice.z0": 0.0, "ice.v0": 0.0,
+                            "solver.method": method}.items():
+            fmu.set(name, value)
+        assert fmu.initialize()
+        t = 0.0
+        for i in range(40 if method == 3 else 80):
+            fmu.set("flow.u", toggled_flow(i))
+            assert fmu.do_step(t, 5e-4)
+            t += 5e-4
+            assert fmu.get("contact.impulse") >= 0.0
+            assert fmu.get("contact.force") >= 0.0
+        assert not logs
