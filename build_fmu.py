@@ -599,11 +599,17 @@ def _trimmed_copy(source: Path, target: Path, package: str = "",
                         m == f"{dotted}.{n}" or m.startswith(f"{dotted}.{n}.")
                         for m in modules)):
                     dropped.append(n)
-            elif (n.endswith(_TRIM_SUFFIXES) or n.endswith(".pyc")
-                  or re.match(r"_\w*tests?\.cpython", n)):  # numpy's compiled test modules
+            elif _unneeded_file(n):
                 dropped.append(n)
         return dropped
     shutil.copytree(source, target, ignore=ignore, symlinks=False)
+
+
+def _unneeded_file(name: str) -> bool:
+    """A file no import needs: sources of extensions, headers, stubs, stale .pyc, and numpy's
+    compiled test modules."""
+    return (name.endswith(_TRIM_SUFFIXES) or name.endswith(".pyc")
+            or re.match(r"_\w*tests?\.cpython", name) is not None)
 
 
 def _needed_libraries(binary: Path) -> list[tuple[str, Path]]:
@@ -634,6 +640,7 @@ def bundle_runtime(home: Path, modules: list[str]) -> dict:
             "has none: build with a Python configured with --enable-shared (pyenv: "
             "PYTHON_CONFIGURE_OPTS=--enable-shared)")
     shutil.copy2(library, lib / soname)
+    bundled: dict = {"libpython": soname}
 
     measured = frozenset(modules)
     stdlib = Path(sysconfig.get_paths()["stdlib"])
@@ -656,15 +663,6 @@ def bundle_runtime(home: Path, modules: list[str]) -> dict:
                 shutil.copy2(extension, dynload_target / extension.name)
                 binaries.append(dynload_target / extension.name)
         taken.append(top)
-    # the extension modules that the taken packages import lazily (ctypes: _ctypes)
-    for name in modules:
-        if name in _DYNLOAD_LEFT_OUT:
-            continue
-        for extension in (dynload.glob(f"{name}.*.so") if dynload.is_dir() else []):
-            if not (dynload_target / extension.name).exists():
-                shutil.copy2(extension, dynload_target / extension.name)
-                binaries.append(dynload_target / extension.name)
-
     import importlib.util
 
     packages = {}
@@ -682,7 +680,7 @@ def bundle_runtime(home: Path, modules: list[str]) -> dict:
                     continue
                 if entry.is_dir():
                     _trimmed_copy(entry, target / entry.name, f"scipy.{entry.name}", measured)
-                elif not entry.name.endswith(_TRIM_SUFFIXES + (".pyc",)):
+                elif not _unneeded_file(entry.name):
                     shutil.copy2(entry, target / entry.name)
             packages[package] = used
         else:
@@ -710,7 +708,7 @@ def bundle_runtime(home: Path, modules: list[str]) -> dict:
 
     compileall.compile_dir(str(stdlib_target), quiet=2, workers=0, ddir=None,
                            invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
-    return {"stdlib": taken, "packages": packages, "libraries": preload}
+    return {**bundled, "stdlib": taken, "packages": packages, "libraries": preload}
 
 
 def make_standalone(fmu: Path, dest: Path, slave_name: str = SLAVE_NAME) -> Path:
@@ -727,9 +725,9 @@ def make_standalone(fmu: Path, dest: Path, slave_name: str = SLAVE_NAME) -> Path
         modules = imported_modules(root, slave_name)
         shutil.rmtree(root / "binaries" / "win64", ignore_errors=True)  # Linux only
         bundled = bundle_runtime(root / BUNDLED_HOME, modules)
-        library, soname = libpython()
         loader = root / "binaries" / NATIVE_PLATFORM / f"{slave_name}.so"
-        compile_loader(loader, None, soname, f"pythonfmu/{slave_name}.so", bundled_python=True)
+        compile_loader(loader, None, bundled["libpython"], f"pythonfmu/{slave_name}.so",
+                       bundled_python=True)
         config_path = root / "resources" / "iceimpact_fmu" / "python.json"
         config = json.loads(config_path.read_text())
         site = f"../{BUNDLED_HOME}/lib/python{python_version()}/site-packages"

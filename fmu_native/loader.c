@@ -247,14 +247,20 @@ static int config_failed(const fmi2CallbackFunctions *f, fmi2String name, PyStat
    bundled extension modules need, such as libffi for ctypes), then libpython, all RTLD_GLOBAL. */
 static void *load_bundled_libraries(const fmi2CallbackFunctions *f, fmi2String name,
                                     const char *home) {
-    char path[4800];
-    snprintf(path, sizeof path, "%s/lib/preload.list", home);
-    FILE *list = fopen(path, "r");
+    char path[4800], list_path[4300];
+    snprintf(list_path, sizeof list_path, "%s/lib/preload.list", home);
+    FILE *list = fopen(list_path, "r");
     if (list) {
         char line[512];
         while (fgets(line, sizeof line, list)) {
             line[strcspn(line, "\r\n")] = '\0';
             if (!line[0]) continue;
+            if (strchr(line, '/')) { /* a file name in lib/, nothing outside the FMU */
+                report(f, name, "refuses the entry '%s' of %s: a library name, not a path", line,
+                       list_path);
+                fclose(list);
+                return NULL;
+            }
             snprintf(path, sizeof path, "%s/lib/%s", home, line);
             if (!dlopen(path, RTLD_NOW | RTLD_GLOBAL)) {
                 report(f, name, "cannot load the bundled library %s: %s", path, dlerror());

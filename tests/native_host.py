@@ -76,25 +76,6 @@ def read_ecos_csv(path: Path) -> dict[str, np.ndarray]:
     return {name: data[:, i] for i, name in enumerate(header)}
 
 
-def read_omsimulator_mat(path: Path) -> dict[str, np.ndarray]:
-    """An OMSimulator result file (.mat, doubles): variable name -> values over time."""
-    from scipy.io import loadmat
-
-    result = loadmat(str(path), chars_as_strings=False)
-    chars = np.array(result["name"])
-    if chars.shape[0] != result["dataInfo"].shape[1]:  # one name a column (Dymola's layout)
-        chars = chars.T
-    names = ["".join(row).rstrip("\x00 ") for row in chars]
-    info = result["dataInfo"]
-    out = {}
-    for i, name in enumerate(names):
-        table, column = int(info[0, i]), int(info[1, i])
-        data = result[f"data_{table or 2}"]  # table 0: the abscissa, time, kept in data_2
-        values = data[abs(column) - 1] * (1 if column > 0 else -1)
-        out[name] = values
-    return out
-
-
 # A machine with no Python ---------------------------------------------------------------------
 def _python_places() -> tuple[list[str], list[str]]:
     """(folders, files) that hold a Python installation, venv or site-packages here."""

@@ -21,17 +21,19 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from fmu_host import DT, OUTPUTS, build_module
+from fmu_host import DT, OUTPUTS, ROOT, build_module
 from native_host import (
     OMSIMULATOR,
     OMSIMULATOR_ABSENT,
     ecos_binary,
     parse_csv,
     read_ecos_csv,
-    read_omsimulator_mat,
     run_empty_env,
     without_python,
 )
+
+sys.path.insert(0, str(ROOT / "examples" / "system"))
+import system  # noqa: E402  (its reader of OMSimulator's result files)
 
 N_STEPS = 2000
 VALUES = {"ice.M": 800.0}  # impacts within the first second
@@ -155,7 +157,7 @@ def test_omsimulator_without_python_equals_its_run_of_the_default_fmu(standalone
                          f"--resultFile={name}.mat"]), cwd=tmp_path)
         assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
         assert "error" not in done.stdout.lower(), done.stdout[-2000:]
-        results[name] = read_omsimulator_mat(tmp_path / f"{name}.mat")
+        results[name] = system.read_mat(tmp_path / f"{name}.mat")
     for o in OUTPUTS:
         np.testing.assert_array_equal(results["standalone"][o.name], results["default"][o.name],
                                       err_msg=o.name)
@@ -240,3 +242,18 @@ def test_the_standalone_modal_structure_runs_without_python(c_host, tmp_path):
         runs[name] = done.stdout
     assert runs["standalone"] == runs["default"]  # %.17g: to the last bit
     assert parse_csv(runs["standalone"])["x"][-1] > 0
+
+
+def test_a_preload_entry_that_is_a_path_is_refused(c_host, standalone_dir, tmp_path):
+    """The loader loads the libraries named in lib/preload.list from lib/ only: an entry that
+    is a path (one that would reach outside the FMU) is refused with a message, not loaded."""
+    import shutil
+
+    copy = tmp_path / "fmu"
+    shutil.copytree(standalone_dir, copy)
+    preload = copy / "binaries" / "linux64" / "python" / "lib" / "preload.list"
+    preload.write_text("../../../../../../lib/x86_64-linux-gnu/libz.so.1\n")
+    done = run_empty_env([str(c_host), str(copy), "-n", "1"])
+    assert done.returncode == 3, done.stderr[-2000:]
+    assert "refuses the entry '../../../../../../lib/x86_64-linux-gnu/libz.so.1'" in done.stderr
+    assert "a library name, not a path" in done.stderr

@@ -501,11 +501,12 @@ def test_run_marches_a_segment_without_array_forms_sample_by_sample(monkeypatch)
     "marched") is sampled as the simulator steps it: the same states, impulses and impacts as the
     vectorised sampling."""
     from iceimpact.solvers.exact import QuadraticStick
+    from iceimpact.solvers.exact.segment import MARCHED
 
     values, t_end = SAMPLED_SCENES["quadratic sticking parts"]
     scene = Scene(**values)
     vectorised = run(scene, t_end, dt=0.02)
-    monkeypatch.setattr(QuadraticStick, "SAMPLING", "marched")
+    monkeypatch.setattr(QuadraticStick, "SAMPLING", MARCHED)
     marched = run(scene, t_end, dt=0.02)
     assert np.array_equal(marched.impacts["t"], vectorised.impacts["t"])
     assert np.array_equal(marched.sticking, vectorised.sticking)

@@ -3,7 +3,7 @@
 - :class:`ParameterError`: a parameter or input outside its allowed range (scene validation, the
   simulator's arguments, the FMU's setters);
 - :class:`SolverError`: a method cannot continue the run (the simulator keeps its state from
-  before the step);
+  before the step); :class:`NonFiniteError`, one that produced a value that is not finite;
 - :class:`StateError`: a saved state (a snapshot, an FMU state blob) is malformed; nothing was
   changed.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["ParameterError", "SolverError", "StateError", "value_text"]
+__all__ = ["NonFiniteError", "ParameterError", "SolverError", "StateError", "value_text"]
 
 
 class ParameterError(ValueError):
@@ -36,6 +36,15 @@ def value_text(value: Any) -> str:
 class SolverError(RuntimeError):
     """A method cannot continue the run (an unstable explicit step, a failed integration); the
     message says why and what to change. The simulator keeps its state from before the step."""
+
+
+class NonFiniteError(SolverError):
+    """A method produced a value that is not finite (at ``t``, the first such time; the time
+    before it is ``t_before``)."""
+
+    def __init__(self, names: list[str], t: float, t_before: float):
+        self.t, self.t_before = t, t_before
+        super().__init__(f"the method produced a non-finite {', '.join(names)} at t = {t!r} s")
 
 
 class StateError(ValueError):

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from .contract import STRUCTURE_INPUTS
-from .errors import ParameterError, SolverError, StateError
+from .errors import NonFiniteError, ParameterError, SolverError, StateError
 from .record import STATE_VERSION, Record, check_version
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_flow
 from .solvers.base import GAP_ROUNDING, Impact, Solver
@@ -399,15 +399,6 @@ def _sample_times(t_end: float, dt: float, sample_times: Any) -> np.ndarray:
             raise ParameterError(f"sample_times[{i}]", t, why)
         previous = t
     return times
-
-
-class NonFiniteError(SolverError):
-    """A method produced a value that is not finite (at ``t``, the first such time; the time
-    before it is ``t_before``)."""
-
-    def __init__(self, names: list[str], t: float, t_before: float):
-        self.t, self.t_before = t, t_before
-        super().__init__(f"the method produced a non-finite {', '.join(names)} at t = {t!r} s")
 
 
 def check_finite(values: dict[str, Any], times: np.ndarray) -> None:

@@ -24,7 +24,7 @@ from ..base import GAP_ROUNDING
 from ..contact_rules import Phase
 from ..flight_search import COMPILED, FlightSearch
 from ..rootfind import RootSearch
-from .segment import GAP_ULPS, _floats, _SearchedSegment, _time_eps
+from .segment import GAP_ULPS, MARCHED, _floats, _SearchedSegment, _time_eps
 
 if TYPE_CHECKING:
     from .solver import EventSolver
@@ -338,7 +338,7 @@ class DraggedFlight(Flight):
 
     FRONTIER_ONLY = False  # its integration chunks change while marching
     _ONE_FUNCTION = False  # (its motion is integrated)
-    SAMPLING = "marched"   # no closed form: stepped to each sample
+    SAMPLING = MARCHED     # no closed form: stepped to each sample
     clearance = None       # no closed-form envelope of the structure's motion (RootSearch's
                            # signal takes None for "none")
 

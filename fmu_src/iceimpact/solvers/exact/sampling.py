@@ -12,7 +12,7 @@ import numpy as np
 
 from ..base import State
 from ..contact_rules import Phase
-from .segment import _SearchedSegment
+from .segment import GROUPED, _SearchedSegment
 
 
 def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
@@ -40,14 +40,9 @@ def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float)
     return j
 
 
-#: How :meth:`EventSolver.sample` evaluates a kind of segment, as each segment class declares
-#: in its ``SAMPLING``: all its samples at once in array closed forms (a _SampleGroup), per
-#: segment from dense output (``states_at``, Taylor steps), or stepped to each sample.
-GROUPED, _STEPPED, _MARCHED = "grouped", "stepped", "marched"
-
-
 def _sampling_kind(seg: Any) -> Any:
-    """The segment's ``SAMPLING``, with a new _SampleGroup for GROUPED."""
+    """The segment's ``SAMPLING`` (segment.GROUPED, STEPPED or MARCHED), with a new _SampleGroup
+    for GROUPED."""
     kind = seg.SAMPLING
     return _SampleGroup(seg) if kind == GROUPED else kind
 

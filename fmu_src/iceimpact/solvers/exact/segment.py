@@ -17,6 +17,11 @@ if TYPE_CHECKING:
     from .solver import EventSolver
 
 
+#: How the vectorised sampler (sampling.py) evaluates a kind of segment, as each segment class
+#: declares in its ``SAMPLING``: all its samples at once in array closed forms, per segment from
+#: dense output (``states_at``, Taylor steps), or stepped to each sample.
+GROUPED, STEPPED, MARCHED = "grouped", "stepped", "marched"
+
 #: Rounding of a gap evaluated from positions of magnitude X is below GAP_ULPS * X (m).
 GAP_ULPS = 16.0 * 2.0 ** -52
 
@@ -45,8 +50,8 @@ class _SearchedSegment:
     #: marching changes nothing in the segment but its search frontier, so a checkpoint of the
     #: frontier undoes a step (:meth:`EventSolver.checkpoint`)
     FRONTIER_ONLY = True
-    #: how the vectorised sampler evaluates this kind (sampling.GROUPED: by state_array)
-    SAMPLING = "grouped"
+    #: how the vectorised sampler evaluates this kind (by state_array, all at once)
+    SAMPLING = GROUPED
 
     def anchor(self) -> tuple[float, ...]:
         return tuple(getattr(self, name) for name in self.ANCHOR)

@@ -26,8 +26,8 @@ from ..contact_rules import (
     reanchor_on_flow_change,
 )
 from .flight import DraggedFlight, Flight
-from .sampling import _MARCHED, Samples, _first_sample_after, _SampleGroup, _sampling_kind
-from .segment import _SearchedSegment
+from .sampling import Samples, _first_sample_after, _SampleGroup, _sampling_kind
+from .segment import MARCHED, _SearchedSegment
 from .sticking import LinearStick, QuadraticStick
 
 #: Enum members as module constants (an enum class's attribute is looked up through its
@@ -251,7 +251,7 @@ class EventSolver(Solver):
         targets: list[int] = [0]
         values: list[float] = [self.pending_impulse]
         self.pending_impulse = 0.0
-        # per kind of segment: _STEPPED, _MARCHED or the _SampleGroup of its samples
+        # per kind of segment: STEPPED, MARCHED or the _SampleGroup of its samples
         kinds: dict[type, Any] = {}
         # the kind of the last segment's type, and whether its segments go to a _SampleGroup
         # (most segments follow one of their own type: a bounce's flight another flight)
@@ -272,7 +272,7 @@ class EventSolver(Solver):
                 if kind is None:
                     kind = kinds[last_type] = _sampling_kind(seg)
                 grouped = isinstance(kind, _SampleGroup)
-            if kind is _MARCHED:  # march to the sample
+            if kind is MARCHED:  # march to the sample
                 if interval != i:
                     interval = i
                     self.begin_step(t_list[i - 1])

@@ -27,7 +27,7 @@ from ..contact_rules import (
 )
 from ..rootfind import RootSearch
 from ..taylor import StepEnd, StickingTaylor, TaylorStep
-from .segment import GAP_ULPS, _entry, _SearchedSegment, _time_eps
+from .segment import GAP_ULPS, STEPPED, _entry, _SearchedSegment, _time_eps
 
 if TYPE_CHECKING:
     from .solver import EventSolver
@@ -339,7 +339,7 @@ class QuadraticStick:
     keeps the start of the steps still needed, which a restored segment takes again to the bit."""
 
     phase = Phase.STICK
-    SAMPLING = "stepped"  # its dense output per segment (states_at)
+    SAMPLING = STEPPED  # its dense output per segment (states_at)
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
