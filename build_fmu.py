@@ -7,7 +7,7 @@ runtime, numpy and scipy, for Linux x86_64 machines with no Python (:func:`make_
 
 ModalStructure.fmu, a linear structure given by its modes to couple IceImpact.fmu with (see
 docs/coupling.md), is built by :func:`build_modal` the same way, from ``fmu_src/ModalStructure.py``
-and its contract table ``iceimpact.modal_contract``. The rest of this text is about IceImpact.fmu.
+and its contract table ``iceimpact.modal.contract``. The rest of this text is about IceImpact.fmu.
 
 The FMU carries the slave (fmu_src/IceImpact.py), the model core (the ``iceimpact`` package) and
 a requirements.txt (numpy, scipy) under ``resources/``; it runs wherever a Python with numpy and
@@ -101,7 +101,7 @@ def complete_model_description(xml: bytes, contract: ModuleType) -> bytes:
     """Add units, ranges, full-precision start values, descriptions, the model structure (outputs
     and initial unknowns with their dependencies) and the default experiment to PythonFMU's XML,
     all read from a contract table module (:mod:`iceimpact.contract`,
-    :mod:`iceimpact.modal_contract`: ``BY_NAME``, name -> variable; ``DEFAULT_EXPERIMENT``)."""
+    :mod:`iceimpact.modal.contract`: ``BY_NAME``, name -> variable; ``DEFAULT_EXPERIMENT``)."""
     from iceimpact.contract import DEPENDENT, number_text
 
     root = ET.fromstring(xml)
@@ -446,7 +446,7 @@ def package_for_native_hosts(fmu: Path, slave_name: str = SLAVE_NAME) -> None:
 
 # ModalStructure.fmu ------------------------------------------------------------------------------
 # The structure FMU of docs/coupling.md: a linear structure given by its modes (iceimpact.modal),
-# its variables in the contract table iceimpact.modal_contract. Built like IceImpact.fmu (the same
+# its variables in the contract table iceimpact.modal.contract. Built like IceImpact.fmu (the same
 # bundle, requirements and native-host packaging), from fmu_src/ModalStructure.py.
 
 MODAL_SLAVE_NAME = "ModalStructure"
@@ -454,8 +454,8 @@ MODAL_SLAVE_NAME = "ModalStructure"
 
 def build_modal(dest: str | Path = ROOT / "dist", source_dir: str | Path = FMU_SRC) -> Path:
     """Build ``<dest>/ModalStructure.fmu`` from ``<source_dir>/ModalStructure.py`` and the
-    ``iceimpact`` package (its contract: :mod:`iceimpact.modal_contract`)."""
-    return build_slave(MODAL_SLAVE_NAME, "iceimpact.modal_contract", dest, source_dir)
+    ``iceimpact`` package (its contract: :mod:`iceimpact.modal.contract`)."""
+    return build_slave(MODAL_SLAVE_NAME, "iceimpact.modal.contract", dest, source_dir)
 
 
 # Standalone FMUs ---------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ with method 1, the exact solver:
   missed and spurious impacts (one-to-one matching within :data:`MATCH_TIME`); largest penetration
   (negative gap); peak |x| and RMS x (1 ms samples);
 - **long horizon** (100 s; ``--quick`` 30 s), where the motion may be chaotic: impact rate,
-  dominant frequency of x (``iceimpact.analysis.dominant_frequency``, one Hann periodogram
+  dominant frequency of x (``iceimpact.studies.analysis.dominant_frequency``, one Hann periodogram
   of 5 ms samples), RMS x, for a subset of the settings;
 - **communication step** h = 1e-4 .. 1e-1 s, per method: through :class:`iceimpact.Simulator`
   and, if the FMU exists (``dist/IceImpact.fmu``, built by ``python build_fmu.py``), through FMPy:
@@ -45,7 +45,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "fmu_src"))
 
 from iceimpact import Scene, Simulator  # noqa: E402
-from iceimpact.analysis import dominant_frequency  # noqa: E402
 from iceimpact.scene import (  # noqa: E402
     DETECTION_SIGN,
     DETECTION_WINDOW,
@@ -55,6 +54,7 @@ from iceimpact.scene import (  # noqa: E402
 )
 from iceimpact.simulator import make_solver  # noqa: E402
 from iceimpact.solvers.ode import ODE_METHODS  # noqa: E402
+from iceimpact.studies.analysis import dominant_frequency  # noqa: E402
 
 SCENES = {
     "fig2": ("Figure 2: e = 1, linear drag (defaults)", Scene()),
@@ -178,7 +178,7 @@ def match(reference: np.ndarray, other: np.ndarray, tol: float) -> tuple[int, in
 
 
 def frequency_of(t: np.ndarray, x: np.ndarray) -> float | None:
-    """Dominant frequency (Hz) of x: :func:`iceimpact.analysis.dominant_frequency` with one
+    """Dominant frequency (Hz) of x: :func:`iceimpact.studies.analysis.dominant_frequency` with one
     Hann-windowed periodogram of the whole record (``nperseg = x.size``: the finest bins, the
     long runs are stationary); None (JSON null) if x does not move or is not finite."""
     try:

@@ -4,8 +4,8 @@ The same load case run with the exact event-driven solver (method 1) and with th
 fixed-step scheme (method 2) at the steps a user would pick, 1e-2 to 1e-5 s, with the article's
 impact test (the tolerance window of eq. 26, detection 1) and with the sign change of the gap
 (detection 2). For each run: the impacts, the extreme base shear ``max k x`` and the 1 Hz
-damage-equivalent loads of ``k x`` (:mod:`iceimpact.loads`), and their relative errors against
-the exact run. Two load cases:
+damage-equivalent loads of ``k x`` (:mod:`iceimpact.studies.loads`), and their relative errors
+against the exact run. Two load cases:
 
 - ``figure2``: the article's Figure 2 scene (linearised drag, e = 1);
 - ``quadratic_A2``: quadratic drag, A = 2 m^2, u = 0.1 m/s (the article's lock-in case).
@@ -32,7 +32,6 @@ import time
 from pathlib import Path
 
 from iceimpact import Scene, SolverError, run
-from iceimpact.analysis import summarize
 from iceimpact.scene import (
     DETECTION_SIGN,
     DETECTION_WINDOW,
@@ -40,6 +39,7 @@ from iceimpact.scene import (
     METHOD_FIXED_STEP,
     QUADRATIC_DRAG,
 )
+from iceimpact.studies.analysis import summarize
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {

@@ -2,8 +2,8 @@
 
 The Figure 2 scene with quadratic drag (the article's Section 4.2), flow speed ``u`` (log spacing)
 against the ice mass ``M`` (log spacing), built with the sweep API. Each cell is one run of
-``t_end`` seconds whose design loads (:mod:`iceimpact.loads`, columns of
-:func:`iceimpact.analysis.summarize`) are taken after a transient:
+``t_end`` seconds whose design loads (:mod:`iceimpact.studies.loads`, columns of
+:func:`iceimpact.studies.analysis.summarize`) are taken after a transient:
 
 - left: the 1 Hz damage-equivalent load of the spring force ``k x`` (the base shear of the SDOF
   structure), Wöhler exponent ``m`` (default 4; ``del_m<m>_1Hz_N``), annotated in kN;
@@ -36,8 +36,8 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 
 from iceimpact import Scene  # noqa: E402
-from iceimpact.loads import WOHLER_EXPONENTS  # noqa: E402
 from iceimpact.scene import QUADRATIC_DRAG  # noqa: E402
+from iceimpact.studies.loads import WOHLER_EXPONENTS  # noqa: E402
 from iceimpact.sweep import sweep  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,7 +13,7 @@ The FMU runs at a 1 ms communication step; impact times are recovered from the o
 ``contact.impulse`` the impulse of the step). ``--core`` runs the same scene with
 ``iceimpact.run`` instead (same solver, no FMI layer). The run is cut into windows; in each the
 impact intervals, the lock-in ratio omega_n T / (2 pi) and the dominant frequency of the
-structure's displacement are computed with :mod:`iceimpact.analysis`. Writes ``lockin.png``
+structure's displacement are computed with :mod:`iceimpact.studies.analysis`. Writes ``lockin.png``
 into ``--out``.
 """
 
@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from iceimpact import Scene, run
-from iceimpact.analysis import (
+from iceimpact.studies.analysis import (
     displacement_spectrum,
     impact_statistics,
     impacts_from_counter,

@@ -3,7 +3,7 @@
 The Figure 2 scene with quadratic drag (the article's Section 4.2), flow speed ``u`` from 0.01 to
 2 m/s (log spacing) against the ice mass ``M`` (log spacing, M/m from 1/8 to 4; ``--axis`` picks
 the ice area A or the restitution e instead). Each cell is one run of ``t_end`` seconds summarised
-after a transient (:func:`iceimpact.analysis.summarize`):
+after a transient (:func:`iceimpact.studies.analysis.summarize`):
 
 - left: the dominant vibration frequency over the natural one, ``2 pi f_dom / omega_n``;
 - right: the peak displacement ``max |x|`` (log colour scale);
@@ -33,8 +33,8 @@ import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 
 from iceimpact import Scene  # noqa: E402
-from iceimpact.analysis import LOCK_IN_TOLERANCE  # noqa: E402
 from iceimpact.scene import QUADRATIC_DRAG  # noqa: E402
+from iceimpact.studies.analysis import LOCK_IN_TOLERANCE  # noqa: E402
 from iceimpact.sweep import sweep  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

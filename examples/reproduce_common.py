@@ -18,7 +18,7 @@ printed tables. SI units throughout; only the printed text uses mm and micrometr
 The physics of a run comes from the package, not from here: each run carries its
 :class:`iceimpact.Scene` (``omega_n`` and the fields), the static force is the drag law's force on
 ice at rest (:func:`iceimpact.physics.ice.make_drag`, as the fixed-step pin of eq. 29 computes it),
-and the dominant frequency is :func:`iceimpact.analysis.dominant_frequency` (the peak of the
+and the dominant frequency is :func:`iceimpact.studies.analysis.dominant_frequency` (the peak of the
 Welch spectrum, refined between bins).
 """
 
@@ -41,9 +41,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from iceimpact import Scene, analysis
+from iceimpact import Scene
 from iceimpact.physics.ice import make_drag
 from iceimpact.scene import SPECS_BY_NAME
+from iceimpact.studies import analysis
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -316,11 +317,11 @@ def impact_rate(run: Run, t0: float, t1: float) -> float:
 
 def dominant_frequency(run: Run, t0: float, t1: float) -> float | None:
     """Dominant frequency (Hz) of x in [t0, t1] (s), by
-    :func:`iceimpact.analysis.dominant_frequency`: the peak of the Welch spectrum (Hann segments
-    of a quarter of the window, 50 % overlap), refined between bins.
+    :func:`iceimpact.studies.analysis.dominant_frequency`: the peak of the Welch spectrum (Hann
+    segments of a quarter of the window, 50 % overlap), refined between bins.
 
     None when the structure is at rest there (RMS of x about its mean at most
-    :data:`iceimpact.analysis.REST_AMPLITUDE`) or the window holds too few samples.
+    :data:`iceimpact.studies.analysis.REST_AMPLITUDE`) or the window holds too few samples.
     """
     mask = window(run, t0, t1)
     if np.count_nonzero(mask) < analysis.MIN_SAMPLES:

@@ -1,4 +1,4 @@
-"""Post-processing (iceimpact.analysis): spectra, impact statistics, lock-in measures."""
+"""Post-processing (iceimpact.studies.analysis): spectra, impact statistics, lock-in measures."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from iceimpact import Scene, run
-from iceimpact.analysis import (
+from iceimpact.simulator import IMPACT_DTYPE
+from iceimpact.studies.analysis import (
     COUNTER_IMPACT_DTYPE,
     REST_AMPLITUDE,
     SUMMARY_FIELDS,
@@ -19,7 +20,6 @@ from iceimpact.analysis import (
     summarize,
     summarize_arrays,
 )
-from iceimpact.simulator import IMPACT_DTYPE
 
 
 def _impacts(times, impulses) -> np.ndarray:
@@ -223,7 +223,7 @@ def test_summarize_never_raises_on_short_or_ragged_runs():
 
 def test_dominant_frequency_of_samples():
     """The one public dominant frequency: Hz from (t, x), nan at rest, the spectrum's peak."""
-    from iceimpact.analysis import dominant_frequency
+    from iceimpact.studies.analysis import dominant_frequency
 
     t = np.arange(0.0, 20.0, 1e-3)
     x = 1e-3 * np.sin(2 * np.pi * 3.3 * t) + 0.5   # the mean is removed

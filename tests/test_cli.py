@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 from iceimpact import Scene, run
-from iceimpact.analysis import summarize
 from iceimpact.cli import main
+from iceimpact.studies.analysis import summarize
 from iceimpact.sweep import meta_path, read_table, sweep
 
 SCRIPT = Path(sys.executable).with_name("iceimpact")

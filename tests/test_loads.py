@@ -1,4 +1,5 @@
-"""Design loads (iceimpact.loads): extremes, rainflow DELs, contact force, against closed forms."""
+"""Design loads (iceimpact.studies.loads): extremes, rainflow DELs, contact force, against closed
+forms."""
 
 from __future__ import annotations
 
@@ -12,8 +13,8 @@ import pytest
 import rainflow
 
 from iceimpact import Scene, run
-from iceimpact.analysis import SUMMARY_FIELDS, summarize, summarize_arrays
-from iceimpact.loads import (
+from iceimpact.studies.analysis import SUMMARY_FIELDS, summarize, summarize_arrays
+from iceimpact.studies.loads import (
     LOAD_FIELDS,
     N_EQ,
     WOHLER_EXPONENTS,

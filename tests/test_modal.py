@@ -16,9 +16,8 @@ from scipy.linalg import expm
 from coupling_master import ExactSdof, gauss_seidel
 from fmu_host import FMI_ERROR, FMI_OK, Instance, build_module
 from iceimpact import ParameterError
-from iceimpact import modal_contract as contract
-from iceimpact.modal import ModalStructure, Mode
-from iceimpact.modal_fmu import StateError, decode, encode, structure_from_values
+from iceimpact.modal import ModalStructure, Mode, contract
+from iceimpact.modal.fmu import StateError, decode, encode, structure_from_values
 
 M, C, K = 1600.0, 200.0, 1.0e6  # IceImpact's built-in structure
 
@@ -307,7 +306,7 @@ def test_fmu_validates_and_declares_the_contract(modal_fmu):
         names = set(z.namelist())
     assert {"binaries/linux64/ModalStructure.so", "binaries/linux64/pythonfmu/ModalStructure.so",
             "resources/iceimpact_fmu/ModalStructure.py",
-            "resources/iceimpact/modal.py"} <= names
+            "resources/iceimpact/modal/structure.py"} <= names
 
 
 def test_fmu_equals_the_core_bit_for_bit(modal_dir):

@@ -33,8 +33,9 @@ from fmpy import extract, read_model_description
 from fmpy.validation import validate_fmu
 
 from fmu_host import FMI_ERROR, FMI_OK, ROOT, Instance, build_module
-from iceimpact import contract, modal_contract
-from iceimpact.modal_fmu import default_values, structure_from_values
+from iceimpact import contract
+from iceimpact.modal import contract as modal_contract
+from iceimpact.modal.fmu import default_values, structure_from_values
 from iceimpact.scene import ParameterError, Scene
 
 OMSIMULATOR = ROOT.parent / "shared" / "tools" / "omsimulator"

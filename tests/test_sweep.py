@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from iceimpact import Scene, run
-from iceimpact.analysis import SUMMARY_FIELDS, summarize
+from iceimpact.studies.analysis import SUMMARY_FIELDS, summarize
 from iceimpact.sweep import (
     SweepError,
     check_grid_size,

@@ -205,7 +205,7 @@ def _write_impacts(path: Path, result: Result) -> None:
 
 
 def _simulate(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    from .analysis import SUMMARY_FIELDS, summarize
+    from .studies.analysis import SUMMARY_FIELDS, summarize
 
     scene = _base_scene(parser, args)
     _check_times(parser, args)

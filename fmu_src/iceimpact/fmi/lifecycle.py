@@ -2,7 +2,7 @@
 
 :class:`FmuLifecycle` holds the values a master set and the rules every FMU follows; a model
 (:class:`iceimpact.fmi.adapter.FmuModel` for IceImpact.fmu,
-:class:`iceimpact.modal_fmu.ModalFmuModel` for ModalStructure.fmu) adds what it builds from the
+:class:`iceimpact.modal.fmu.ModalFmuModel` for ModalStructure.fmu) adds what it builds from the
 values (its *core*), its input and outputs, what one step does, and its state record:
 
 - parameters take effect at exitInitializationMode (or at the first doStep if a master skips

@@ -2,8 +2,8 @@
 
 One run per grid point: the base scene with the varied parameters replaced, simulated by
 :func:`iceimpact.run` (the core, not the FMU) from 0 to ``t_end`` and summarised by
-:func:`iceimpact.analysis.summarize` over ``t >= transient``. The result is one tidy table, one
-row per run::
+:func:`iceimpact.studies.analysis.summarize` over ``t >= transient``. The result is one tidy table,
+one row per run::
 
     run, <varied FMI names...>, status, wall_s, <summary measures...>
 
@@ -11,7 +11,7 @@ row per run::
 ``status`` is ``"ok"`` or the error of that run (e.g. ``impact.e = 1.5 is not allowed: 0 <= e
 <= 1``: an invalid combination gives an error row, it does not stop the sweep), ``wall_s`` the
 wall time of the run (s) and the measures are those of
-:data:`iceimpact.analysis.SUMMARY_FIELDS` (nan for error rows).
+:data:`iceimpact.studies.analysis.SUMMARY_FIELDS` (nan for error rows).
 
 With an output file the rows are appended (and flushed) as runs finish, and a metadata file
 ``<out>.meta.json`` records the grid and settings. Running the same sweep again skips the runs
@@ -107,8 +107,8 @@ def sweep(base: Scene | None, grid: Mapping[str, Iterable[Any]], t_end: float,
     ``grid`` maps FMI names (``"flow.u"``, ``"impact.e"``, ...; :func:`parameter_names`) to
     values; every combination is run (Cartesian product, first name changing slowest). Each run
     is :func:`iceimpact.run` from 0 to ``t_end`` (s) sampled every ``dt`` (s), summarised by
-    ``measure(result, transient)`` (default :func:`iceimpact.analysis.summarize`) over ``t >=
-    transient`` (s).
+    ``measure(result, transient)`` (default :func:`iceimpact.studies.analysis.summarize`) over
+    ``t >= transient`` (s).
 
     Returns the rows sorted by run index: ``{"run": i, <name>: value, ..., "status": "ok" or the
     error, "wall_s": s, <measure>: value, ...}``; a run whose parameters are invalid (e.g.

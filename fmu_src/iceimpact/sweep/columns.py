@@ -15,7 +15,7 @@ STATUS_COLUMN = "status"
 WALL_COLUMN = "wall_s"
 STATUS_OK = "ok"
 
-#: Keys of :func:`iceimpact.analysis.summarize` that are whole numbers (it returns them as
+#: Keys of :func:`iceimpact.studies.analysis.summarize` that are whole numbers (it returns them as
 #: floats): the number of impacts, the nearest lock-in integer N and the 0/1 lock-in flag.
 INTEGER_MEASURES = frozenset({"n_impacts", "nearest_n", "locked"})
 

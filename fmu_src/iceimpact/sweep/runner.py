@@ -1,6 +1,6 @@
 """One run of a sweep -> one row: the base scene with the grid point's values, simulated by the
 core (:func:`iceimpact.run`) and summarised by a measure (default
-:func:`iceimpact.analysis.summarize`). Any error of the run is the row's status."""
+:func:`iceimpact.studies.analysis.summarize`). Any error of the run is the row's status."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ def status_text(exc: BaseException) -> str:
 
 
 def default_measure() -> Measure:
-    from ..analysis import summarize
+    from ..studies.analysis import summarize
 
     return summarize
 
@@ -70,7 +70,7 @@ def measure_columns(measure: Measure | None, base: Scene, dt: float) -> dict[str
     numbers :data:`~iceimpact.sweep.columns.INTEGER_MEASURES` as ints), or probed on a short
     run of ``base`` (an int value makes an int column)."""
     if measure is None:
-        from ..analysis import SUMMARY_FIELDS
+        from ..studies.analysis import SUMMARY_FIELDS
 
         return {k: int if k in INTEGER_MEASURES else float for k in SUMMARY_FIELDS}
     t_probe = max(1.0, 16 * dt)

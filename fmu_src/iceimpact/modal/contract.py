@@ -1,7 +1,7 @@
 """The FMI contract of ModalStructure.fmu: every variable, its unit, range, start value and meaning.
 
 The one home of the structure FMU's interface: the slave (``fmu_src/ModalStructure.py``)
-registers exactly these variables, :mod:`iceimpact.modal_fmu` validates the parameters against the
+registers exactly these variables, :mod:`iceimpact.modal.fmu` validates the parameters against the
 ranges here, ``build_fmu.py`` writes units, min/max, descriptions and the default experiment from
 it, and docs/coupling.md lists it (:func:`markdown_table`).
 
@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import math
 
-from . import contract
-from .contract import (
+from .. import contract
+from ..contract import (
     CONTINUOUS,
     FIXED,
     INPUT,

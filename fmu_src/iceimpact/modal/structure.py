@@ -34,7 +34,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 __all__ = ["ContactState", "Mode", "ModalStructure", "ParameterError"]
 

@@ -11,7 +11,7 @@ FMU's outputs via :func:`impacts_from_counter`, or from anywhere else), SI units
 - :func:`lock_in` -- is the impact period ``T`` such that ``omega_n = 2 pi N / T`` for an
   integer ``N`` (the resonance/lock-in condition of the article's Section 5, after eq. 44)?
 - :func:`summarize` / :func:`summarize_arrays` -- all of the above and the design loads of
-  :mod:`iceimpact.loads` (extremes, damage-equivalent loads) as one flat, CSV-ready
+  :mod:`iceimpact.studies.loads` (extremes, damage-equivalent loads) as one flat, CSV-ready
   ``dict[str, float]`` whose keys and units are listed in :data:`SUMMARY_FIELDS`.
 - :func:`impacts_from_counter` -- impact times and impulses recovered from sampled outputs
   (the FMU's ``contact.count``, ``contact.t_last`` and ``contact.impulse``).
@@ -38,8 +38,8 @@ from .impacts import (
 )
 from .loads import LOAD_FIELDS, design_loads, load_columns, sample_window
 
-#: The impact statistics live in :mod:`iceimpact.impacts` (loads uses them too) and are part of
-#: this module's interface.
+#: The impact statistics live in :mod:`iceimpact.studies.impacts` (loads uses them too) and are
+#: part of this module's interface.
 __all__ = ["COUNTER_IMPACT_DTYPE", "SUMMARY_FIELDS", "ImpactStatistics", "LockIn", "Spectrum",
            "displacement_spectrum", "dominant_frequency", "impact_statistics",
            "impacts_from_counter", "lock_in", "sample_spacing", "spectrum_peak", "summarize",
@@ -89,7 +89,7 @@ SUMMARY_FIELDS: dict[str, tuple[str, str]] = {
     "sticking_fraction": ("1", "fraction of the window's samples in sticking contact "
                                "(nan if not known)"),
     "sticking_since_s": ("s", "start of the sticking phase that lasts to the end (nan if none)"),
-    # design loads (iceimpact.loads): extremes, damage-equivalent loads, contact force
+    # design loads (iceimpact.studies.loads): extremes, damage-equivalent loads, contact force
     **LOAD_FIELDS,
 }
 
@@ -277,8 +277,8 @@ def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n:
     """:func:`summarize` on plain arrays: samples ``t`` (s), ``x`` (m), an impact array as
     accepted by :func:`impact_statistics`, ``omega_n`` (rad/s), optional per-sample sticking
     flags and the start of a final sticking phase (s). Keys and units: :data:`SUMMARY_FIELDS`.
-    The design loads (:mod:`iceimpact.loads`) need the stiffness ``structure_k`` (N/m) for the
-    k x columns and the per-sample ``impulse`` (N.s) for the contact force; without them those
+    The design loads (:mod:`iceimpact.studies.loads`) need the stiffness ``structure_k`` (N/m) for
+    the k x columns and the per-sample ``impulse`` (N.s) for the contact force; without them those
     columns are nan.
     """
     t, x, window = sample_window(t, x, transient)
@@ -345,7 +345,7 @@ def summarize(result: Any, transient: float = 0.0,
     spectrum of x, and the lock-in measures of :func:`lock_in` for the impact period T = mean
     interval (Section 5 of the article). Undefined entries are nan (fewer than two impacts, a
     structure at rest, too few samples for a spectrum, no sticking phase), and the design
-    loads of :mod:`iceimpact.loads` (extremes and damage-equivalent loads of k x, contact
+    loads of :mod:`iceimpact.studies.loads` (extremes and damage-equivalent loads of k x, contact
     force, impulse percentile). ``result`` needs ``t``, ``x``, ``impacts`` and
     ``scene.omega_n``; ``sticking``, ``sticking_since``, ``impulse`` and ``scene.structure_k``
     are used when present.

@@ -21,11 +21,10 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from .errors import ParameterError, StateError
-from .fmi.lifecycle import ERROR, FmuLifecycle
-from .fmi.state_codec import StateCodec, check_keys, check_number, check_values
-from .modal import ModalStructure, Mode
-from .modal_contract import (
+from ..errors import ParameterError, StateError
+from ..fmi.lifecycle import ERROR, FmuLifecycle
+from ..fmi.state_codec import StateCodec, check_keys, check_number, check_values
+from .contract import (
     FORCE_INPUT,
     MAX_MODES,
     MODEL_IDENTIFIER,
@@ -33,6 +32,7 @@ from .modal_contract import (
     PARAMETERS,
     VERSION,
 )
+from .structure import ModalStructure, Mode
 
 __all__ = ["ModalFmuModel", "StateError", "check_record", "decode", "default_values", "encode",
            "structure_from_values"]

@@ -3,8 +3,8 @@ impulses ``f_j`` at times ``t_j`` of the article's eq. 39), from a run's impact 
 FMU's sampled outputs (:func:`impacts_from_counter`).
 
 Physics-free, plain numpy arrays, SI units; undefined quantities are ``nan``. Used by
-:mod:`iceimpact.analysis` (summaries, lock-in) and :mod:`iceimpact.loads` (impact loads), which
-is why it is a module of its own: neither imports the other's internals.
+:mod:`iceimpact.studies.analysis` (summaries, lock-in) and :mod:`iceimpact.studies.loads` (impact
+loads), which is why it is a module of its own: neither imports the other's internals.
 """
 
 from __future__ import annotations

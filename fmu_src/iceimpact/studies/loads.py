@@ -24,7 +24,8 @@ optional transient, SI units throughout (docs/design_loads.md explains every num
 
 :func:`design_loads` computes all of them from plain arrays into a :class:`Loads`;
 :func:`run_loads` does it for a :class:`iceimpact.Result`; :func:`load_columns` flattens it into
-the CSV-ready columns of :data:`LOAD_FIELDS` (merged into :func:`iceimpact.analysis.summarize`).
+the CSV-ready columns of :data:`LOAD_FIELDS` (merged into
+:func:`iceimpact.studies.analysis.summarize`).
 
 The ``rainflow`` package is imported only when cycles are counted, so that importing this module
 (e.g. from the FMU) does not need it.
@@ -61,7 +62,7 @@ def _del_key(m: float, ref: str) -> str:
     return f"del_m{m:g}_{ref}_N"
 
 
-#: Columns of :func:`load_columns` (merged into :data:`iceimpact.analysis.SUMMARY_FIELDS`):
+#: Columns of :func:`load_columns` (merged into :data:`iceimpact.studies.analysis.SUMMARY_FIELDS`):
 #: name -> (unit, meaning). The impact count and the mean and maximum impulse per impact are
 #: the summary's ``n_impacts``, ``mean_impulse_ns`` and ``max_impulse_ns`` (same window).
 LOAD_FIELDS: dict[str, tuple[str, str]] = {
@@ -253,8 +254,8 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
     """The design loads of samples ``t`` (s), ``x`` (m) of a structure of stiffness ``k`` (N/m)
     over ``t >= transient`` (s).
 
-    ``impacts`` is an impact array as :func:`iceimpact.analysis.impact_statistics` takes it (a
-    structured array with fields ``t`` and ``impulse``); ``impulse`` the per-sample impulse
+    ``impacts`` is an impact array as :func:`iceimpact.studies.analysis.impact_statistics` takes it
+    (a structured array with fields ``t`` and ``impulse``); ``impulse`` the per-sample impulse
     (N.s, :attr:`iceimpact.Result.impulse`). Missing inputs give nan for what needs them (k:
     the k x loads; impacts: the impact loads; impulse: the contact force). The window of the
     contact force is made of the sample intervals that start at or after ``transient``. A
