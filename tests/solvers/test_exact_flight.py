@@ -177,7 +177,7 @@ def test_a_stiff_pair_ringing_barely_beyond_its_drag_is_held_through_its_tension
     scene = Scene(**params)
     sim = Simulator(scene)
     solver = sim.solver
-    event = solver._event
+    event = solver.at_event
     count = [0]
 
     def counted(*args):
@@ -186,7 +186,7 @@ def test_a_stiff_pair_ringing_barely_beyond_its_drag_is_held_through_its_tension
             raise AssertionError(f"over {_MAX_EVENTS_PER_STEP} events in a step")
         return event(*args)
 
-    solver._event = counted
+    solver.at_event = counted
     b, M, m = scene.drag_b, scene.ice_M, scene.structure_m
     u0 = scene.flow_u
     for i in range(9):

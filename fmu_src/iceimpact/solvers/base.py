@@ -15,6 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from ..contract import INT32_MAX
 from ..errors import SolverError, StateError
 from ..physics.contact import Impact
@@ -23,7 +25,7 @@ from ..record import STATE_VERSION, Record, check_version
 from ..scene import Scene
 from .contact_rules import sticking_start
 
-__all__ = ["GAP_ROUNDING", "Impact", "Solver", "SolverError", "State", "StateError"]
+__all__ = ["GAP_ROUNDING", "Impact", "Samples", "Solver", "SolverError", "State", "StateError"]
 
 #: Gaps between -GAP_ROUNDING and 0 (m) are rounding of x - z at contact: the simulator reports
 #: them as 0, and the exact method never accepts a graze deeper than this as a touch.
@@ -46,9 +48,47 @@ class State:
         return self.x - self.z
 
 
+class Samples:
+    """States (m, m/s), contact impulses (N.s, each over the interval that ends at its sample) and
+    sticking flags at a run's sample times: what :meth:`Simulator.sample` returns, from a
+    solver's vectorised sampler or from one step per sample."""
+
+    __slots__ = ("x", "v", "z", "w", "impulse", "sticking")
+
+    def __init__(self, n: int):
+        self.x, self.v, self.z, self.w = (np.empty(n) for _ in range(4))
+        self.impulse = np.zeros(n)
+        self.sticking = np.zeros(n, dtype=bool)
+
+    def set(self, i: int, state: State, sticking: bool) -> None:
+        self.x[i], self.v[i], self.z[i], self.w[i] = state.x, state.v, state.z, state.w
+        self.sticking[i] = sticking
+
+
 class Solver:
-    """Base class: parameters, state, impact count and list, snapshots. Subclasses implement
-    :meth:`advance_to` and the method-specific part of :meth:`snapshot` / :meth:`restore`.
+    """Base class: parameters, state, impact count and list, snapshots.
+
+    The contract of a method (as scipy's ``OdeSolver`` states its own), which the simulator
+    relies on and the tests check for every method (``tests/test_state.py``,
+    ``tests/test_step_budget.py``, ``tests/test_simulator.py``):
+
+    1. ``advance_to(t_end, u)`` marches from ``state.t`` to ``t_end`` (> t) with the flow speed
+       u held, leaves ``state`` at ``t_end`` and returns the contact impulse on the structure
+       over the interval (N.s), impacts included. The event-driven methods do it through the
+       one loop of :class:`~iceimpact.solvers.march.EventMarch`.
+    2. Every impact goes through :meth:`_record` (the count, the list, the step's impact
+       budget: one beyond it raises :class:`SolverError`); sticking is entered and left through
+       :meth:`_set_sticking`.
+    3. A method that cannot go on raises :class:`SolverError` saying why and what to change; it
+       never returns NaN or inf knowingly (the simulator checks anyway).
+    4. :meth:`checkpoint` / :meth:`rollback` undo the next :meth:`advance_to` exactly (the
+       simulator rolls a refused step back); :meth:`snapshot` / :meth:`restore` carry the whole
+       future as plain data, every field checked on the way in.
+    5. With ``SAMPLES_AT_ONCE``, ``sample(times, u)`` returns the :class:`Samples` that
+       ``advance_to`` at each time would give, to rounding.
+
+    Subclasses implement :meth:`advance_to` and the method-specific part of :meth:`snapshot` /
+    :meth:`restore` (``_KEYS``, ``_snapshot``, ``_read``).
 
     ``impact_count`` and ``t_last`` count every impact; the list ``impacts`` keeps the impacts
     from ``impacts_base`` on, and only when ``record_impacts`` is true (a long FMU run keeps its

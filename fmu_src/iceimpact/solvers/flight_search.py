@@ -308,11 +308,13 @@ class FlightSearch(RootSearch):
         self.handed_back = False
 
     def checkpoint(self) -> tuple:
-        return RootSearch.checkpoint(self), self.handed_back
+        # RootSearch.checkpoint's fields and handed_back, in one tuple (taken at every step)
+        return (self.a, self.root, self.iterations, self.creep, self._probed_at, self._probed,
+                self.handed_back)
 
     def rollback(self, saved: tuple) -> None:
-        RootSearch.rollback(self, saved[0])
-        self.handed_back = saved[1]
+        (self.a, self.root, self.iterations, self.creep, self._probed_at, self._probed,
+         self.handed_back) = saved
 
     def next_root_of(self, horizon: float, signal: Any) -> float | None:
         root = self.root

@@ -59,7 +59,7 @@ from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..record import Record
 from ..scene import Scene
-from .base import Solver, State
+from .base import State
 from .contact_rules import (
     INTEGRATED_POLICY,
     ContactRules,
@@ -69,6 +69,7 @@ from .contact_rules import (
     make_together,
     reanchor_on_flow_change,
 )
+from .march import EventMarch
 
 #: Events at one instant before the bodies are held together briefly (a degenerate contact).
 MAX_EVENTS_AT_ONE_INSTANT = 8
@@ -203,7 +204,7 @@ def _floats(y) -> list[float]:
     return [float(c) for c in y]
 
 
-class OdeSolver(Solver):
+class OdeSolver(EventMarch):
     """scipy ``solve_ivp`` with gap and contact-force events (method 3)."""
 
     name = "ode"
@@ -253,23 +254,22 @@ class OdeSolver(Solver):
     def _max_step(self, y: np.ndarray) -> float:
         """Largest step of an explicit integrator for a call starting from y (s): STABLE_STEP
         over the fastest relaxation rate about the states the integration can fall below its
-        tolerance at. The quadratic drags' rates are taken at the speeds relative to the flow at
-        the call's start: sticking, 2 B |v - u| / (m + m_a + M) (bodies pushed at a steady speed
-        have that rate however small their motion about it); the structure's Morison drag in
-        flight, 2 B_s |v - u| / (m + m_a). Sticking, the dampings add on the whole moving mass
-        m + m_a + M (``integrated_rate(..., together=True)``, (c + b + b_s) / (m + m_a + M)
-        with the linearised drags): the flight's rates bounded a light floe's sticking phases,
-        b / M = 2.9e5 1/s where they integrate b / (m + M) = 53 1/s, to steps of 1.7e-5 s
-        (docs/robustness.md#holds-in-spans).
-        In flight the ice's quadratic drag is left out: its rate
-        2 B |w - u| / M vanishes where the ice meets the flow, the only place its motion falls
-        below the tolerance, and above it the error control sees an unstable step (a bound at
-        the speed after a flow reversal, 2 |u|, held whole steps to that peak rate, which the
-        drag relaxes within a fraction of a step: 15 s of CPU per simulated second at 2.9e5
-        1/s instead of 4 s). (A bound from the structure's amplitude about x = 0 was far too
-        loose for bodies pushed to an equilibrium 33 m away: steps of 1.7e-5 s, 30 s of CPU
-        for 0.55 s.) A function of the call's start, so that a restored snapshot integrates
-        its chunk again identically."""
+        tolerance at, so that such states decay instead of ringing through the ice.
+
+        - Quadratic drags: their rates at the speeds relative to the flow at the call's start
+          (sticking: 2 B |v - u| / (m + m_a + M); the structure's Morison drag in flight:
+          2 B_s |v - u| / (m + m_a)): bodies pushed at a steady speed have that rate however
+          small their motion about it.
+        - Sticking: the dampings act on the whole moving mass m + m_a + M
+          (``integrated_rate(..., together=True)``), not on the flight's masses, which are
+          thousands of times stiffer for a light floe (docs/robustness.md#holds-in-spans).
+        - In flight the ice's quadratic drag is left out: its rate 2 B |w - u| / M vanishes where
+          the ice meets the flow, the only place its motion falls below the tolerance, and
+          above it the error control sees the unstable step itself
+          (docs/robustness.md#explicit-step-bounds).
+
+        A function of the call's start, so that a restored snapshot integrates its chunk again
+        identically."""
         if self.method not in STABLE_STEP:
             return math.inf
         speed = abs(float(y[1]) - self.u)
@@ -456,52 +456,59 @@ class OdeSolver(Solver):
         self.pending_impulse += impact.impulse
         self._begin(t, x, impact.v_plus, x, impact.w_plus, after_impact=True)
 
-    # marching ------------------------------------------------------------------------------------
-    def advance_to(self, t_end: float, u: float) -> float:
-        if u != self.u:  # zero-order hold: restart the integration at the change
-            # from the current segment's state (y_now), which follows any event at this time:
-            # self.state is the last reported one, before an impact at t = 0
-            t = self.state.t
-            y = [float(c) for c in self.y_now]
-            sticking = self.phase is Phase.STICK
-            self.u = u
-            self._set_chunks(u)
-            x, v, z, w = reanchor_on_flow_change(*(y[:2] * 2 if sticking else y), sticking)
-            self._begin(t, x, v, z, w, reanchor=True)
-            # the flow may change again at the next step: integrate ahead by this step only
-            # (doubling from there), not a whole chunk
-            self.first_span = min(self.first_chunk, t_end - t)
-        impulse = self.pending_impulse
-        self.pending_impulse = 0.0
-        while True:
-            while self.event is None and self.t_hi < t_end:
-                self._extend()
-            if self.event is not None and self.event[0] <= t_end:
-                t_ev, y_ev = self.event
-                if self.phase is Phase.STICK:
-                    impulse += self.rhs.impulse(self.y_now, y_ev)
-                    x, v = float(y_ev[0]), float(y_ev[1])
-                    if self.hold_until == t_ev:
-                        self._begin(t_ev, x, v, x, v)
-                    else:  # contact force turns tensile: separate with equal velocities
-                        self._segment(Phase.FLIGHT, t_ev, [x, v, x, v])
-                else:
-                    x, v, w = float(y_ev[0]), float(y_ev[1]), float(y_ev[3])
-                    if w > v:
-                        self._impact(t_ev, x, v, w)
-                    else:  # touch without closing speed: the contact logic decides
-                        self._begin(t_ev, x, v, x, w)
-                impulse += self.pending_impulse
-                self.pending_impulse = 0.0
-                continue
-            y = self._y(t_end)
-            if self.phase is Phase.STICK:
-                impulse += self.rhs.impulse(self.y_now, y)
-                self.state = State(t_end, float(y[0]), float(y[1]), float(y[0]), float(y[1]))
-            else:
-                self.state = State(t_end, *(float(c) for c in y))
-            self.y_now = np.array(y, dtype=float)
-            return impulse
+    # marching (the loop is solvers/march.py's) --------------------------------------------------
+    def reanchor(self, u: float, t_end: float) -> None:
+        """Zero-order hold: restart the integration at the change, from the current segment's
+        state (y_now, which follows any event at this time: self.state is the last reported
+        one, before an impact at t = 0)."""
+        t = self.state.t
+        y = [float(c) for c in self.y_now]
+        sticking = self.phase is Phase.STICK
+        self.u = u
+        self._set_chunks(u)
+        x, v, z, w = reanchor_on_flow_change(*(y[:2] * 2 if sticking else y), sticking)
+        self._begin(t, x, v, z, w, reanchor=True)
+        # the flow may change again at the next step: integrate ahead by this step only
+        # (doubling from there), not a whole chunk
+        self.first_span = min(self.first_chunk, t_end - t)
+
+    def next_event(self, t_end: float) -> tuple[float, np.ndarray] | None:
+        while self.event is None and self.t_hi < t_end:
+            self._extend()
+        if self.event is not None and self.event[0] <= t_end:
+            return self.event
+        return None
+
+    def impulse_to(self, event: tuple[float, np.ndarray]) -> float:
+        if self.phase is Phase.STICK:
+            return self.rhs.impulse(self.y_now, event[1])
+        return 0.0
+
+    def at_event(self, event: tuple[float, np.ndarray]) -> None:
+        t_ev, y_ev = event
+        if self.phase is Phase.STICK:
+            x, v = float(y_ev[0]), float(y_ev[1])
+            if self.hold_until == t_ev:
+                self._begin(t_ev, x, v, x, v)
+            else:  # contact force turns tensile: separate with equal velocities
+                self._segment(Phase.FLIGHT, t_ev, [x, v, x, v])
+        else:
+            x, v, w = float(y_ev[0]), float(y_ev[1]), float(y_ev[3])
+            if w > v:
+                self._impact(t_ev, x, v, w)
+            else:  # touch without closing speed: the contact logic decides
+                self._begin(t_ev, x, v, x, w)
+
+    def finish(self, t_end: float) -> float:
+        y = self._y(t_end)
+        impulse = 0.0
+        if self.phase is Phase.STICK:
+            impulse = self.rhs.impulse(self.y_now, y)
+            self.state = State(t_end, float(y[0]), float(y[1]), float(y[0]), float(y[1]))
+        else:
+            self.state = State(t_end, *(float(c) for c in y))
+        self.y_now = np.array(y, dtype=float)
+        return impulse
 
     # snapshots ----------------------------------------------------------------------------------
     _KEYS = ("u", "pending_impulse", "nfev", "events_here", "last_event_t", "degenerate",

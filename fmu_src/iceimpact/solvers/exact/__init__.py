@@ -31,9 +31,9 @@ The modules, one concern each:
   FMU.
 """
 
+from ..base import Samples
 from .external import ExternalSolver
 from .flight import DraggedFlight, Flight
-from .sampling import Samples
 from .solver import EventSolver
 from .sticking import LinearStick, QuadraticStick
 

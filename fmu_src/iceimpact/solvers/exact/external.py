@@ -84,6 +84,7 @@ class ExternalStick:
     hold, :class:`~iceimpact.solvers.contact_rules.DegenerateContacts`)."""
 
     phase = Phase.STICK
+    PUSHES = True
 
     def __init__(self, solver: ExternalSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
@@ -281,7 +282,7 @@ class ExternalSolver(EventSolver):
         else:
             # the structure lags its extrapolation: no penetration, the ice goes back to it
             self._begin(t, x_in, v_s, min(z, x_in), w, u, reanchor=True)
-        impulse = self._march(t_end, u)
+        impulse = self.march(t_end)
         returned = (self.jacobi_force(impulse, h, started_riding) if self.jacobi
                     else impulse / h)
         felt = (unfelt / h) if self.jacobi else returned

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ..base import State
+from ..base import Samples
 from ..contact_rules import Phase
 from .segment import GROUPED, _SearchedSegment
 
@@ -45,21 +45,6 @@ def _sampling_kind(seg: Any) -> Any:
     for GROUPED."""
     kind = seg.SAMPLING
     return _SampleGroup(seg) if kind == GROUPED else kind
-
-
-class Samples:
-    """States (m, m/s), contact impulses (N.s) and sticking flags at a run's sample times."""
-
-    __slots__ = ("x", "v", "z", "w", "impulse", "sticking")
-
-    def __init__(self, n: int):
-        self.x, self.v, self.z, self.w = (np.empty(n) for _ in range(4))
-        self.impulse = np.zeros(n)
-        self.sticking = np.zeros(n, dtype=bool)
-
-    def set(self, i: int, state: State, sticking: bool) -> None:
-        self.x[i], self.v[i], self.z[i], self.w[i] = state.x, state.v, state.z, state.w
-        self.sticking[i] = sticking
 
 
 class _SampleGroup:

@@ -17,7 +17,7 @@ from ...physics.structure import (
 )
 from ...record import Record
 from ...scene import Scene
-from ..base import Solver, State
+from ..base import Samples, State
 from ..contact_rules import (
     EXACT_POLICY,
     ContactRules,
@@ -25,8 +25,9 @@ from ..contact_rules import (
     Phase,
     reanchor_on_flow_change,
 )
+from ..march import EventMarch
 from .flight import DraggedFlight, Flight
-from .sampling import Samples, _first_sample_after, _SampleGroup, _sampling_kind
+from .sampling import _first_sample_after, _SampleGroup, _sampling_kind
 from .segment import MARCHED, _SearchedSegment
 from .sticking import LinearStick, QuadraticStick
 
@@ -36,7 +37,7 @@ _FLIGHT = Phase.FLIGHT
 _IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
 
 
-class EventSolver(Solver):
+class EventSolver(EventMarch):
     """Exact event-driven solver (method 1)."""
 
     name = "exact"
@@ -182,47 +183,39 @@ class EventSolver(Solver):
         else:
             self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
 
-    # marching -----------------------------------------------------------------------------------
-    def advance_to(self, t_end: float, u: float) -> float:
-        if u != self.u:
-            self._reanchor(u)
-        return self._march(t_end, u)
+    # marching (the loop is solvers/march.py's) --------------------------------------------------
+    def next_event(self, t_end: float) -> float | None:
+        seg = self.seg
+        return seg.next_event(t_end - seg.t0)
 
-    def _reanchor(self, u: float) -> None:
-        """Zero-order hold: a new flow speed re-anchors the closed forms at the current time."""
-        x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
-                                             self.seg.phase is Phase.STICK)
-        self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+    def impulse_to(self, tau_event: float) -> float:
+        seg = self.seg
+        return seg.impulse(self.tau, tau_event) if seg.PUSHES else 0.0
 
-    def _march(self, t_end: float, u: float) -> float:
-        """Run the segments from the current one to ``t_end``; the impulse on the structure."""
-        impulse = self.pending_impulse
-        self.pending_impulse = 0.0
-        while True:
-            seg = self.seg
-            tau_end = t_end - seg.t0
-            tau_event = seg.next_event(tau_end)
-            if tau_event is None:
-                impulse += seg.impulse(self.tau, tau_end)
-                self.tau = tau_end
-                break
-            impulse += seg.impulse(self.tau, tau_event)
-            impulse += self._event(seg, tau_event, u)
-        x, v, z, w = self.seg.state(self.tau)
-        self.state = State(t_end, x, v, z, w)
-        return impulse
-
-    def _event(self, seg, tau_event: float, u: float) -> float:
-        """The event ending ``seg`` at ``tau_event``: the segments that follow; the impulse of
-        its impacts."""
+    def at_event(self, tau_event: float) -> None:
+        seg = self.seg
         x, v, z, w = seg.state(tau_event)
         t_event = seg.t0 + tau_event
+        u = self.u
         if seg.phase is _FLIGHT:
             self._flight_end(t_event, x, v, w, u)  # impact, or a touch without speed
         else:  # contact force turns tensile: separate with equal velocities
             self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
-        impulse, self.pending_impulse = self.pending_impulse, 0.0
+
+    def finish(self, t_end: float) -> float:
+        seg = self.seg
+        tau_end = t_end - seg.t0
+        impulse = seg.impulse(self.tau, tau_end) if seg.PUSHES else 0.0  # (flights: 0, no call)
+        self.tau = tau_end
+        x, v, z, w = seg.state(tau_end)
+        self.state = State(t_end, x, v, z, w)
         return impulse
+
+    def reanchor(self, u: float, t_end: float = 0.0) -> None:
+        """Zero-order hold: a new flow speed re-anchors the closed forms at the current time."""
+        x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
+                                             self.seg.phase is Phase.STICK)
+        self._begin(self.state.t, x, v, z, w, u, reanchor=True)
 
     def sample(self, times: np.ndarray, u: float) -> Samples:
         """Advance to each of ``times`` (increasing, after the current time) in turn with flow
@@ -241,8 +234,7 @@ class EventSolver(Solver):
             self.end_step()
 
     def _sample(self, times: np.ndarray, u: float) -> Samples:
-        if u != self.u:
-            self._reanchor(u)
+        self.set_flow(u, float(times[-1]))
         t_list = times.tolist()
         n = len(t_list)
         out = Samples(n)
@@ -258,7 +250,7 @@ class EventSolver(Solver):
         last_type: type | None = None
         kind: Any = None
         grouped = False
-        event = self._event
+        take_event = self.take_event
         add_target, add_value = targets.append, values.append
         i = 0
         horizon = t_list[-1]
@@ -277,7 +269,7 @@ class EventSolver(Solver):
                     interval = i
                     self.begin_step(t_list[i - 1])
                 add_target(i)
-                add_value(self._march(t_list[i], u))
+                add_value(self.march(t_list[i]))
                 out.set(i, self.state, self.sticking)
                 i += 1
                 continue
@@ -308,7 +300,7 @@ class EventSolver(Solver):
             if interval != j:  # (the event is sample j's: the first at or after it)
                 interval = j
                 self.begin_step(t_list[j - 1])
-            add_value(event(seg, tau_event, u))
+            add_value(take_event(tau_event))
             i = j
         impulse = np.zeros(n)
         values_array = np.array(values)

@@ -340,6 +340,7 @@ class QuadraticStick:
 
     phase = Phase.STICK
     SAMPLING = STEPPED  # its dense output per segment (states_at)
+    PUSHES = True
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):

@@ -1,0 +1,88 @@
+"""The one event loop of the event-driven methods: the exact solver (method 1, also against an
+external structure) and the ODE solver (method 3).
+
+Both march the same way, as Siconos' ``EventDriven::advanceToEvent`` does: a *segment* (a flight,
+or the bodies together) carries the state from one event to the next; at an event the contact
+rules (:mod:`~iceimpact.solvers.contact_rules`) decide what follows and start the next segment.
+What differs between the methods is only how a segment is computed (closed forms and a no-miss
+root search, or ``solve_ivp`` with a terminal event), so a method supplies four operations and
+:meth:`EventMarch.march` does the bookkeeping once. The fixed-step scheme (method 2) has no
+segments (it tests grid points, as the article does) and keeps its own loop.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .base import Solver
+
+
+class EventMarch(Solver):
+    """A solver whose state is a segment between events. A subclass provides:
+
+    1. ``next_event(t_end)``: the current segment's next event at or before ``t_end`` (s), as
+       the method describes it (a time within the segment, or the event's time and state), or
+       None when the segment reaches ``t_end``. It may compute ahead; it changes no state that
+       a report shows.
+    2. ``impulse_to(event)``: the contact impulse (N.s) on the structure over the current
+       segment from where the march stands to the event (0 in flight).
+    3. ``at_event(event)``: the state at the event goes through the contact rules, which start
+       the next segment; the impulses of the impacts there go to ``pending_impulse``.
+    4. ``finish(t_end)``: move within the current segment to ``t_end``, set ``state`` at
+       ``t_end``; return the contact impulse on the way.
+    5. ``reanchor(u, t_end)``: the flow speed changes to u at the current time (zero-order hold):
+       the segment restarts there, from the current state (``t_end``: the end of the step about
+       to be taken, a hint for how far to compute ahead).
+
+    ``u`` is the flow speed of the current segment; ``pending_impulse`` holds the impulse of
+    impacts at the current time not yet reported (an impact at t = 0 goes to the first step).
+    """
+
+    u: float
+    pending_impulse: float
+
+    def advance_to(self, t_end: float, u: float) -> float:
+        if u != self.u:  # (set_flow, inline: this runs at every communication step)
+            self.reanchor(u, t_end)
+        return self.march(t_end)
+
+    def set_flow(self, u: float, t_end: float) -> None:
+        """Re-anchor the segment if the flow speed changes (rule 5), once for every path in."""
+        if u != self.u:
+            self.reanchor(u, t_end)
+
+    def march(self, t_end: float) -> float:
+        """Run the segments from the current one to ``t_end``; the impulse on the structure (the
+        sum in event order, so that every path that marches adds the same numbers in the same
+        order)."""
+        impulse = self.pending_impulse
+        self.pending_impulse = 0.0
+        while True:
+            event = self.next_event(t_end)
+            if event is None:
+                impulse += self.finish(t_end)
+                return impulse
+            impulse += self.impulse_to(event)
+            impulse += self.take_event(event)
+
+    def take_event(self, event: Any) -> float:
+        """:meth:`at_event`; the impulse of its impacts, taken from ``pending_impulse``."""
+        self.at_event(event)
+        impulse, self.pending_impulse = self.pending_impulse, 0.0
+        return impulse
+
+    # the method's operations (numbered rules above) ---------------------------------------------
+    def next_event(self, t_end: float) -> Any:
+        raise NotImplementedError
+
+    def impulse_to(self, event: Any) -> float:
+        raise NotImplementedError
+
+    def at_event(self, event: Any) -> None:
+        raise NotImplementedError
+
+    def finish(self, t_end: float) -> float:
+        raise NotImplementedError
+
+    def reanchor(self, u: float, t_end: float) -> None:
+        raise NotImplementedError
