@@ -1,0 +1,104 @@
+"""The one event loop (solvers/march.py): its rules on a toy method whose segments and events
+are known in advance, and the methods that march through it."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from iceimpact import Scene, Simulator
+from iceimpact.solvers.base import State
+from iceimpact.solvers.exact import EventSolver, ExternalSolver
+from iceimpact.solvers.march import EventMarch
+from iceimpact.solvers.ode import OdeSolver
+
+
+class Toy(EventMarch):
+    """Events at given times, each adding a known impact impulse; a contact force of 1 N
+    between events (so each span's impulse is its length)."""
+
+    def __init__(self, events: list[float]):
+        super().__init__(Scene())
+        self.events = list(events)
+        self.u = 0.0
+        self.pending_impulse = 0.25  # an impact at t = 0, reported by the first step
+        self.log: list[tuple] = []
+        self.at = 0.0  # where the march stands in the current segment
+
+    def next_event(self, t_end):
+        self.log.append(("next", t_end))
+        if self.events and self.events[0] <= t_end:
+            return self.events[0]
+        return None
+
+    def impulse_to(self, event):
+        self.log.append(("to", event))
+        return event - self.at
+
+    def at_event(self, event):
+        self.log.append(("at", event))
+        self.events.pop(0)
+        self.at = event
+        self.pending_impulse += 10.0  # the impact there
+
+    def finish(self, t_end):
+        self.log.append(("finish", t_end))
+        span = t_end - self.at
+        self.at = t_end
+        self.state = State(t_end, 0.0, 0.0, 0.0, 0.0)
+        return span
+
+    def reanchor(self, u, t_end):
+        self.log.append(("reanchor", u, t_end))
+        self.u = u
+
+
+def test_a_step_adds_the_pending_impulse_the_spans_and_each_events_impacts_in_order():
+    toy = Toy([0.5, 0.75, 2.5])
+    impulse = toy.advance_to(1.0, 0.0)
+    # 0.25 pending, 0.5 to the first event, 10 there, 0.25 to the second, 10, 0.25 to the end
+    assert impulse == ((((0.25 + 0.5) + 10.0) + 0.25) + 10.0) + 0.25
+    assert toy.log == [("next", 1.0), ("to", 0.5), ("at", 0.5), ("next", 1.0), ("to", 0.75),
+                       ("at", 0.75), ("next", 1.0), ("finish", 1.0)]
+    assert toy.pending_impulse == 0.0 and toy.state.t == 1.0
+    toy.log.clear()
+    assert toy.advance_to(2.0, 0.0) == 1.0  # no event: the span only
+    assert toy.log == [("next", 2.0), ("finish", 2.0)]
+
+
+def test_the_flow_reanchors_the_segment_once_and_only_when_it_changes():
+    toy = Toy([])
+    toy.advance_to(1.0, 0.0)
+    assert not [e for e in toy.log if e[0] == "reanchor"]
+    toy.log.clear()
+    toy.advance_to(2.0, -0.5)
+    assert toy.log[0] == ("reanchor", -0.5, 2.0) and toy.u == -0.5
+    toy.log.clear()
+    toy.set_flow(-0.5, 3.0)
+    assert toy.log == []
+
+
+@pytest.mark.parametrize("cls", [EventSolver, OdeSolver, ExternalSolver])
+def test_the_event_driven_methods_march_through_the_one_loop(cls):
+    assert issubclass(cls, EventMarch)
+    assert cls.march is EventMarch.march
+
+
+@pytest.mark.parametrize("method", [1, 3])
+def test_a_method_reports_every_event_the_loop_visits(method):
+    """Each event the loop takes is the method's: counting at_event calls counts the impacts
+    (plus the separations of a sticking phase, none in this scene's first seconds)."""
+    sim = Simulator(Scene(ice_M=800.0, solver_method=method))
+    calls = [0]
+    at_event = sim.solver.at_event
+
+    def counted(event):
+        calls[0] += 1
+        at_event(event)
+
+    sim.solver.at_event = counted
+    for _ in range(50):
+        sim.advance(0.1)
+    assert sim.impact_count == calls[0] >= 3
+    assert math.isfinite(sim.report.x)
