@@ -37,7 +37,7 @@ CASES = (
     ("figure 2, exact", {}, 100.0),
     ("e = 0.5 quadratic (sticking), exact", {"impact_e": 0.5, "drag_model": 2}, 50.0),
     ("figure 13 quadratic, exact", {"drag_model": 2, "ice_A": 2.0}, 100.0),
-    ("figure 2, fixed-step", {"solver_method": 2}, 25.0),
+    ("figure 2, fixed-step", {"solver_method": 2, "solver_detection": 1}, 25.0),
     ("figure 2 e = 0.5, ODE", {"solver_method": 3, "impact_e": 0.5}, 20.0),
 )
 STEP = 1e-3  # s

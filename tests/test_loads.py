@@ -66,6 +66,30 @@ def test_sine_del_at_1hz_scales_with_the_frequency():
                                                  rel=1e-9)
 
 
+def test_a_series_that_starts_late_is_taken_over_its_own_span():
+    """FMU output from a later start time or a saved slice of a run: T is the span of the
+    samples, not their last time (that gave 1.68 for m = 4 here, (100 / 200)^(1/4) x 2)."""
+    t = 100.0 + np.arange(6401) / 64.0  # 100 periods of a 1 Hz cosine, from t = 100 s
+    y = np.cos(2 * np.pi * t)
+    loads = design_loads(t, y, 1.0)
+    assert loads.t_start == 100.0 and loads.duration == 100.0
+    for m in WOHLER_EXPONENTS:
+        assert loads.del_1hz[m] == pytest.approx(2.0, rel=1e-12)
+    # the same series from t = 0, and the same window cut by a transient, agree
+    assert design_loads(t - 100.0, y, 1.0).del_1hz == loads.del_1hz
+    assert design_loads(t, y, 1.0, transient=100.0).del_1hz == loads.del_1hz
+    # a transient inside the series starts the window there (the first half of the series)
+    half = design_loads(t, y, 1.0, transient=150.0)
+    assert half.t_start == 150.0 and half.del_1hz[4] == pytest.approx(2.0, rel=1e-12)
+    # the summary's window and rates too: impacts before the series are not in it
+    impacts = np.array([(50.0, 1.0), *((100.5 + k, 2.0) for k in range(100))],
+                       dtype=[("t", float), ("impulse", float)])
+    s = summarize_arrays(t, y, impacts, omega_n=2 * np.pi, structure_k=1.0)
+    assert s["t_start_s"] == 100.0 and s["n_impacts"] == 100.0
+    assert s["impact_rate_hz"] == pytest.approx(1.0, rel=1e-12)
+    assert s["del_m4_1Hz_N"] == pytest.approx(2.0, rel=1e-12)
+
+
 @pytest.mark.parametrize("m", WOHLER_EXPONENTS)
 def test_two_level_block_signal_gives_the_hand_computed_del(m):
     # reversals: -B, B, then n1 small cycles (-a, a) nested in the first big half, then the
@@ -231,3 +255,14 @@ def test_design_map_quick(tmp_path):
     header = lines[0].split(",")
     assert "del_m4_1Hz_N" in header and "kx_max_N" in header and "flow.u" in header
     assert len(lines) == 1 + 4
+
+
+def test_the_transient_takes_python_and_numpy_numbers_and_refuses_huge_ones():
+    t = np.arange(641) / 64.0
+    y = np.cos(2 * np.pi * t)
+    want = design_loads(t, y, 1.0, transient=2.0).del_1hz
+    for transient in (2, np.int64(2), np.float32(2.0)):
+        assert design_loads(t, y, 1.0, transient=transient).del_1hz == want
+    for transient in (10**400, True, np.bool_(False), math.nan, -1.0):  # 10**400: OverflowError
+        with pytest.raises(ValueError, match="transient = .* must be a finite number >= 0"):
+            design_loads(t, y, 1.0, transient=transient)

@@ -47,7 +47,7 @@ def test_new_parameters_are_integers_with_ranges():
     assert (specs["solver.detection"].minimum, specs["solver.detection"].maximum) == (1, 2)
     assert specs["solver.ode_method"].kind is int
     assert (specs["solver.ode_method"].minimum, specs["solver.ode_method"].maximum) == (1, 4)
-    assert Scene().solver_detection == DETECTION_WINDOW
+    assert Scene().solver_detection == DETECTION_SIGN
     assert ODE_METHODS[Scene().solver_ode_method] == "DOP853"
     scene = Scene.from_fmi({"solver.detection": 2, "solver.ode_method": 4})
     assert (scene.solver_detection, scene.solver_ode_method) == (2, 4)
@@ -132,6 +132,24 @@ def test_tolerance_window_misses_impacts_the_exact_solver_finds():
     for dt in (1e-3, 1e-4, 1e-5):
         assert impact_times(fixed(moving, dt, DETECTION_WINDOW), 1.0).size == 0
         assert abs(impact_times(fixed(moving, dt), 1.0)[0] - nxt[0]) <= dt * (1 + 1e-9)
+
+
+def test_method_2_finds_impacts_by_default():
+    """Switching to method 2 and nothing else must give a usable run: the sign test is the
+    default (the article's eq. 26 window, detection 1, misses every impact of Figure 2 and leaves
+    the ice 0.22 m past the structure after 10 s)."""
+    assert Scene(solver_method=METHOD_FIXED_STEP).solver_detection == DETECTION_SIGN
+    sim = Simulator(Scene(solver_method=METHOD_FIXED_STEP))
+    worst = 0.0
+    for _ in range(1000):
+        worst = max(worst, sim.advance(1e-2).penetration)
+    exact = make_solver(FIG2)
+    exact.advance_to(10.0, FIG2.flow_u)
+    assert sim.impact_count == exact.impact_count > 0
+    assert worst <= FIG2.flow_u * FIG2.solver_dt  # at most one step's closing distance
+    window = Simulator(Scene(solver_method=METHOD_FIXED_STEP, solver_detection=DETECTION_WINDOW))
+    report = window.advance(10.0)
+    assert report.impact_count == 0 and report.penetration > 0.2  # kept, on request
 
 
 def test_fixed_step_pins_the_articles_steady_state():

@@ -424,3 +424,18 @@ def test_docs_list_the_contract():
 
     page = (Path(__file__).parents[1] / "docs" / "coupling.md").read_text()
     assert contract.markdown_table() in page
+
+
+def test_the_python_api_takes_numpy_numbers_and_refuses_huge_ones():
+    """advance(np.float32(0.01), np.int64(5)) was refused, advance(10**400, 0) and
+    Mode(f=10**400) raised a bare OverflowError."""
+    a = ModalStructure([Mode(f=np.float32(2.0), zeta=np.int64(0), m=1.0)])
+    b = ModalStructure([Mode(f=2.0, zeta=0.0, m=1.0)])
+    assert a.advance(np.float32(0.01), np.int64(5)) == b.advance(float(np.float32(0.01)), 5.0)
+    for call, value, name in ((lambda v: a.advance(v, 0.0), 10**400, "h"),
+                              (lambda v: a.advance(v, 0.0), np.bool_(True), "h"),
+                              (lambda v: a.advance(0.01, v), -(10**400), "force"),
+                              (lambda v: Mode(f=v, zeta=0.0, m=1.0), 10**400, "mode.f")):
+        with pytest.raises(ParameterError) as err:
+            call(value)
+        assert err.value.name == name and err.value.value is value

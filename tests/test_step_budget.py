@@ -98,8 +98,10 @@ def test_the_cli_refuses_a_run_over_the_budget_with_exit_status_2():
            "--t-end", "30", "--dt"]
     out = subprocess.run([*cmd, "30"], capture_output=True, text=True, timeout=120)
     assert out.returncode == 2, out.stderr
-    assert "iceimpact simulate: error: the step needs more than solver.max_impacts = 3" in (
-        out.stderr)
+    # worded as a refused step of the simulator: where the run stopped, then the budget
+    assert ("iceimpact simulate: error: the run stopped at t = 0.0 s (the step to 30.0 s was "
+            "refused; the state is as before it): the step needs more than solver.max_impacts "
+            "= 3") in out.stderr
     assert "Traceback" not in out.stderr
     out = subprocess.run([*cmd, "1"], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and "10 impacts" in out.stdout, out.stderr

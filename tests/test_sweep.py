@@ -133,6 +133,25 @@ def test_bad_settings_are_rejected(tmp_path, kwargs, words):
         sweep(None, {"flow.u": [0.1]}, progress=False, **settings)
 
 
+@pytest.mark.parametrize("kwargs,words", [
+    ({"t_end": 10**400}, "t_end = 1000.* expected a finite number > 0"),
+    ({"dt": -(10**400)}, "dt = -1000.* expected a number in"), ({"t_end": True}, "t_end = True"),
+    ({"transient": np.bool_(False)}, "transient = np.False_: expected a number"),
+])
+def test_settings_that_are_no_finite_number_are_a_sweep_error(kwargs, words):
+    """t_end = 10**400 raised a bare OverflowError."""
+    with pytest.raises(SweepError, match=words):
+        sweep(None, {"flow.u": [0.1]}, progress=False, **{"t_end": T_END, "dt": DT, **kwargs})
+
+
+def test_numpy_settings_run_like_python_ones():
+    rows = sweep(None, {"flow.u": [0.1]}, t_end=np.float32(T_END), dt=np.float64(DT),
+                 transient=np.int64(0), workers=1, progress=False)
+    want = sweep(None, {"flow.u": [0.1]}, t_end=float(np.float32(T_END)), dt=DT, transient=0.0,
+                 workers=1, progress=False)
+    assert_same_rows(rows, want)
+
+
 # Rows ------------------------------------------------------------------------------------------
 def test_rows_equal_direct_runs(serial_rows):
     assert len(serial_rows) == 6

@@ -162,8 +162,12 @@ PARAMETERS: tuple[Variable, ...] = (
     # atol = 1e-3 rtol must stay above the rounding of the states
     _real("solver.rtol", "1", "relative tolerance of method 3", 1.0e-8,
           allowed="1e-13 <= rtol < 1", minimum=1e-13, maximum=1.0, max_exclusive=True),
-    _enum("solver.detection", "impact test of method 2: 1 = tolerance window (eq. 26), "
-          "2 = sign change of the gap", DETECTION_WINDOW,
+    # the sign test by default: the article's window misses every impact where the structure
+    # is at rest (its width is the structure's speed times the step; docs/accuracy.md)
+    _enum("solver.detection", "impact test of method 2: 2 = sign change of the gap (the "
+          "default); 1 = the article's tolerance window of eq. 26, only to reproduce the "
+          "article: it misses every impact at a structure at rest (zero width), so the ice "
+          "passes through it", DETECTION_SIGN,
           {DETECTION_WINDOW: "window", DETECTION_SIGN: "sign"}),
     _enum("solver.ode_method", "integrator of method 3: 1 = RK45, 2 = DOP853, 3 = LSODA, "
           "4 = Radau", 2, {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}),

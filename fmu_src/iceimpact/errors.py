@@ -6,13 +6,25 @@
   before the step); :class:`NonFiniteError`, one that produced a value that is not finite;
 - :class:`StateError`: a saved state (a snapshot, an FMU state blob) is malformed; nothing was
   changed.
+
+And the one rule for what a number of the Python API is (:func:`real_number`, used by the scene,
+the simulator's arguments and the sweeps): Python and numpy numbers alike, as a Python float.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from typing import Any
 
-__all__ = ["NonFiniteError", "ParameterError", "SolverError", "StateError", "value_text"]
+import numpy as np
+
+__all__ = ["NonFiniteError", "ParameterError", "SolverError", "StateError", "checked_real",
+           "real_number", "value_text"]
+
+#: The types of a real number of the Python API: Python's int and float, numpy's integer and
+#: floating scalars (bool and numpy.bool_ are not numbers here, nor complex, str or arrays).
+REAL_TYPES = (int, float, np.integer, np.floating)
 
 
 class ParameterError(ValueError):
@@ -23,6 +35,36 @@ class ParameterError(ValueError):
         self.value = value
         self.allowed = allowed
         super().__init__(f"{name} = {value_text(value)} is not allowed: {allowed}")
+
+
+def real_number(value: Any) -> float | None:
+    """``value`` as a Python float if it is a real number (:data:`REAL_TYPES`, not a bool),
+    else None. An integer beyond double precision (``10**400``) is +-inf, refused wherever a
+    finite number is needed; a numpy float32 keeps its exact value (0.01 as float32 is
+    0.009999999776482582)."""
+    if isinstance(value, float):  # float, numpy.float64
+        return float(value)
+    if isinstance(value, int):
+        if value.__class__ is bool:
+            return None
+        try:
+            return float(value)
+        except OverflowError:  # beyond double precision
+            return math.inf if value > 0 else -math.inf
+    if isinstance(value, np.integer | np.floating):  # (numpy.bool_ is neither)
+        return float(value)
+    return None
+
+
+def checked_real(name: str, value: Any, allowed: str,
+                 ok: Callable[[float], bool] | None = None) -> float:
+    """``value`` as a finite Python float (:func:`real_number`) for which ``ok`` holds (if
+    given); otherwise :class:`ParameterError` naming ``name``, the value as given and
+    ``allowed``."""
+    number = real_number(value)
+    if number is None or not math.isfinite(number) or (ok is not None and not ok(number)):
+        raise ParameterError(name, value, allowed)
+    return number
 
 
 def value_text(value: Any) -> str:

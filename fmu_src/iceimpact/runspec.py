@@ -13,6 +13,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from .errors import real_number, value_text
 from .scene import FLOW_INPUT, PARAMETERS, SPECS_BY_NAME, Scene
 
 #: Default sample step of the command-line runs and sweeps, s: 125 samples per natural period of
@@ -75,17 +76,14 @@ def coerce(name: str, value: Any) -> Value:
     """A value for the FMI name ``name`` as a Python number: int for integer parameters when
     integral (and not huge), else float. Non-numbers and non-finite numbers raise
     :class:`SpecError`; other out-of-range numbers are left to the scene's validation."""
-    import numpy as np
-
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+    number = real_number(value)  # Python and numpy numbers alike (an absurd integer: inf)
+    if number is None:
         raise SpecError(f"{name}: value {value!r} is not a number")
-    if isinstance(value, int | np.integer) and abs(int(value)) >= _EXACT_INT:
-        value = float(value)  # an absurd integer (or OverflowError: refused below)
-    if not math.isfinite(value):  # no parameter accepts it; nan would also defeat resuming
-        raise SpecError(f"{name}: value {value!r} is not finite")
-    if SPECS_BY_NAME[name].kind is int and value == int(value) and abs(value) < _EXACT_INT:
-        return int(value)
-    return float(value)
+    if not math.isfinite(number):  # no parameter accepts it; nan would also defeat resuming
+        raise SpecError(f"{name}: value {value_text(value)} is not finite")
+    if SPECS_BY_NAME[name].kind is int and number == int(number) and abs(number) < _EXACT_INT:
+        return int(number)
+    return number
 
 
 def shown(spec: str, limit: int = 60) -> str:

@@ -35,7 +35,7 @@ from .contract import (
     STRUCTURE_INPUTS,
     Variable,
 )
-from .errors import ParameterError, value_text
+from .errors import ParameterError, real_number, value_text
 from .limits import (
     EULER_STABILITY_LIMIT,
     OVERFLOW,
@@ -203,40 +203,41 @@ def unknown_name_hint(name: str) -> str:
     return f"no such parameter; {hint}known: " + ", ".join(sorted(SPECS_BY_NAME))
 
 
-def _check_number(spec: Variable, value: Any) -> None:
+def _check_number(spec: Variable, value: Any) -> float | int:
+    """``value`` of the parameter or input ``spec`` checked, as the Python number a scene
+    holds: an int for an Integer, a float for a Real (from Python and numpy numbers alike,
+    :func:`~iceimpact.errors.real_number`)."""
+    number = real_number(value)
     if spec.kind is int:
-        if (isinstance(value, bool) or not isinstance(value, int | float)
-                or (isinstance(value, float) and not math.isfinite(value))
-                or value != int(value)):
+        if number is None or not math.isfinite(number) or number != int(number):
             raise ParameterError(spec.name, value, f"an integer, {spec.allowed}")
-        if not spec.in_range(value):
+        if not spec.in_range(number):
             raise ParameterError(spec.name, value, spec.allowed)
-        return
-    if isinstance(value, bool) or not isinstance(value, int | float):
+        return int(number)
+    if number is None:
         raise ParameterError(spec.name, value, f"a real number, {spec.allowed}")
-    if isinstance(value, int) and not _representable(value):
-        raise ParameterError(spec.name, value, f"a real number within double precision, "
-                             f"{spec.allowed}")
-    if not math.isfinite(value):
-        raise ParameterError(spec.name, value, f"finite, {spec.allowed}")
-    if not spec.in_range(value):
+    if not math.isfinite(number):
+        within = "a real number within double precision" if isinstance(value, int) else "finite"
+        raise ParameterError(spec.name, value, f"{within}, {spec.allowed}")
+    if not spec.in_range(number):
         raise ParameterError(spec.name, value, spec.allowed)
+    return number
 
 
-def _representable(value: int) -> bool:
-    try:
-        return math.isfinite(float(value))
-    except OverflowError:
-        return False
+def _hold(scene: Scene, field: str, value: float | int) -> None:
+    """Keep the checked ``value`` in the (frozen) scene where the one given was another type
+    (a numpy number, an int for a Real): its arithmetic is then Python's, in double precision."""
+    if getattr(scene, field).__class__ is not value.__class__:
+        object.__setattr__(scene, field, value)
 
 
 def validate_flow(u: Any, scene: Scene | None = None) -> float:
     """Check a flow speed (m/s): a finite real whose drag force and kinetic energy on the ice of
     ``scene`` (if given) are finite numbers. Returns it as float."""
-    if (isinstance(u, bool) or not isinstance(u, int | float)
-            or (isinstance(u, int) and not _representable(u)) or not math.isfinite(u)):
+    number = real_number(u)
+    if number is None or not math.isfinite(number):
         raise ParameterError(FLOW_INPUT.name, u, "a finite real number (m/s)")
-    u = float(u)
+    u = number
     if scene is not None:
         drag = scene.drag_B * u * u if scene.drag_model == QUADRATIC_DRAG else scene.drag_b * u
         if not (math.isfinite(drag) and math.isfinite(0.5 * scene.ice_M * u * u)):
@@ -335,10 +336,10 @@ def validate(scene: Scene) -> None:
     """Raise :class:`ParameterError` for the first parameter outside its allowed range, then for
     combinations whose derived scales overflow (see :func:`_check_scales`)."""
     for spec in PARAMETERS:
-        _check_number(spec, getattr(scene, spec.field))
-    validate_flow(scene.flow_u)
+        _hold(scene, spec.field, _check_number(spec, getattr(scene, spec.field)))
+    _hold(scene, FLOW_INPUT.field, validate_flow(scene.flow_u))
     for spec in STRUCTURE_INPUTS:
-        _check_number(spec, getattr(scene, spec.field))
+        _hold(scene, spec.field, _check_number(spec, getattr(scene, spec.field)))
     if scene.external and scene.solver_method != METHOD_EXACT:
         raise ParameterError("structure.model", scene.structure_model,
                              f"1 with solver.method = {scene.solver_method}: the external "

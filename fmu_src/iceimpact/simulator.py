@@ -19,17 +19,23 @@ from typing import Any
 
 import numpy as np
 
-from .contract import STRUCTURE_INPUTS
-from .errors import NonFiniteError, ParameterError, SolverError, StateError
+from .contract import SCENE_VARIABLES, STRUCTURE_INPUTS
+from .errors import NonFiniteError, ParameterError, SolverError, StateError, checked_real
 from .record import STATE_VERSION, Record, check_version
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_flow
-from .solvers.base import GAP_ROUNDING, Impact, Solver
+from .solvers.base import GAP_ROUNDING, Impact, Samples, Solver
 from .solvers.exact import EventSolver, ExternalSolver
 from .solvers.fixed_step import FixedStepSolver
 from .solvers.ode import OdeSolver
 
 _SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STEP: FixedStepSolver,
                                      METHOD_ODE: OdeSolver}
+_INF = math.inf
+_RESTITUTION = SCENE_VARIABLES["impact.e"]  # the tunable parameter of set_restitution
+
+
+def _positive(value: float) -> bool:
+    return value > 0.0
 
 
 def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
@@ -170,9 +176,8 @@ class Simulator:
         reports the whole impulse of its interval. A step the method refused is refused again
         for the same input.
         """
-        if not (h.__class__ is float or (isinstance(h, int | float) and not isinstance(h, bool))
-                ) or not (math.isfinite(h) and h > 0.0):
-            raise ParameterError("communication step", h, "a finite number > 0 (s)")
+        if not (h.__class__ is float and 0.0 < h < _INF):  # (the fast path: a valid float)
+            h = checked_real("communication step", h, "a finite number > 0 (s)", _positive)
         t = self.solver.t
         t_end = t + h
         if not t_end > t:
@@ -184,22 +189,21 @@ class Simulator:
                    structure: tuple[float, float, float] | None = None) -> StepReport:
         """Advance to the communication point ``t_end`` (s, > t), as :meth:`advance`."""
         t = self.solver.t
-        if (isinstance(t_end, bool) or not isinstance(t_end, int | float)
-                or not (math.isfinite(t_end) and t_end > t)):
-            raise ParameterError("communication point", t_end, f"a finite time > t = {t!r} s")
-        return self._step(float(t_end), t_end - t, u, structure)
+        if not (t_end.__class__ is float and t < t_end < _INF):
+            t_end = checked_real("communication point", t_end, f"a finite time > t = {t!r} s",
+                                 lambda value: value > t)
+        return self._step(t_end, t_end - t, u, structure)
 
     def _structure_inputs(self, structure: Any) -> tuple[float, float, float]:
-        """The external structure's inputs of a step, checked (finite reals)."""
+        """The external structure's inputs of a step, checked: a tuple, list or 1-d array of
+        three finite real numbers (Python or numpy), returned as Python floats."""
         if structure is None:
             return tuple(getattr(self.scene, v.field) for v in STRUCTURE_INPUTS)
-        if not isinstance(structure, tuple | list) or len(structure) != len(STRUCTURE_INPUTS):
+        if (not isinstance(structure, tuple | list | np.ndarray)
+                or getattr(structure, "ndim", 1) != 1 or len(structure) != len(STRUCTURE_INPUTS)):
             raise ParameterError("structure inputs", structure, "(x_in, v_in, a_in)")
-        for spec, value in zip(STRUCTURE_INPUTS, structure, strict=True):
-            if (isinstance(value, bool) or not isinstance(value, int | float)
-                    or not math.isfinite(value)):
-                raise ParameterError(spec.name, value, f"a finite real number ({spec.unit})")
-        return tuple(float(value) for value in structure)
+        return tuple(checked_real(spec.name, value, f"a finite real number ({spec.unit})")
+                     for spec, value in zip(STRUCTURE_INPUTS, structure, strict=True))
 
     def _step(self, t_end: float, h: float, u: float | None,
               structure: Any = None) -> StepReport:
@@ -261,13 +265,68 @@ class Simulator:
 
     def set_restitution(self, e: float) -> None:
         """Change ``impact.e`` (tunable) for impacts from now on; 0 <= e <= 1."""
-        if (isinstance(e, bool) or not isinstance(e, int | float) or not math.isfinite(e)
-                or not 0.0 <= e <= 1.0):
-            raise ParameterError("impact.e", e, "0 <= e <= 1")
-        self.scene = self.scene.replace(impact_e=float(e))
-        self.solver.set_restitution(float(e))
+        e = checked_real(_RESTITUTION.name, e, _RESTITUTION.allowed, _RESTITUTION.in_range)
+        self.scene = self.scene.replace(impact_e=e)
+        self.solver.set_restitution(e)
 
     # saved states -------------------------------------------------------------------------------
+    def sample(self, times: Any, u: float | None = None) -> Samples:
+        """Advance to each of ``times`` (s; finite, strictly increasing, after t) in turn with
+        the flow speed ``u`` held (default: the scene's ``flow.u``), as :meth:`advance_to` at each
+        would, and return the states, the impulse of each interval and the sticking flags there
+        (:class:`~iceimpact.solvers.base.Samples`).
+
+        The path of :func:`run` for every method: the solver's vectorised sampler where it has
+        one (the exact method: one march through every time, the states evaluated in closed
+        forms at once, equal to stepping to rounding), else one :meth:`advance_to` per time.
+        Either way no NaN or inf is returned (:func:`check_finite`, the fields a step checks)
+        and a refusal is worded as a step's (:func:`stopped`). On a refusal from the vectorised
+        sampler the simulator is as before the call; stepping keeps the steps before the
+        refused one."""
+        times = _increasing_times(times, self.solver.t, math.inf, "times")
+        if u is None:
+            u = self.scene.flow_u
+        else:
+            u = validate_flow(u, self.scene)
+        solver = self.solver
+        if not solver.SAMPLES_AT_ONCE:
+            return self._sample_by_steps(times, u)
+        t_start = solver.t
+        checkpoint = solver.checkpoint()
+        try:
+            samples = solver.sample(times, u)
+            starts = np.concatenate(([t_start], times[:-1]))
+            gap, penetration = reported_gap(samples.x - samples.z)
+            check_finite({"x": samples.x, "v": samples.v, "z": samples.z, "w": samples.w,
+                          "gap": gap, "penetration": penetration, "impulse": samples.impulse,
+                          "force": samples.impulse / (times - starts),
+                          "spring_force": self.scene.structure_k * samples.x}, times,
+                         starts)
+        except BaseException as exc:
+            # the interval of the refusal: of the output, or of the impact budget's step
+            interval_start = solver.step_start
+            solver.rollback(checkpoint)
+            if isinstance(exc, NonFiniteError):
+                self.failed = stopped(exc.t_before, exc.t, exc)
+            elif isinstance(exc, SolverError):
+                i = min(int(np.searchsorted(times, interval_start, side="right")), len(times) - 1)
+                self.failed = stopped(interval_start, float(times[i]), exc)
+            else:
+                raise
+            raise SolverError(self.failed) from exc
+        self.failed = None
+        self.report = self._report(float(samples.impulse[-1]), float(times[-1] - starts[-1]))
+        self._n_reported = solver.impact_count
+        return samples
+
+    def _sample_by_steps(self, times: np.ndarray, u: float) -> Samples:
+        out = Samples(len(times))
+        for i, t in enumerate(times.tolist()):
+            r = self.advance_to(t, u)
+            out.x[i], out.v[i], out.z[i], out.w[i] = r.x, r.v, r.z, r.w
+            out.impulse[i], out.sticking[i] = r.impulse, r.sticking
+        return out
+
     def save(self) -> dict[str, Any]:
         """The whole state as plain JSON-compatible data, a few kB at any run length (for FMI
         get/set/serialize FMU state; no impact history)::
@@ -377,34 +436,49 @@ def impacts_array(impacts: list[Impact]) -> np.ndarray:
 def _sample_times(t_end: float, dt: float, sample_times: Any) -> np.ndarray:
     """The sampling times of :func:`run`, checked: finite, strictly increasing, in (0, t_end]."""
     if sample_times is None:
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ParameterError("dt", dt, "a finite number > 0 (s)")
+        dt = checked_real("dt", dt, "a finite number > 0 (s)", _positive)
         n = int(math.floor(t_end / dt + 1e-9))
         times = dt * np.arange(1, n + 1)
         if n == 0 or times[-1] < t_end * (1 - 1e-12):
             times = np.append(times, t_end)
         return times
-    allowed = f"finite times in (0, t_end = {t_end!r}] s, strictly increasing"
+    return _increasing_times(sample_times, 0.0, t_end, "sample_times")
+
+
+def _increasing_times(values: Any, t_now: float, t_end: float, name: str) -> np.ndarray:
+    """``values`` as a float array, checked: finite, strictly increasing, in (t_now, t_end]
+    (ParameterError naming ``name[i]`` otherwise)."""
+    end = "" if t_end == math.inf else f", t_end = {t_end!r}]"
+    allowed = (f"finite times in (t = {t_now!r}{end or ', inf)'} s, strictly increasing"
+               if t_now else f"finite times in (0{end or ', inf)'} s, strictly increasing")
     try:
-        times = np.asarray(sample_times, dtype=float)
-    except (TypeError, ValueError):
-        raise ParameterError("sample_times", sample_times, allowed) from None
-    if times.ndim != 1:
-        raise ParameterError("sample_times", sample_times, "a 1-d sequence of " + allowed)
-    previous = 0.0
+        raw = np.asarray(values)
+        if raw.dtype.kind not in "iuf":  # (no bools, strings or objects taken as numbers)
+            raise TypeError
+        times = raw.astype(float)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(name, values, allowed) from None
+    if times.ndim != 1 or times.size == 0:
+        raise ParameterError(name, values, "a non-empty 1-d sequence of " + allowed)
+    if (np.isfinite(times).all() and times[0] > t_now and times[-1] <= t_end
+            and (times[1:] > times[:-1]).all()):
+        return times
+    previous = t_now  # the first time that is refused, and why
     for i, t in enumerate(times.tolist()):
         if not (math.isfinite(t) and previous < t <= t_end):
             why = allowed if i == 0 or not math.isfinite(t) or t > t_end else (
-                f"{allowed}: > sample_times[{i - 1}] = {previous!r}")
-            raise ParameterError(f"sample_times[{i}]", t, why)
+                f"{allowed}: > {name}[{i - 1}] = {previous!r}")
+            raise ParameterError(f"{name}[{i}]", t, why)
         previous = t
     return times
 
 
-def check_finite(values: dict[str, Any], times: np.ndarray) -> None:
+def check_finite(values: dict[str, Any], times: np.ndarray,
+                 starts: np.ndarray | None = None) -> None:
     """Refuse NaN and inf in what a step or a run reports: ``values`` are the reported fields,
-    each a number or an array over ``times``; raises :class:`NonFiniteError` naming every field
-    that is not finite at the first time where one is not."""
+    each a number or an array over ``times`` (the ends of steps starting at ``starts``; default:
+    each at the time before it); raises :class:`NonFiniteError` naming every field that is not
+    finite at the first time where one is not."""
     arrays = {name: np.atleast_1d(np.asarray(value, dtype=float))
               for name, value in values.items()}
     bad_any = np.zeros(len(times), dtype=bool)
@@ -414,7 +488,11 @@ def check_finite(values: dict[str, Any], times: np.ndarray) -> None:
         return
     i = int(np.argmax(bad_any))
     names = [name for name, array in arrays.items() if not math.isfinite(array[i])]
-    raise NonFiniteError(names, float(times[i]), float(times[i - 1]) if i > 0 else math.nan)
+    if starts is not None:
+        before = float(starts[i])
+    else:
+        before = float(times[i - 1]) if i > 0 else math.nan
+    raise NonFiniteError(names, float(times[i]), before)
 
 
 def stopped(t: float, t_end: float, reason: Exception) -> str:
@@ -428,48 +506,21 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
     """Simulate ``scene`` at its constant flow speed from 0 to ``t_end`` (s).
 
     States are sampled every ``dt`` (s), or at ``sample_times`` (finite, strictly increasing,
-    in (0, t_end]); each sample is one step of a :class:`Simulator` and carries its report.
+    in (0, t_end]): :meth:`Simulator.sample`, each sample carrying what a step to it reports.
     Sampling does not change the trajectory: flights stay anchored at their events.
     """
-    if not (math.isfinite(t_end) and t_end > 0.0):
-        raise ParameterError("t_end", t_end, "a finite number > 0 (s)")
+    t_end = checked_real("t_end", t_end, "a finite number > 0 (s)", _positive)
     times = _sample_times(t_end, dt, sample_times)
     sim = Simulator(scene)
-    u = scene.flow_u
-    if sim.solver.SAMPLES_AT_ONCE:
-        return _run_sampled(sim, times, u)
-    reports = [sim.report]
-    for t in times.tolist():
-        reports.append(sim.advance_to(t, u))
-
-    def column(name: str, dtype: type = float) -> np.ndarray:
-        return np.array([getattr(r, name) for r in reports], dtype=dtype)
-
-    return Result(scene=scene, t=column("t"), x=column("x"), v=column("v"), z=column("z"),
-                  w=column("w"), impulse=column("impulse"), sticking=column("sticking", bool),
-                  impacts=impacts_array(sim.impacts), sticking_since=sim.sticking_since,
-                  gap=column("gap"), penetration=column("penetration"))
-
-
-def _run_sampled(sim: Simulator, times: np.ndarray, u: float) -> Result:
-    """:func:`run` with the exact method: one march through every sample time, the states and
-    impulses evaluated in vectorised closed forms (:meth:`EventSolver.sample`); the same values
-    as stepping the simulator, to rounding."""
     first = sim.report
-    samples = sim.solver.sample(times, u)  # (a refusal names its own time: the impact budget)
+    samples = sim.sample(times)
 
     def column(name: str, dtype: type = float) -> np.ndarray:
         return np.concatenate(([getattr(first, name)], getattr(samples, name))).astype(dtype)
 
     x, z = column("x"), column("z")
     gap, penetration = reported_gap(x - z)
-    try:  # as Simulator.advance: no NaN or inf reaches an output
-        check_finite({"x": x, "v": column("v"), "z": z, "w": column("w"),
-                      "gap": gap, "penetration": penetration, "impulse": column("impulse")},
-                     np.concatenate(([first.t], times)))
-    except SolverError as exc:
-        raise SolverError(stopped(exc.t_before, exc.t, exc)) from exc
-    return Result(scene=sim.scene, t=np.concatenate(([first.t], times)), x=x, v=column("v"),
+    return Result(scene=scene, t=np.concatenate(([first.t], times)), x=x, v=column("v"),
                   z=z, w=column("w"), impulse=column("impulse"),
                   sticking=column("sticking", bool), impacts=impacts_array(sim.impacts),
                   sticking_since=sim.sticking_since, gap=gap, penetration=penetration)

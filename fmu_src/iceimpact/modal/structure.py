@@ -34,7 +34,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-from ..errors import ParameterError
+from ..errors import ParameterError, checked_real
 
 __all__ = ["ContactState", "Mode", "ModalStructure", "ParameterError"]
 
@@ -51,9 +51,13 @@ _CACHE_SIZE = 8
 
 
 def _finite(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ParameterError(name, value, "a finite number")
-    return float(value)
+    """A finite Python or numpy number as a Python float (the package's one rule,
+    :func:`~iceimpact.errors.checked_real`), else ParameterError."""
+    return checked_real(name, value, "a finite number")
+
+
+def _positive(value: float) -> bool:
+    return value > 0.0
 
 
 @dataclass(frozen=True)
@@ -303,9 +307,7 @@ class ModalStructure:
         step (the acceleration under ``force``, the left limit). Raises ParameterError (and
         changes nothing) for a step that is not finite and > 0 or a force that is not finite.
         """
-        if isinstance(h, bool) or not isinstance(h, int | float) or not (
-                math.isfinite(h) and h > 0.0):
-            raise ParameterError("h", h, "finite and > 0 s")
+        h = checked_real("h", h, "finite and > 0 s", _positive)
         force = _finite("force", force)
         q_new, v_new = [], []
         for (s, g), w, z, st, q, v in zip(self.coefficients(float(h)), self._omega, self._zeta,

@@ -36,7 +36,7 @@ from .impacts import (
     impact_statistics,
     impacts_from_counter,
 )
-from .loads import LOAD_FIELDS, design_loads, load_columns, sample_window
+from .loads import LOAD_FIELDS, design_loads, load_columns, sample_window, window_start
 
 #: The impact statistics live in :mod:`iceimpact.studies.impacts` (loads uses them too) and are
 #: part of this module's interface.
@@ -63,7 +63,8 @@ MIN_SAMPLES = 8
 
 #: Keys of :func:`summarize` with their units and meaning (all values are floats).
 SUMMARY_FIELDS: dict[str, tuple[str, str]] = {
-    "t_start_s": ("s", "start of the analysed window (the transient)"),
+    "t_start_s": ("s", "start of the analysed window: the transient, or the first sample if "
+                       "the series starts later"),
     "t_end_s": ("s", "end of the analysed window (last sample)"),
     "omega_n_rad_s": ("rad/s", "natural circular frequency sqrt(k/m) of the structure"),
     "n_impacts": ("1", "impacts in the window"),
@@ -282,10 +283,11 @@ def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n:
     columns are nan.
     """
     t, x, window = sample_window(t, x, transient)
+    t_start = window_start(t, transient)  # a series may start after t = 0
     t_end = float(t[-1])
     t_w, x_w = t[window], x[window]
 
-    stats = impact_statistics(impacts, t_start=transient, t_end=t_end)
+    stats = impact_statistics(impacts, t_start=t_start, t_end=t_end)
     # The article's T is the time between impacts, so lock-in uses 1 / mean interval, not the
     # window rate (which a quiet tail after the impacts stopped would lower).
     lock = lock_in(omega_n, stats.frequency, tolerance)
@@ -305,7 +307,7 @@ def summarize_arrays(t: np.ndarray, x: np.ndarray, impacts: np.ndarray, omega_n:
         sticking_fraction = math.nan
 
     out = {
-        "t_start_s": float(transient),
+        "t_start_s": t_start,
         "t_end_s": t_end,
         "omega_n_rad_s": float(omega_n),
         "n_impacts": float(stats.count),

@@ -11,7 +11,9 @@ optional transient, SI units throughout (docs/design_loads.md explains every num
   :data:`WOHLER_EXPONENTS`, with the two references of NREL's MLife:
 
   * short-term, at ``f_eq = 1 Hz``: ``DEL = (sum_i n_i S_i^m / (f_eq T))^(1/m)``, T the length of
-    the analysed window (s): the range of the 1 Hz sinusoid that does the same damage in T;
+    the analysed window (s), from the transient or the first sample, whichever is later, to the
+    last sample (:func:`window_start`): the range of the 1 Hz sinusoid that does the same damage
+    in T;
   * ``N_eq = 1e7`` cycles: ``DEL = (sum_i n_i S_i^m / N_eq)^(1/m)``: the range that, applied 1e7
     times, does the damage of the window (of this one run, not extrapolated to a lifetime);
 
@@ -39,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import real_number, value_text
 from .impacts import impact_statistics
 
 #: Wöhler (S-N curve) exponents of the damage-equivalent loads in the summary: 3, 4, 5 for
@@ -227,6 +230,14 @@ class Loads:
         return self.t_end - self.t_start
 
 
+def window_start(t: np.ndarray, transient: float) -> float:
+    """Start of the analysed window of samples ``t`` (s): the transient, or the first sample if
+    the series starts later (FMU output from a later start time, a saved slice of a run). The
+    window ends at the last sample; its length is the T of the 1 Hz DEL and of the rates, so
+    that a series that does not start at t = 0 is not taken as longer than it is."""
+    return max(float(transient), float(t[0]))
+
+
 def sample_window(t: Any, x: Any, transient: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Samples ``t`` (s) and ``x`` as flat float arrays, and the mask of ``t >= transient``.
 
@@ -239,8 +250,10 @@ def sample_window(t: Any, x: Any, transient: float) -> tuple[np.ndarray, np.ndar
         raise ValueError(f"x: shape {x.shape} differs from t's {t.shape}")
     if t.size == 0:
         raise ValueError("t: no samples")
-    if not (math.isfinite(transient) and transient >= 0.0):
-        raise ValueError(f"transient = {transient!r} must be a finite number >= 0 (s)")
+    number = real_number(transient)  # Python or numpy; 10**400 is not finite
+    if number is None or not (math.isfinite(number) and number >= 0.0):
+        raise ValueError(f"transient = {value_text(transient)} must be a finite number >= 0 (s)")
+    transient = number
     t_end = float(t[-1])
     if transient > t_end:
         raise ValueError(f"transient = {transient!r} s is beyond the last sample t = {t_end!r} s")
@@ -258,13 +271,16 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
     (a structured array with fields ``t`` and ``impulse``); ``impulse`` the per-sample impulse
     (N.s, :attr:`iceimpact.Result.impulse`). Missing inputs give nan for what needs them (k:
     the k x loads; impacts: the impact loads; impulse: the contact force). The window of the
-    contact force is made of the sample intervals that start at or after ``transient``. A
+    contact force is made of the sample intervals that start at or after ``transient``. The
+    window starts at the transient, or at the first sample if the series starts later
+    (:func:`window_start`), and ends at the last sample: its length is the T of the 1 Hz DEL. A
     displacement that is not finite gives nan DELs (no exception).
     """
     t, x, window = sample_window(t, x, transient)
+    t_start = window_start(t, transient)
     t_end = float(t[-1])
     t_w = t[window]
-    duration = t_end - float(transient)
+    duration = t_end - t_start
 
     nan_extremes = Extremes(math.nan, math.nan, math.nan, math.nan)
     if k is not None and math.isfinite(k):
@@ -297,17 +313,17 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
     n_impacts: int | None = None
     j_mean = j_max = j_p99 = math.nan
     if impacts is not None:
-        stats = impact_statistics(impacts, t_start=transient, t_end=t_end)
+        stats = impact_statistics(impacts, t_start=t_start, t_end=t_end)
         n_impacts = stats.count
         arr = np.asarray(impacts)
         if arr.dtype.names is not None and "impulse" in arr.dtype.names and stats.count:
             times = np.asarray(arr["t"], dtype=float)
-            j_in = np.asarray(arr["impulse"], dtype=float)[(times >= transient)
+            j_in = np.asarray(arr["impulse"], dtype=float)[(times >= t_start)
                                                            & (times <= t_end)]
             j_mean, j_max = stats.mean_impulse, stats.max_impulse
             j_p99 = float(np.percentile(j_in, IMPULSE_PERCENTILE))
 
-    return Loads(t_start=float(transient), t_end=t_end, kx=kx_ext, kx_mean=kx_mean,
+    return Loads(t_start=t_start, t_end=t_end, kx=kx_ext, kx_mean=kx_mean,
                  cycles=cycles, del_1hz=del_1hz, del_neq=del_neq, contact=contact,
                  contact_mean=contact_mean, n_impacts=n_impacts, impulse_mean=j_mean,
                  impulse_max=j_max, impulse_p99=j_p99)

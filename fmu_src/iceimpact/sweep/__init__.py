@@ -38,10 +38,11 @@ import json
 import math
 import os
 import sys
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..errors import real_number, value_text
 from ..runspec import DEFAULT_DT, MAX_SAMPLES, SpecError, Value, apply, check_samples
 from ..scene import Scene
 from . import backends
@@ -67,18 +68,18 @@ __all__ = [
     "RUN_COLUMN", "STATUS_COLUMN", "STATUS_OK", "WALL_COLUMN", "Measure", "SweepError", "Value",
     "apply", "check_grid_size", "grid_points", "grid_size", "meta_path", "normalize_grid",
     "output_format", "parameter_names", "parse_set", "parse_values", "parse_vary",
-    "read_table", "run_point", "sweep",
+    "read_table", "run_point", "run_points", "sweep",
 ]
 
 
-def _progress(total: int, initial: int, enabled: bool) -> Any:
+def _progress(total: int, initial: int, enabled: bool, desc: str = "sweep") -> Any:
     """A tqdm bar on stderr (tqdm is optional: no bar without it)."""
     if enabled:
         try:
             from tqdm import tqdm
 
             return tqdm(total=total, initial=initial, unit="run", file=sys.stderr,
-                        desc="sweep", dynamic_ncols=True, smoothing=0.1)
+                        desc=desc, dynamic_ncols=True, smoothing=0.1)
         except ImportError:
             pass
 
@@ -130,16 +131,48 @@ def sweep(base: Scene | None, grid: Mapping[str, Iterable[Any]], t_end: float,
     if not isinstance(base, Scene):
         raise SweepError(f"base must be a Scene, got {type(base).__name__}")
     grid = normalize_grid(grid, max_runs)
-    for name, value in (("t_end", t_end), ("transient", transient), ("dt", dt)):
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise SweepError(f"{name} = {value!r}: expected a number (s)")
-    for name, value, ok, allowed in (
-            ("t_end", t_end, math.isfinite(t_end) and t_end > 0.0, "a finite number > 0 (s)"),
-            ("dt", dt, math.isfinite(dt) and 0.0 < dt <= t_end, "a number in (0, t_end] (s)"),
-            ("transient", transient, math.isfinite(transient) and 0.0 <= transient < t_end,
+    kinds = {name: int if all(isinstance(v, int) for v in values) else float
+             for name, values in grid.items()}
+    return run_points(base, tuple(grid), grid_points(grid), t_end, transient, dt,
+                      identity={"grid": [[n, v] for n, v in grid.items()]}, kinds=kinds,
+                      out=out, workers=workers, progress=progress, dask_address=dask_address,
+                      fmt=fmt, overwrite=overwrite, chunksize=chunksize, measure=measure,
+                      on_rows=on_rows)
+
+
+def run_points(base: Scene, names: Sequence[str], points: Sequence[tuple[Value, ...]],
+               t_end: float, transient: float = 0.0, dt: float = DEFAULT_DT, *,
+               identity: Mapping[str, Any], kinds: Mapping[str, type] | None = None,
+               labels: Mapping[str, Sequence[int]] | None = None,
+               out: str | Path | None = None, workers: int | None = None,
+               progress: bool = True, dask_address: Any = None, fmt: str | None = None,
+               overwrite: bool = False, chunksize: int | None = None,
+               measure: Measure | None = None,
+               on_rows: Callable[[list[dict[str, Any]]], None] | None = None,
+               desc: str = "sweep") -> list[dict[str, Any]]:
+    """The engine of :func:`sweep` for any list of runs (why: load-case tables are not grids).
+
+    Run ``i`` is ``base`` with ``names`` set to ``points[i]`` (checked values, e.g. from
+    :func:`normalize_grid`); ``kinds`` gives int or float per name (default float).
+    ``identity`` (JSON-able) names what the runs are in the metadata file, besides the base
+    scene and the settings: a rerun with other runs is refused, as for a sweep. ``labels`` are
+    int columns placed after ``run`` whose value for run ``i`` is ``labels[c][i]`` (filled in
+    this process, not passed to the scene). The other arguments are :func:`sweep`'s; rows,
+    output, resume and errors are the same.
+    """
+    given = {"t_end": t_end, "transient": transient, "dt": dt}
+    numbers = {name: real_number(value) for name, value in given.items()}  # Python or numpy
+    for name, number in numbers.items():
+        if number is None:
+            raise SweepError(f"{name} = {value_text(given[name])}: expected a number (s)")
+    t_end, transient, dt = numbers["t_end"], numbers["transient"], numbers["dt"]
+    for name, ok, allowed in (
+            ("t_end", math.isfinite(t_end) and t_end > 0.0, "a finite number > 0 (s)"),
+            ("dt", math.isfinite(dt) and 0.0 < dt <= t_end, "a number in (0, t_end] (s)"),
+            ("transient", math.isfinite(transient) and 0.0 <= transient < t_end,
              "a number in [0, t_end) (s)")):
         if not ok:
-            raise SweepError(f"{name} = {value!r}: expected {allowed}")
+            raise SweepError(f"{name} = {value_text(given[name])}: expected {allowed}")
     try:
         check_samples(t_end, dt)
     except SpecError as exc:
@@ -152,18 +185,20 @@ def sweep(base: Scene | None, grid: Mapping[str, Iterable[Any]], t_end: float,
                                   or chunksize < 1):
         raise SweepError(f"chunksize = {chunksize!r}: expected an integer >= 1")
 
-    names = tuple(grid)
-    points = grid_points(grid)
+    names = tuple(names)
+    labels = {c: list(v) for c, v in (labels or {}).items()}
+    for column, values in labels.items():
+        if len(values) != len(points):
+            raise SweepError(f"label {column!r}: {len(values)} values for {len(points)} runs")
     measures = measure_columns(measure, base, dt)
-    columns = [RUN_COLUMN, *names, STATUS_COLUMN, WALL_COLUMN, *measures]
+    columns = [RUN_COLUMN, *labels, *names, STATUS_COLUMN, WALL_COLUMN, *measures]
     if len(set(columns)) != len(columns):
         raise SweepError(f"column names collide: {columns}")
-    kinds: dict[str, type] = {RUN_COLUMN: int, STATUS_COLUMN: str, WALL_COLUMN: float,
-                              **measures}
-    for name, values in grid.items():
-        kinds[name] = int if all(isinstance(v, int) for v in values) else float
+    kinds = {RUN_COLUMN: int, STATUS_COLUMN: str, WALL_COLUMN: float, **measures,
+             **dict.fromkeys(labels, int),
+             **{name: (kinds or {}).get(name, float) for name in names}}
     nan_measures = dict.fromkeys(measures, math.nan)
-    settings = {"grid": [[n, v] for n, v in grid.items()], "base": base.to_fmi(),
+    settings = {**identity, "base": base.to_fmi(),
                 "t_end": float(t_end), "transient": float(transient), "dt": float(dt),
                 "measure": "summarize" if measure is None else
                 f"{measure.__module__}.{getattr(measure, '__qualname__', repr(measure))}",
@@ -191,12 +226,14 @@ def sweep(base: Scene | None, grid: Mapping[str, Iterable[Any]], t_end: float,
     else:
         batches = backends.process_pool(tasks, min(workers, len(tasks)))
 
-    bar = _progress(len(points), len(existing), progress)
+    bar = _progress(len(points), len(existing), progress, desc)
     n_errors = sum(r[STATUS_COLUMN] != STATUS_OK for r in existing.values())
     try:
         if output is not None:
             output.start(existing)
         for batch in batches:
+            for row in batch:
+                row.update({c: values[row[RUN_COLUMN]] for c, values in labels.items()})
             batch = [typed_row({**nan_measures, **row}, columns, kinds) for row in batch]
             if output is not None:
                 output.append(batch)
