@@ -108,56 +108,12 @@ def summary(result: np.ndarray) -> dict:
 
 
 def plot(result: np.ndarray, path: Path) -> None:
-    import matplotlib
+    """The four panels of :func:`iceimpact.plots.plot_series` (``iceimpact simulate --plot``
+    draws the same for a run of the core)."""
+    from iceimpact.plots import plot_series
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    t = result["time"]
-    x, z = result["structure.x"], result["ice.z"]
-    impulse = result["contact.impulse"]
-    hit = np.flatnonzero(np.diff(result["contact.count"]) > 0) + 1  # steps with an impact
-    active = result["contact.active"].astype(bool)
-    fig, axes = plt.subplots(4, 1, figsize=(11, 12), constrained_layout=True)
-    ax_x, ax_z, ax_zoom, ax_imp = axes
-
-    ax_x.plot(t, 1e6 * x, lw=0.5, color="tab:red", label="structure x")
-    ax_x.plot(t[hit], 1e6 * x[hit], "k|", ms=6, label="impacts")
-    if active.any():
-        ax_x.fill_between(t, 0, 1, where=active, color="tab:green", alpha=0.15,
-                          transform=ax_x.get_xaxis_transform(), label="sticking")
-    ax_x.set(xlabel="time (s)", ylabel="x (µm)",
-             title="IceImpact.fmu, Figure 2 scene: structure displacement")
-    ax_x.legend(loc="upper right")
-
-    ax_z.plot(t, 1e3 * z, lw=0.6, color="tab:blue", label="ice z")
-    ax_z.plot(t[hit], 1e3 * z[hit], "k|", ms=6, label="impacts")
-    ax_z.set(xlabel="time (s)", ylabel="z (mm)", title="ice displacement")
-    ax_z.legend(loc="lower right")
-
-    # The first impacts: the ice's approach and the structure's ringing after each impact.
-    end = t[hit[min(len(hit) - 1, 5)]] + 1.0 if len(hit) else min(t[-1], 10.0)
-    window = t <= end
-    ax_zoom.plot(t[window], 1e3 * z[window], color="tab:blue", label="ice z (mm)")
-    ax_zoom.set(xlabel="time (s)", ylabel="z (mm)")
-    ax_zoom.set_title(f"the first {end:.1f} s", loc="left")
-    twin = ax_zoom.twinx()
-    twin.plot(t[window], 1e6 * x[window], color="tab:red", lw=0.8, label="structure x (µm)")
-    zoom_hits = hit[t[hit] <= end]
-    twin.plot(t[zoom_hits], 1e6 * x[zoom_hits], "ko", ms=4, label="impacts")
-    twin.set_ylabel("x (µm)")
-    lines = ax_zoom.get_lines() + twin.get_lines()
-    # above the axes, beside the title: the ice's approach and the ringing fill the panel
-    ax_zoom.legend(lines, [line.get_label() for line in lines], loc="lower right",
-                   bbox_to_anchor=(1.0, 1.0), ncol=3, frameon=False, borderaxespad=0.2)
-
-    ax_imp.plot(t, impulse, lw=0.5, color="tab:purple", label="impulse per step")
-    ax_imp.plot(t[hit], impulse[hit], "k.", ms=3, label="steps with an impact")
-    ax_imp.set(xlabel="time (s)", ylabel="impulse (N.s)",
-               title="impulse on the structure in each 1 ms step (impacts and sticking contact)")
-    ax_imp.legend(loc="upper right")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    plot_series(result, path, title="IceImpact.fmu, Figure 2 scene",
+                interval=f"{STEP * 1e3:g} ms step")
 
 
 def main(argv: list[str] | None = None) -> int:

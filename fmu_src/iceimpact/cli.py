@@ -1,8 +1,11 @@
 """The ``iceimpact`` command.
 
     iceimpact simulate [scene.toml] [--set NAME=VALUE ...] --t-end 60 --out samples.csv
+        [--format csv|openfast] [--plot run.png]
     iceimpact sweep [scene.toml] --vary flow.u=0.01:2:50 --vary impact.e=0:1:11 \\
         --t-end 200 --transient 50 --out sweep.csv [--workers N] [--dask ADDRESS]
+    iceimpact plot sweep.csv [--column del_m4_1Hz_N ...] [--out map.png]
+    iceimpact loads cases.toml --life 25 --out season [--workers N] [--dask ADDRESS]
 
 Scenes are TOML files with the FMU's parameter names (:func:`iceimpact.load_scene`); without one
 the article's Figure 2 scene is used. ``--set`` changes single parameters of it. Runs use the core
@@ -39,6 +42,10 @@ SAMPLE_COLUMNS: tuple[tuple[str, str], ...] = (("time", "t"), *(
     (name, BY_NAME[name].field) for name in (
         "structure.x", "structure.v", "ice.z", "ice.v", "contact.gap", "contact.penetration",
         "contact.impulse", "contact.active")))
+
+#: Formats of ``simulate --out``: CSV (:data:`SAMPLE_COLUMNS`) or OpenFAST's text output
+#: (:mod:`iceimpact.studies.outfiles`).
+SAMPLE_FORMATS = ("csv", "openfast")
 
 #: Exit status of a sweep with failed runs (without --allow-failures).
 EXIT_RUNS_FAILED = 1
@@ -90,7 +97,7 @@ def _add_scene_options(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of ``iceimpact`` (subcommands ``simulate`` and ``sweep``)."""
+    """The argument parser of ``iceimpact`` (subcommands ``simulate``, ``sweep``, ``plot``)."""
     parser = argparse.ArgumentParser(
         prog="iceimpact",
         description="Flow-driven repeated ice impacts on a flexible structure (exact "
@@ -101,11 +108,20 @@ def build_parser() -> argparse.ArgumentParser:
                          description="Run one scene with the core solver, write the sampled "
                                      "states as CSV and print the summary measures.")
     _add_scene_options(sim)
-    sim.add_argument("--out", type=Path, default=None, metavar="CSV",
+    sim.add_argument("--out", type=Path, default=None, metavar="FILE",
                      help="samples, one column per FMU output: "
-                          + ", ".join(name for name, _ in SAMPLE_COLUMNS) + " (SI units)")
+                          + ", ".join(name for name, _ in SAMPLE_COLUMNS) + " (SI units); "
+                          "with --format openfast (or a .out file) an OpenFAST text output "
+                          "with Time and the outputs of iceimpact.studies.outfiles")
     sim.add_argument("--impacts", type=Path, default=None, metavar="CSV",
                      help="impact list: one row per impact, fields of iceimpact.Impact")
+    sim.add_argument("--format", choices=SAMPLE_FORMATS, default=None,
+                     help="format of --out: csv, or openfast (OpenFAST's text output: header "
+                          "lines, channel names, units, tab-separated values; read by pCrunch, "
+                          "openfast-io, pyDatView); default: openfast for a .out file, else csv")
+    sim.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                     help="also draw the run: displacements with the impacts, the first "
+                          "impacts, the impulse per sample interval (.png, .pdf or .svg)")
     sim.set_defaults(handler=_simulate, subparser=sim)
 
     sw = sub.add_parser(
@@ -138,7 +154,35 @@ def build_parser() -> argparse.ArgumentParser:
                     help="exit 0 even when some runs failed (default: exit status 1)")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     sw.set_defaults(handler=_sweep, subparser=sw)
+    _add_plot_parser(sub)
+    _add_loads_parser(sub)
     return parser
+
+
+def _add_plot_parser(sub: argparse._SubParsersAction) -> None:
+    pl = sub.add_parser(
+        "plot", help="draw a sweep table or a load-case result as a PNG",
+        description="Draw a table: a sweep table (iceimpact sweep --out) as maps of result "
+                    "columns over its two varied parameters; a load-case result (a table with "
+                    "a case column, del_m<m>_1Hz_N and damage-share columns, or PREFIX.json "
+                    "of iceimpact loads) as the share of the damage and the DEL per case; a "
+                    ".out time series of simulate as the panels of simulate --plot.")
+    pl.add_argument("table", type=Path, metavar="TABLE",
+                    help="sweep table (.csv, .parquet), load-case result (.csv, .json) or "
+                         "time series (.out of simulate --format openfast)")
+    pl.add_argument("--out", type=Path, default=None, metavar="PNG",
+                    help="image to write (.png, .pdf or .svg; default: TABLE with .png)")
+    pl.add_argument("--column", dest="columns", action="append", default=[], metavar="NAME",
+                    help="sweep: result column to map, one panel each (repeatable; default "
+                         "del_m4_1Hz_N and x_peak_m)")
+    pl.add_argument("--x", default=None, metavar="NAME",
+                    help="sweep: varied parameter along x (default: the last varied)")
+    pl.add_argument("--y", default=None, metavar="NAME",
+                    help="sweep: varied parameter along y (default: the first varied)")
+    pl.add_argument("--at", action="append", default=[], metavar="NAME=VALUE",
+                    help="sweep of more than two parameters: the value of another varied "
+                         "parameter (nearest grid value; repeatable)")
+    pl.set_defaults(handler=_plot, subparser=pl)
 
 
 def _base_scene(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Scene:
@@ -204,11 +248,31 @@ def _write_impacts(path: Path, result: Result) -> None:
             writer.writerow(row)
 
 
+def _sample_format(parser: argparse.ArgumentParser, args: argparse.Namespace) -> str:
+    """The format of ``simulate --out``: --format, else openfast for a .out file, else csv."""
+    if args.out is None:
+        if args.format is not None:
+            parser.error(f"--format {args.format} is the format of --out FILE: give --out")
+        return "csv"
+    if args.format is not None:
+        return args.format
+    return "openfast" if args.out.suffix.lower() == ".out" else "csv"
+
+
 def _simulate(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     from .studies.analysis import SUMMARY_FIELDS, summarize
 
     scene = _base_scene(parser, args)
     _check_times(parser, args)
+    fmt = _sample_format(parser, args)
+    if args.plot is not None:
+        from .plots import PlotError, check_plot_path, require_matplotlib
+
+        try:
+            check_plot_path(args.plot, "--plot")
+            require_matplotlib()
+        except PlotError as exc:
+            parser.error(str(exc))
     t0 = time.perf_counter()
     try:
         result = run(scene, args.t_end, dt=args.dt)
@@ -220,10 +284,19 @@ def _simulate(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         parser.error(str(exc))
     wall = time.perf_counter() - t0
     summary = summarize(result, args.transient)
-    if args.out is not None:
+    if args.out is not None and fmt == "openfast":
+        from .studies.outfiles import write_openfast
+
+        write_openfast(args.out, result, description=f"{_title(args)}, t_end {args.t_end:g} s, "
+                                                     f"dt {args.dt:g} s")
+    elif args.out is not None:
         _write_samples(args.out, result)
     if args.impacts is not None:
         _write_impacts(args.impacts, result)
+    if args.plot is not None:
+        from .plots import plot_run
+
+        plot_run(result, args.plot, title=f"{_title(args)}, {args.t_end:g} s")
     print(f"{_title(args)}: {args.t_end:g} s simulated in {wall:.3f} s wall, "
           f"{len(result.impacts)} impacts")
     print(f"summary over t >= {args.transient:g} s:")
@@ -232,9 +305,28 @@ def _simulate(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         unit = SUMMARY_FIELDS.get(key, ("", ""))[0]
         unit = "" if unit in ("", "1") else f" {unit}"
         print(f"  {key:<{width}}  {_format_value(value)}{unit}")
-    for label, path in (("samples", args.out), ("impacts", args.impacts)):
+    for label, path in (("samples", args.out), ("impacts", args.impacts), ("plot", args.plot)):
         if path is not None:
             print(f"{label}: {path}")
+    return 0
+
+
+def _plot(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    from .plots import PlotError, plot_table
+
+    at: dict[str, float] = {}
+    for spec in args.at:
+        name, _, value = spec.partition("=")
+        try:
+            at[name.strip()] = float(value)
+        except ValueError:
+            parser.error(f"--at {spec!r}: expected NAME=VALUE with a number, e.g. flow.u=0.5")
+    try:
+        _, path, kind = plot_table(args.table, args.out, args.columns, args.x, args.y, at)
+    except PlotError as exc:
+        parser.error(str(exc))
+    what = {"cases": "load cases", "run": "time series"}.get(kind, "sweep map")
+    print(f"{what}: {args.table} -> {path}")
     return 0
 
 
@@ -296,6 +388,118 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         print(f"iceimpact sweep: {len(errors)} of {len(rows)} runs failed (see the status "
               f"column of {args.out}); exit status {EXIT_RUNS_FAILED} (--allow-failures: 0)",
               file=sys.stderr)
+        return EXIT_RUNS_FAILED
+    return 0
+
+
+def _add_loads_parser(sub: argparse._SubParsersAction) -> None:
+    """``iceimpact loads``: a load-case table over a service life (docs/design_loads.md)."""
+    lo = sub.add_parser(
+        "loads", help="run a load-case table (cases, hours per year, repetitions) and combine "
+                      "the lifetime damage-equivalent loads",
+        description="Run every case of a load-case table (TOML or CSV: FMI values, hours per "
+                    "year, repetitions with perturbed starts) on the sweep engine and write "
+                    "PREFIX.csv (one row per run, resumable) and PREFIX.json (per case and "
+                    "lifetime DELs, extremes, impulses; units in the keys). Rerunning the same "
+                    "command resumes; changing only hours or --life reruns nothing.")
+    lo.add_argument("cases", type=Path, help="load-case table, .toml or .csv")
+    lo.add_argument("--life", type=_positive, required=True, metavar="YEARS",
+                    help="service life, years (the ice hours of the table recur every year)")
+    lo.add_argument("--out", type=Path, required=True, metavar="PREFIX",
+                    help="writes PREFIX.csv, PREFIX.csv.meta.json and PREFIX.json")
+    lo.add_argument("--t-end", type=_positive, default=None, metavar="S",
+                    help="simulated time per run, s (overrides the file's t_end; needed for CSV)")
+    lo.add_argument("--transient", type=_non_negative, default=None, metavar="S",
+                    help="loads use t >= this, s (overrides the file's; default 0)")
+    lo.add_argument("--dt", type=_positive, default=None, metavar="S",
+                    help=f"sample step, s (overrides the file's; default {DEFAULT_DT:g})")
+    lo.add_argument("--workers", type=_count, default=None, metavar="N",
+                    help=f"worker processes (default: all cores, here {os.cpu_count()})")
+    lo.add_argument("--chunksize", type=_count, default=None, metavar="N",
+                    help="runs per task (default: automatic)")
+    lo.add_argument("--dask", default=None, metavar="ADDRESS",
+                    help="run on a dask.distributed scheduler, e.g. tcp://host:8786")
+    lo.add_argument("--overwrite", action="store_true",
+                    help="replace a PREFIX.csv written for other runs")
+    lo.add_argument("--max-runs", type=_count, default=None, metavar="N",
+                    help="refuse tables of more than N runs (default 100000)")
+    lo.add_argument("--allow-failures", action="store_true",
+                    help="exit 0 even when some runs failed (default: exit status 1)")
+    lo.add_argument("--series", type=Path, default=None, metavar="DIR",
+                    help="also write each run's time series as an OpenFAST .out file in DIR "
+                         "(for pCrunch, pyDatView; runs the cases again, serially)")
+    lo.add_argument("--quiet", action="store_true", help="no progress bar")
+    lo.set_defaults(handler=_loads, subparser=lo)
+
+
+def _loads(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    from concurrent.futures.process import BrokenProcessPool
+
+    from .studies.seasons import load_cases, run_season
+    from .sweep import DEFAULT_MAX_RUNS, SweepError
+
+    max_runs = DEFAULT_MAX_RUNS if args.max_runs is None else args.max_runs
+    try:
+        table = load_cases(args.cases, t_end=args.t_end, transient=args.transient, dt=args.dt,
+                           max_runs=max_runs)
+    except SweepError as exc:
+        parser.error(str(exc))
+    csv_path = f"{args.out}.csv"
+    if not args.quiet:
+        print(f"loads: {len(table.cases)} cases, {table.n_runs} runs of {table.t_end:g} s "
+              f"(dt {table.dt:g} s, loads over t >= {table.transient:g} s), "
+              f"{table.hours:g} ice hours per year, life {args.life:g} years -> {csv_path}",
+              file=sys.stderr)
+    t0 = time.perf_counter()
+    previous = signal.signal(signal.SIGTERM, _terminate)  # stop like Ctrl-C: workers too
+    try:
+        rows, summary = run_season(table, args.life, out=args.out, workers=args.workers,
+                                   progress=not args.quiet, dask_address=args.dask,
+                                   overwrite=args.overwrite, chunksize=args.chunksize)
+    except SweepError as exc:
+        parser.error(str(exc))
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished runs are in {csv_path}; rerun the same command to "
+              "resume", file=sys.stderr)
+        return 130
+    except BrokenProcessPool as exc:
+        print(f"a worker process died ({exc}); finished runs are in {csv_path}; rerun the "
+              "same command to resume", file=sys.stderr)
+        return 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    errors = [r for r in rows if r["status"] != "ok"]
+    life = summary["lifetime"]
+    print(f"{len(rows)} runs ({len(rows) - len(errors)} ok, {len(errors)} errors) in "
+          f"{time.perf_counter() - t0:.1f} s -> {csv_path}, {args.out}.json")
+    width = max(len(c["name"]) for c in summary["cases"])
+    print(f"{'case':<{width}} {'h/yr':>7} {'DEL m=4 1Hz N':>14} {'damage share m=4':>17} "
+          f"{'max k x N':>10}")
+    for case in summary["cases"]:
+        share = case["damage_share"]["4"]
+        print(f"{case['name']:<{width}} {case['hours_per_year']:>7g} "
+              f"{case['del_1Hz_N']['4']:>14.4g} {share:>17.3f} {case['kx_max_N']:>10.4g}")
+    print(f"lifetime ({life['life_years']:g} years, {life['ice_hours']:g} ice hours): 1 Hz DEL "
+          + ", ".join(f"m={m} {v:.4g} N" for m, v in life["del_1Hz_N"].items())
+          + "; 1e7-cycle DEL "
+          + ", ".join(f"m={m} {v:.4g} N" for m, v in life["del_1e7_N"].items())
+          + f"; max k x {life['kx_max_N']:.4g} N ({life['kx_max_case']})")
+    for row in errors[:5]:
+        print(f"  run {row['run']} (case {row['case']}, repetition {row['repetition']}): "
+              f"{row['status']}")
+    if args.series is not None and errors:
+        print(f"iceimpact loads: no time series written to {args.series}: {len(errors)} runs "
+              f"failed", file=sys.stderr)
+    elif args.series is not None:
+        from .studies.outfiles import write_case_series
+
+        args.series.mkdir(parents=True, exist_ok=True)
+        written = write_case_series(table, args.series)
+        print(f"{len(written)} time series (OpenFAST .out) -> {args.series}")
+    if errors and not args.allow_failures:
+        print(f"iceimpact loads: {len(errors)} of {len(rows)} runs failed (see the status "
+              f"column of {csv_path}; the lifetime values leave them out); exit status "
+              f"{EXIT_RUNS_FAILED} (--allow-failures: 0)", file=sys.stderr)
         return EXIT_RUNS_FAILED
     return 0
 

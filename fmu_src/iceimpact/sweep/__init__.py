@@ -23,8 +23,10 @@ The package: :mod:`~iceimpact.sweep.grid` (axes from text, the grid and its size
 :mod:`~iceimpact.sweep.runner` (one run -> one row), :mod:`~iceimpact.sweep.columns` (the row
 layout and column types), :mod:`~iceimpact.sweep.table` (the CSV/Parquet table, its metadata
 and journal, resume, safe file writing), :mod:`~iceimpact.sweep.backends` (serial, process
-pool, dask) and :func:`sweep` here, which ties them together. Parameter changes by FMI name
-and the default sample step come from :mod:`iceimpact.runspec`, below this package.
+pool, dask) and :func:`sweep` here, which ties them together (:func:`run_points` does the same
+for any list of runs, e.g. the load-case tables of :mod:`iceimpact.studies.seasons`).
+Parameter changes by FMI name and the default sample step come from :mod:`iceimpact.runspec`,
+below this package.
 
     >>> from iceimpact import Scene
     >>> from iceimpact.sweep import sweep
