@@ -29,7 +29,7 @@ from iceimpact.studies.loads import (
     turning_points,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # Damage-equivalent loads: closed forms ---------------------------------------------------------

@@ -403,7 +403,7 @@ def test_native_host_with_an_empty_environment_equals_the_core(modal_dir, tmp_pa
     if compiler is None:
         pytest.skip("no C compiler")
     host = tmp_path / "host"
-    source = Path(__file__).parent / "c_host" / "host.c"
+    source = Path(__file__).parents[1] / "c_host" / "host.c"
     subprocess.run([compiler, "-O2", "-o", str(host), str(source), "-ldl"], check=True)
     done = subprocess.run([str(host), modal_dir, "-n", "50", "-h", "0.001", "-s", "modes=2",
                            "-s", "mode2.phi=0.5", "-s", "mode2.f=9", "-s", "mode1.q0=0.01",
@@ -422,7 +422,7 @@ def test_native_host_with_an_empty_environment_equals_the_core(modal_dir, tmp_pa
 def test_docs_list_the_contract():
     from pathlib import Path
 
-    page = (Path(__file__).parents[1] / "docs" / "coupling.md").read_text()
+    page = (Path(__file__).parents[2] / "docs" / "coupling.md").read_text()
     assert contract.markdown_table() in page
 
 
