@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -33,6 +34,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from doc_blocks import begin, fenced, read_block, unfenced, write_block  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 
 from iceimpact import Scene  # noqa: E402
@@ -113,26 +115,54 @@ def plot(rows: list[dict], u: np.ndarray, mass: np.ndarray, m: int, title: str,
     plt.close(fig)
 
 
-def describe(rows: list[dict], m: int) -> None:
-    """Print the cells with the largest DEL and extreme, and the errors."""
+def describe(rows: list[dict], m: int) -> list[str]:
+    """The cells with the largest DEL and extreme, and the errors: one line each (also
+    printed)."""
     ok = [r for r in rows if r["status"] == "ok"]
-    print(f"{len(rows)} cells, {len(ok)} ok")
+    lines = [f"{len(rows)} cells, {len(ok)} ok"]
     for r in rows:
         if r["status"] != "ok":
-            print(f"  u = {r['flow.u']:.3g} m/s, M = {r['ice.M']:.4g} kg: {r['status']}")
-    if not ok:
-        return
-    key = f"del_m{m}_1Hz_N"
-    top = max(ok, key=lambda r: r[key])
-    print(f"largest 1 Hz DEL (m = {m}): {top[key]:.4g} N at u = {top['flow.u']:.3g} m/s, "
-          f"M = {top['ice.M']:.4g} kg ({top['n_impacts']:.0f} impacts in the window)")
-    top = max(ok, key=lambda r: max(abs(r["kx_max_N"]), abs(r["kx_min_N"])))
-    print(f"largest base shear: max k x = {top['kx_max_N']:.4g} N at t = {top['kx_max_t_s']:.4g}"
-          f" s, min k x = {top['kx_min_N']:.4g} N, at u = {top['flow.u']:.3g} m/s, "
-          f"M = {top['ice.M']:.4g} kg")
+            lines.append(f"  u = {r['flow.u']:.3g} m/s, M = {r['ice.M']:.4g} kg: {r['status']}")
+    if ok:
+        key = f"del_m{m}_1Hz_N"
+        for top in sorted(ok, key=lambda r: r[key], reverse=True)[:3]:
+            lines.append(f"large 1 Hz DEL (m = {m}): {top[key]:.4g} N at u = "
+                         f"{top['flow.u']:.3g} m/s, M = {top['ice.M']:.4g} kg "
+                         f"({top['n_impacts']:.0f} impacts in the window)")
+        top = max(ok, key=lambda r: max(abs(r["kx_max_N"]), abs(r["kx_min_N"])))
+        lines.append(f"largest base shear: max k x = {top['kx_max_N']:.4g} N at t = "
+                     f"{top['kx_max_t_s']:.4g} s, min k x = {top['kx_min_N']:.4g} N, at u = "
+                     f"{top['flow.u']:.3g} m/s, M = {top['ice.M']:.4g} kg")
+        stuck = [r for r in ok if r["sticking_fraction"] > STICKING]
+        if stuck:
+            lines.append(f"sticking for most of the window: {len(stuck)} cells, 1 Hz DEL "
+                         f"(m = {m}) {min(r[key] for r in stuck):.3g}.."
+                         f"{max(r[key] for r in stuck):.3g} N, max k x "
+                         f"{min(r['kx_max_N'] for r in stuck):.4g}.."
+                         f"{max(r['kx_max_N'] for r in stuck):.4g} N")
+    for line in lines:
+        print(line)
+    return lines
 
 
-def main() -> None:
+BEGIN = begin("design_map.py")
+
+
+def write_doc(path: Path, lines: list[str]) -> bool:
+    """Replace this script's account in ``path`` (a fenced text block); True if it changed."""
+    return write_block(path, BEGIN, fenced(lines))
+
+
+def generated_lines(path: Path) -> list[str]:
+    """The lines of this script's account currently in ``path``."""
+    return unfenced(read_block(path, BEGIN))
+
+
+
+
+
+
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--m", type=int, choices=WOHLER_EXPONENTS, default=4,
                         help="Woehler exponent of the plotted DEL (default 4)")
@@ -142,7 +172,10 @@ def main() -> None:
                         help="s (default t_end / 3)")
     parser.add_argument("--workers", type=int, default=None, help="default: all cores")
     parser.add_argument("--out-dir", type=Path, default=ROOT / "docs" / "img")
-    args = parser.parse_args()
+    parser.add_argument("--write-doc", type=Path, metavar="MD",
+                        help="rewrite the generated account of MD (docs/design_loads.md; the "
+                             "default map only)")
+    args = parser.parse_args(argv)
 
     if args.quick:
         u, mass = np.array([0.1, 1.0]), np.array([800.0, 3200.0])
@@ -159,9 +192,16 @@ def main() -> None:
              f"t >= {transient:.3g} s")
     png = args.out_dir / "design_map.png"
     plot(rows, u, mass, args.m, title, png)
-    describe(rows, args.m)
+    lines = describe(rows, args.m)
     print(f"total run time {sum(r['wall_s'] for r in rows):.0f} s; -> {csv_path}, {png}")
+    if args.write_doc is not None:
+        if args.quick or args.t_end or args.transient is not None or args.m != 4:
+            print("--write-doc writes the account of the default map only: not written")
+            return 2
+        changed = write_doc(args.write_doc, lines)
+        print(f"{args.write_doc}: {'rewritten' if changed else 'unchanged'}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

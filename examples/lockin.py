@@ -1,7 +1,7 @@
 """The article's lock-in case (Figure 13, Section 5) through IceImpact.fmu, analysed for lock-in.
 
     python build_fmu.py && python examples/lockin.py [--fmu dist/IceImpact.fmu]
-        [--stop-time 150] [--out out] [--core] [--window 10]
+        [--stop-time 200] [--out out] [--core] [--window 10] [--write-doc docs/lockin.md]
 
 Scene: quadratic drag (``drag.model = 2``), ice drag area ``ice.A = 2`` m^2, flow ``flow.u = 0.1``
 m/s, every other parameter at the Figure 2 default (omega_n = sqrt(k/m) = 25 rad/s, e = 1). The
@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from doc_blocks import begin, read_block, write_block
 
 from iceimpact import Scene, run
 from iceimpact.studies.analysis import (
@@ -189,6 +190,43 @@ def report(rec: Record, scene: Scene, rows: list[dict], stop_time: float) -> Non
     print(f"  cluster period window by window until sticking (s): {' '.join(drift)}")
 
 
+BEGIN = begin("lockin.py")
+
+
+def write_doc(path: Path, text: str) -> bool:
+    """Replace this script's block of ``path``; True if the file changed."""
+    return write_block(path, BEGIN, text)
+
+
+def generated_block(path: Path) -> str:
+    """This script's block currently in ``path``."""
+    return read_block(path, BEGIN)
+
+
+def markdown_table(rec: Record, rows: list[dict]) -> str:
+    """The window table of docs/lockin.md (one row per window) and the run's totals."""
+    two_pi = 2 * math.pi
+    lines = ["| window (s) | impacts | mean interval (s) | cluster period T (s) | "
+             "ωnT/2π (clusters) | N, within 5 % | dominant ω of x (rad/s) | "
+             "dominant ω of z (rad/s) | std x (µm) | sticking |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lock = f"{r['N_c']}, {'yes' if r['locked_c'] else 'no'}" if math.isfinite(
+            r["ratio_c"]) else "-"
+        lines.append(f"| {r['a']:.0f}–{r['b']:.0f} | {r['n']} | {fmt(r['T'], '.4f')} | "
+                     f"{fmt(r['Tc'], '.3f')} | {fmt(r['ratio_c'], '.2f')} | {lock} | "
+                     f"{fmt(two_pi * r['dom'], '.2f')} | {fmt(two_pi * r['dom_z'], '.2f')} | "
+                     f"{r['xstd'] * 1e6:.3f} | {100 * r['stick']:.0f} % |")
+    since = ("never" if rec.sticking_since is None
+             else f"from t = {rec.sticking_since:.2f} s to the end")
+    lines += ["", f"{rec.impacts.size} impacts in all; sticking contact {since}."]
+    return "\n".join(lines)
+
+
+
+
+
+
 def plot(rec: Record, scene: Scene, rows: list[dict], path: Path) -> None:
     import matplotlib
 
@@ -279,12 +317,15 @@ def plot(rec: Record, scene: Scene, rows: list[dict], path: Path) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--fmu", type=Path, default=ROOT / "dist" / "IceImpact.fmu")
-    parser.add_argument("--stop-time", type=float, default=150.0,
-                        help="s (default 150: the impacts end in sticking contact at ~115 s)")
+    parser.add_argument("--stop-time", type=float, default=200.0,
+                        help="s (default 200: the impacts end in sticking contact at ~159 s)")
     parser.add_argument("--out", type=Path, default=ROOT / "out", help="output folder")
     parser.add_argument("--core", action="store_true",
                         help="run iceimpact.run instead of the FMU (for comparison)")
     parser.add_argument("--window", type=float, default=10.0, help="analysis window, s")
+    parser.add_argument("--write-doc", type=Path, metavar="MD",
+                        help="rewrite the window table of MD (docs/lockin.md; default "
+                             "--stop-time and --window only)")
     args = parser.parse_args(argv)
     if not args.core and not args.fmu.exists():
         print(f"{args.fmu} not found: run `python build_fmu.py` first", file=sys.stderr)
@@ -299,6 +340,12 @@ def main(argv: list[str] | None = None) -> int:
     png = args.out / "lockin.png"
     plot(rec, scene, rows, png)
     print(f"wrote {png.relative_to(ROOT) if png.is_relative_to(ROOT) else png}")
+    if args.write_doc is not None:
+        if args.stop_time != 200.0 or args.window != 10.0:
+            print("--write-doc writes the default table only: not written", file=sys.stderr)
+            return 2
+        changed = write_doc(args.write_doc, markdown_table(rec, rows))
+        print(f"{args.write_doc}: {'rewritten' if changed else 'unchanged'}")
     return 0
 
 

@@ -232,6 +232,59 @@ class FmuRunner:
         return run
 
 
+class CoreRunner(FmuRunner):
+    """Runs cases in this process, without the FMU: a :class:`iceimpact.simulator.Simulator`
+    stepped as IceImpact.fmu steps it under FMPy (one ``Simulator.advance`` per communication
+    step, of the length FMPy passes to ``doStep``), so the outputs, and every number measured
+    from them, are those of :class:`FmuRunner` without the FMI overhead (a 400 s exact run:
+    0.3 s instead of 1.5 s). ``--core`` selects it; ``tests/test_doc_numbers.py`` uses it.
+    """
+
+    def __init__(self, step: float = STEP, dt: float = FIXED_DT, quick: bool = False,
+                 echo: bool = True):
+        self.fmu = None
+        self.step = step
+        self.dt = dt
+        self.quick = quick
+        self.echo = echo
+        self.defaults = Scene().to_fmi()
+        self._cache = {}
+
+    def close(self) -> None:
+        pass
+
+    def _simulate(self, case: Case, solver: str, start_values: dict[str, float | int],
+                  stop: float, step: float) -> Run:
+        from iceimpact.simulator import Simulator
+
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        scene = Scene.from_fmi({**self.defaults, **start_values})
+        sim = Simulator(scene, record_impacts=False)
+        n_steps = round(stop / step)
+        rows = [sim.report]
+        t_master = 0.0
+        for i in range(1, n_steps + 1):
+            t_next = i * step   # FMPy's communication points: start + n * output_interval
+            rows.append(sim.advance(t_next - t_master))
+            t_master = t_next
+
+        def column(name: str, dtype: type = float) -> np.ndarray:
+            return np.array([getattr(r, name) for r in rows], dtype=dtype)
+
+        t = step * np.arange(n_steps + 1)
+        wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+        run = Run(case=case, solver=solver, scene=scene, t=t, x=column("x"), v=column("v"),
+                  z=column("z"), w=column("w"), impulse=column("impulse"),
+                  count=column("impact_count", int), active=column("sticking", bool),
+                  t_last=column("t_last"), wall=wall, cpu=cpu)
+        if self.echo:
+            stick = sticking_since(run)
+            print(f"  {case.figure:12s} {case.label:24s} {SOLVERS[solver][0]:38s} {stop:5.0f} s "
+                  f"{run.impacts:9d} impacts  sticking {fmt(stick, '.2f', 'never'):>7s}  "
+                  f"{cpu:6.1f} s CPU {wall:6.1f} s wall (in process)", flush=True)
+        return run
+
+
 # Measures ----------------------------------------------------------------------------------------
 def static_force(scene: Scene) -> float:
     """Drag on ice at rest, N: b u (linear drag, eq. 5 and 28) or B u |u| (quadratic, eq. 33),
@@ -367,13 +420,52 @@ def pass_through(run: Run, depth: float = 1e-3) -> float | None:
     return float(run.t[past[0]]) if past.size else None
 
 
+def mean_impulse_value(run: Run, t0: float, t1: float) -> float | None:
+    """Mean impulse per impact on the structure in (t0, t1], N.s (None without impacts); see
+    :func:`mean_impulse`."""
+    times, n, imp = run.impact_steps()
+    sel = (times > t0) & (times <= t1)
+    count = int(n[sel].sum())
+    return float(imp[sel].sum() / count) if count else None
+
+
+def drift(run: Run, t: float) -> float | None:
+    """Distance (m) the ice has drifted from its start at time t (s); None past the run."""
+    if t > run.t[-1] + 1e-9:
+        return None
+    return float(np.interp(t, run.t, run.z) - run.z[0])
+
+
 def standard_measures(run: Run) -> dict[str, Any]:
-    """The measures every case reports (SI units; None where undefined)."""
+    """The measures every case reports (SI units; None where undefined).
+
+    These are also the numbers docs/reproduction.md quotes: a number there followed by
+    ``<!-- run:SCRIPT.CASE.SOLVER.MEASURE -->`` is this dict's MEASURE for that run
+    (:func:`check_doc`).
+    """
     x_peak, t_peak = peak(run)
     a, b = late_window(run)
-    e0, e1 = 0.0, min(50.0, float(run.t[-1]))
+    end = float(run.t[-1])
+    e0, e1 = 0.0, min(50.0, end)
+    mid = (50.0, 100.0) if end >= 100.0 else None
+    stick = sticking_since(run)
     return {
         "impacts": run.impacts,
+        "impacts_early": impacts_between(run, e0, e1),
+        "impacts_10s": impacts_between(run, 0.0, min(10.0, end)),
+        "impacts_before_sticking": (impacts_between(run, 0.0, stick) if stick is not None
+                                    else None),
+        "mean_impulse_early_Ns": mean_impulse_value(run, e0, e1),
+        "mean_interval_early_s": mean_impact_interval(run, e0, e1),
+        "median_interval_early_s": median_impact_interval(run, e0, e1),
+        "mean_interval_mid_s": mean_impact_interval(run, *mid) if mid else None,
+        "dominant_frequency_mid_hz": dominant_frequency(run, *mid) if mid else None,
+        "max_deviation_5_50_m": max_deviation(run, min(5.0, end), e1),
+        "max_deviation_mid_m": max_deviation(run, *mid) if mid else None,
+        "mean_x_late_m": float(run.x[window(run, a, b)].mean()),
+        "drift_10_m": drift(run, 10.0),
+        "drift_50_m": drift(run, 50.0),
+        "drift_200_m": drift(run, 200.0),
         "first_impact_s": first_impact(run),
         "peak_x_m": x_peak,
         "peak_time_s": t_peak,
@@ -393,6 +485,74 @@ def standard_measures(run: Run) -> dict[str, Any]:
         "wall_s": run.wall,
         "cpu_s": run.cpu,
     }
+
+
+# Numbers quoted by the docs ----------------------------------------------------------------------
+#: A number quoted from a run in a doc: the number, then an HTML comment naming the run and the
+#: measure (:func:`standard_measures`), optionally a unit it is printed in:
+#: ``15144<!-- run:linear.fig2.exact.impacts -->``,
+#: ``0.496<!-- run:linear.fig2.exact.peak_x_m mm -->``.
+#: Thousands separators are allowed. The number is checked within half a unit of its last digit.
+DOC_ANCHOR = re.compile(r"(-?\d[\d,]*(?:\.\d+)?)\s*<!-- run:([\w.\-]+)(?: (mm|ms|um|%))? -->")
+#: Scale of a unit in a doc anchor (the measures are SI).
+DOC_UNITS = {None: 1.0, "mm": 1e3, "ms": 1e3, "um": 1e6, "%": 100.0}
+
+
+def doc_anchors(text: str) -> list[tuple[str, str, str | None]]:
+    """(number as printed, key, unit) of every run anchor in ``text``."""
+    return [(m.group(1), m.group(2), m.group(3)) for m in DOC_ANCHOR.finditer(text)]
+
+
+def lookup(values: Mapping[str, Any], key: str) -> Any:
+    """``values[SCRIPT][CASE][SOLVER][MEASURE]`` for the key ``SCRIPT.CASE.SOLVER.MEASURE``
+    (case keys may hold dots: ``e0.5``); KeyError if there is no such run or measure."""
+    script, rest = key.split(".", 1)
+    cases = values[script]
+    for case in sorted(cases, key=len, reverse=True):
+        if rest.startswith(case + "."):
+            solver, measure = rest[len(case) + 1:].split(".", 1)
+            return cases[case][solver][measure]
+    raise KeyError(key)
+
+
+def check_doc(text: str, values: Mapping[str, Any], scripts: Sequence[str] | None = None
+              ) -> tuple[int, list[str]]:
+    """Compare every number of ``text`` anchored to a run (:data:`DOC_ANCHOR`) with ``values``
+    (script -> case -> solver -> :func:`standard_measures`), within half a unit of the last
+    digit printed. Only the anchors of ``scripts`` (all when None) are compared.
+
+    Returns the number of anchors compared and one line per number that differs (or whose run
+    or measure does not exist, or is undefined in the run).
+    """
+    checked, stale = 0, []
+    for printed, key, unit in doc_anchors(text):
+        if scripts is not None and key.split(".", 1)[0] not in scripts:
+            continue
+        checked += 1
+        try:
+            value = lookup(values, key)
+        except (KeyError, ValueError):
+            stale.append(f"{key}: no such run or measure (doc: {printed})")
+            continue
+        if value is None:
+            stale.append(f"{key}: undefined in the run (doc: {printed})")
+            continue
+        number = printed.replace(",", "")
+        decimals = len(number.split(".")[1]) if "." in number else 0
+        got = float(value) * DOC_UNITS[unit]
+        if abs(got - float(number)) > 0.5 * 10.0 ** -decimals * (1 + 1e-9) + 1e-12 * abs(got):
+            stale.append(f"{key}: doc {printed}{' ' + unit if unit else ''}, "
+                         f"run {got:.{decimals}f}")
+    return checked, stale
+
+
+def measure_groups(groups: Sequence[Group], runner: FmuRunner) -> dict[str, dict[str, Any]]:
+    """Run every case of ``groups``: case -> solver -> :func:`standard_measures`."""
+    out: dict[str, dict[str, Any]] = {}
+    for group in groups:
+        for case in group.cases:
+            out[case.key] = {s: standard_measures(runner.run(case, s)) for s in case.solvers}
+    return out
 
 
 # Formatting and tables ---------------------------------------------------------------------------
@@ -610,8 +770,15 @@ def main(name: str, description: str, groups: Sequence[Group],
                         help=f"also write a small copy of each figure into DIR ({IMG_DPI} dpi, "
                              f"{IMG_COLORS} colours; docs/img for the figures of "
                              "docs/reproduction.md)")
+    parser.add_argument("--core", action="store_true",
+                        help="run in this process (iceimpact.simulator.Simulator stepped as the "
+                             "FMU steps it) instead of through the FMU: the same numbers, faster")
+    parser.add_argument("--check-doc", type=Path, action="append", metavar="MD",
+                        help="compare the numbers MD quotes from these runs (marked "
+                             "<!-- run:... -->) with the runs; exit status 3 if any differs "
+                             "(e.g. docs/reproduction.md; repeatable)")
     args = parser.parse_args(argv)
-    if not args.fmu.exists():
+    if not args.core and not args.fmu.exists():
         print(f"{args.fmu} not found: run `python build_fmu.py` first", file=sys.stderr)
         return 1
     chosen = select_groups(groups, args.only)
@@ -621,7 +788,9 @@ def main(name: str, description: str, groups: Sequence[Group],
     wall0, cpu0 = time.perf_counter(), time.process_time()
     summary: dict[str, Any] = {"script": name, "quick": args.quick, "step_s": args.step,
                                "fixed_dt_s": args.dt, "groups": {}}
-    with FmuRunner(args.fmu, step=args.step, dt=args.dt, quick=args.quick) as runner:
+    runner_type = (CoreRunner if args.core
+                   else lambda **kw: FmuRunner(args.fmu, **kw))  # type: ignore[misc]
+    with runner_type(step=args.step, dt=args.dt, quick=args.quick) as runner:
         for group in chosen:
             print(f"\n== Figure(s) {group.key}: {group.title}", flush=True)
             runs: dict[str, dict[str, Run]] = {}
@@ -660,4 +829,18 @@ def main(name: str, description: str, groups: Sequence[Group],
     json_path.write_text(json.dumps(to_jsonable(summary), indent=1))
     print(f"\nwrote {json_path}; total {summary['cpu_s']:.0f} s CPU, "
           f"{summary['wall_s']:.0f} s wall")
-    return 0
+    status = 0
+    if args.check_doc:
+        if args.quick or args.only or args.dt != FIXED_DT or args.step != STEP:
+            print("--check-doc compares the full default runs (no --quick, --only, --dt, "
+                  "--step): not checked", file=sys.stderr)
+            return 2
+        values = {name: {key: case["runs"] for group in summary["groups"].values()
+                         for key, case in group["cases"].items()}}
+        for doc in args.check_doc:
+            checked, stale = check_doc(doc.read_text(), values, scripts=[name])
+            print(f"{doc}: {checked} numbers from the {name} runs compared, {len(stale)} differ")
+            for line in stale:
+                print(f"  {line}")
+            status = status or (3 if stale else 0)
+    return status
