@@ -264,8 +264,10 @@ def test_two_instances_do_not_interfere(fmu_dir, model_description):
     b = Instance(fmu_dir, model_description, "b")
     # The slave (the FMU's own copy of the core, under its private name) guarded PythonFMU's
     # library against its exit-time use-after-free.
+    # (this FMU's copy: another FMU loaded earlier in the process has its own)
     fixes = next(m for n, m in sys.modules.items()
-                 if n.startswith("_iceimpact_") and n.endswith(".fmi.pythonfmu_fixes"))
+                 if n.startswith("_iceimpact_") and n.endswith(".fmi.pythonfmu_fixes")
+                 and Path(m.__file__).resolve().is_relative_to(Path(fmu_dir).resolve()))
     library = Path(fmu_dir) / "binaries" / "linux64" / "pythonfmu" / "IceImpact.so"
     assert os.path.realpath(library) in fixes._GUARDED_LIBRARIES
     try:
