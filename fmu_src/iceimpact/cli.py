@@ -27,8 +27,9 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from .contract import BY_NAME
 from .errors import ParameterError, SolverError
@@ -334,8 +335,34 @@ def _terminate(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+def _resumable(parser: argparse.ArgumentParser, table: Any,
+               run: Callable[[], Any]) -> tuple[Any, int | None]:
+    """``run()`` of a resumable table (a sweep, a load-case table written to ``table``) as the
+    command line runs it: SIGTERM stops it like Ctrl-C (workers too), and an interruption or a
+    dead worker says that the finished runs are kept and how to resume. (result, None), or
+    (None, the exit status); a SweepError is an argument error (exit status 2)."""
     from concurrent.futures.process import BrokenProcessPool
+
+    from .sweep import SweepError
+
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return run(), None
+    except SweepError as exc:
+        parser.error(str(exc))
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: finished runs are in {table}; rerun the same command to "
+              "resume", file=sys.stderr)
+        return None, 130
+    except BrokenProcessPool as exc:
+        print(f"a worker process died ({exc}); finished runs are in {table}; rerun the "
+              "same command to resume", file=sys.stderr)
+        return None, 1
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
 
     from .sweep import DEFAULT_MAX_RUNS, SweepError, check_grid_size, output_format, parse_vary
     from .sweep import sweep as run_sweep
@@ -359,24 +386,12 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         print(f"sweep: {n_runs} runs over {axes}, t_end {args.t_end:g} s, dt {args.dt:g} s "
               f"-> {args.out}", file=sys.stderr)
     t0 = time.perf_counter()
-    previous = signal.signal(signal.SIGTERM, _terminate)  # stop like Ctrl-C: workers too
-    try:
-        rows = run_sweep(base, grid, t_end=args.t_end, transient=args.transient, dt=args.dt,
-                         out=args.out, workers=args.workers, progress=not args.quiet,
-                         dask_address=args.dask, fmt=args.format, overwrite=args.overwrite,
-                         chunksize=args.chunksize, max_runs=max_runs)
-    except SweepError as exc:
-        parser.error(str(exc))
-    except KeyboardInterrupt:
-        print(f"\ninterrupted: finished runs are in {args.out}; rerun the same command to "
-              "resume", file=sys.stderr)
-        return 130
-    except BrokenProcessPool as exc:
-        print(f"a worker process died ({exc}); finished runs are in {args.out}; rerun the "
-              "same command to resume", file=sys.stderr)
-        return 1
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    rows, status = _resumable(parser, args.out, lambda: run_sweep(
+        base, grid, t_end=args.t_end, transient=args.transient, dt=args.dt, out=args.out,
+        workers=args.workers, progress=not args.quiet, dask_address=args.dask, fmt=args.format,
+        overwrite=args.overwrite, chunksize=args.chunksize, max_runs=max_runs))
+    if status is not None:
+        return status
     errors = [r for r in rows if r["status"] != "ok"]
     print(f"{len(rows)} runs ({len(rows) - len(errors)} ok, {len(errors)} errors) in "
           f"{time.perf_counter() - t0:.1f} s -> {args.out}")
@@ -433,7 +448,6 @@ def _add_loads_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _loads(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    from concurrent.futures.process import BrokenProcessPool
 
     from .studies.seasons import load_cases, run_season
     from .sweep import DEFAULT_MAX_RUNS, SweepError
@@ -451,23 +465,12 @@ def _loads(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
               f"{table.hours:g} ice hours per year, life {args.life:g} years -> {csv_path}",
               file=sys.stderr)
     t0 = time.perf_counter()
-    previous = signal.signal(signal.SIGTERM, _terminate)  # stop like Ctrl-C: workers too
-    try:
-        rows, summary = run_season(table, args.life, out=args.out, workers=args.workers,
-                                   progress=not args.quiet, dask_address=args.dask,
-                                   overwrite=args.overwrite, chunksize=args.chunksize)
-    except SweepError as exc:
-        parser.error(str(exc))
-    except KeyboardInterrupt:
-        print(f"\ninterrupted: finished runs are in {csv_path}; rerun the same command to "
-              "resume", file=sys.stderr)
-        return 130
-    except BrokenProcessPool as exc:
-        print(f"a worker process died ({exc}); finished runs are in {csv_path}; rerun the "
-              "same command to resume", file=sys.stderr)
-        return 1
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    result, status = _resumable(parser, csv_path, lambda: run_season(
+        table, args.life, out=args.out, workers=args.workers, progress=not args.quiet,
+        dask_address=args.dask, overwrite=args.overwrite, chunksize=args.chunksize))
+    if status is not None:
+        return status
+    rows, summary = result
     errors = [r for r in rows if r["status"] != "ok"]
     life = summary["lifetime"]
     print(f"{len(rows)} runs ({len(rows) - len(errors)} ok, {len(errors)} errors) in "
