@@ -18,8 +18,6 @@ import pytest
 from iceimpact.studies.seasons import load_cases, run_season
 from iceimpact.sweep import read_table, sweep
 
-pytestmark = pytest.mark.slow
-
 DASK = Path(sys.executable).with_name("dask")
 GRID = "flow.u=0.05:1.5:24"        # 24 runs of the Figure 2 scene
 T_END, DT = 100.0, 2e-3            # s: ~0.2 s per run
