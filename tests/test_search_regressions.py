@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -464,3 +465,189 @@ def test_a_sticking_separation_at_denormal_scales_is_located():
         values = [report.x, report.v, report.z, report.w, report.gap, report.impulse]
         assert all(math.isfinite(value) for value in values)
         assert report.gap >= 0.0 and report.impulse >= 0.0
+
+
+# --- the far-scale search (tools/random_search.py --far): docs/robustness.md, "The far-scale
+# search". Each case is the search's REPLAY line (scene fields not at their defaults); the
+# replay turns every numpy warning into a fault, so an invalid value computed on the way fails
+
+#: method 1, quadratic drag switched off (ice.Cd = 0), k = 4.2e-148 N/m: the sticking pair's
+#: period is 9.9e74 s
+ASTRONOMICAL_PERIOD = {
+    "scene": {"structure_m": 1.0, "structure_c": 0.0, "structure_k": 4.2444766157712495e-148,
+              "structure_v0": -0.8259178616762437, "ice_M": 10.0, "ice_A": 1.0023052380778996,
+              "ice_Cd": 0.0, "ice_z0": 0.0, "ice_v0": -0.8259178616762437, "fluid_rho": 1.0,
+              "impact_e": 0.0, "drag_model": 2, "drag_v_lin": 1.0000000001371239,
+              "flow_u": 0.0},
+    "h": 1.0, "flow": "constant", "signs": [False], "sizes": [0.0], "steps": 300}
+
+#: method 1, quadratic drag, a structure of 2.8e8 kg on k = 6.6e-125 N/m under a drag of
+#: 2 B |u - v| / (m + M) ~ 2e-30 1/s: the Taylor series' last terms underflow to 0
+UNDERFLOWED_TERMS = {
+    "scene": {"structure_m": 284076452.3109982, "structure_c": 2.73497824494906e-58,
+              "structure_k": 6.582828266381306e-125, "structure_x0": -0.6883514913944402,
+              "ice_M": 11.018745881556326, "ice_A": 0.8946609919312632, "ice_Cd": 1e-12,
+              "ice_z0": -0.6883514913944402, "ice_v0": 0.0, "fluid_rho": 0.013651084997734028,
+              "drag_model": 2, "drag_v_lin": 1.0, "flow_u": 0.0},
+    "h": 0.04407721968487775, "flow": "random",
+    "signs": [False, True, True, True, True, False, False, False],
+    "sizes": [0.0, 0.0, 0.0, 1.0250940248359974e-06, 0.0, 0.0, 0.0, 0.0,
+              4.2676068064123235e-05], "steps": 300}
+
+#: method 1, linear drag, b / M = 3.5e37 1/s (fluid.rho 2.6e-29, drag.v_lin 6.4e60)
+LOCKED_TO_THE_FLOW = {
+    "scene": {"structure_m": 8.926031619946328e-06, "structure_c": 0.0, "structure_k": 1.0,
+              "structure_v0": 0.6162070484044397, "ice_M": 8.926031619946328e-06,
+              "ice_A": 3.3507734563837634, "ice_Cd": 1.1238575808295617, "ice_z0": 0.0,
+              "ice_v0": 0.6162070484044397, "fluid_rho": 2.6084344370911257e-29,
+              "drag_v_lin": 6.3835496569076216e+60, "flow_u": 0.0},
+    "h": 1.0, "flow": "constant", "signs": [True], "sizes": [1.0], "steps": 300}
+
+#: method 3, a damped 1.4 g structure (zeta 1) decaying to 5e-167 m by t = 14.5 s
+DECAYED_BELOW_THE_TOLERANCE = {
+    "scene": {"structure_m": 0.0014272055633688927, "structure_c": 0.07555674856341801,
+              "structure_k": 1.0, "structure_x0": 5e-324, "structure_v0": 0.5970167737480874,
+              "ice_M": 7002966.848558735, "ice_Cd": 0.0, "ice_z0": -0.0008989402896151912,
+              "ice_v0": 0.0, "fluid_rho": 2.344228815319922, "drag_model": 2,
+              "drag_v_lin": 1.0, "flow_u": 0.0, "solver_method": 3},
+    "h": 0.08127746634415582, "flow": "constant", "signs": [True], "sizes": [1.0],
+    "steps": 300}
+
+
+def _far_replay(case):
+    from random_search import replay
+
+    outcome = replay(case)
+    assert outcome.fault is None, outcome.fault
+    assert not outcome.refused
+    assert outcome.t == pytest.approx(case["steps"] * case["h"], rel=1e-12)
+    return outcome
+
+
+def test_a_taylor_step_longer_than_h_to_the_order_allows_keeps_finite_coefficients():
+    """Method 1's sticking Taylor step is at most a period of the pair long; at a period of
+    9.9e74 s (k = 4.2e-148 N/m) h^36 overflowed, its coefficients c_n h^n were 0 x inf = NaN
+    where c_n had underflowed, and the step's polynomials evaluated to NaN: the warnings
+    'overflow encountered in power', 'invalid value encountered in multiply' and, where a
+    state was evaluated on the step, 'invalid value encountered in matmul' (taylor.py's
+    ``evaluate``), then a SolverError refusing the first step ('state (nan, nan, nan)'), which
+    the search counted as a refusal. Such a step's coefficients are now scaled by the mantissa
+    and the exponent of h apart: the 300 steps run."""
+    _far_replay(ASTRONOMICAL_PERIOD)
+
+
+def test_a_taylor_step_whose_last_terms_underflow_is_not_a_period_long():
+    """The step-length rule bounds a step by its last two terms, c_35 h^35 and c_36 h^36, at
+    1e-16 of the motion. Under a drag rate of ~2e-30 1/s both underflowed to 0, which the rule
+    took for no bound: the step spanned the pair's period, 1.3e67 s, over which the terms in
+    between reach 1e400 (an overflow in the scaling; before, a NaN state and a SolverError at
+    the fourth step). The highest nonzero term now bounds the step instead (a motion with
+    k > 0 has no exactly polynomial part), and a ratio that overflows is taken in logarithms:
+    the 300 steps run."""
+    from iceimpact.solvers import taylor
+
+    _far_replay(UNDERFLOWED_TERMS)
+    # the rule at those scales: a finite step whose terms stay finite
+    stepper = taylor.StickingTaylor(2.8e8, 0.0, 6.6e-125, 1e-14, 0.0, 11.0, max_step=1.3e67)
+    step = stepper.step(0.0, (-0.69, 1e-37, 0.0), 1.0, True)
+    assert math.isfinite(step.h) and step.h < 1e66
+    assert np.isfinite(step.table).all()
+
+
+def test_method_1_refuses_a_linear_drag_faster_than_its_time_resolution():
+    """Method 1, linear drag at b / M = 3.5e37 1/s: the ice's velocity relaxes to the flow's
+    within 1e-37 s, but its rounding, w - u of a few ulps, times b / M made an acceleration
+    bound of 1e21 m/s^2 and a jerk bound of 3e58 m/s^3 for the gap, and the root search crept
+    at its time resolution (no progress past 1e-9 s in 10 s of CPU; 1e27 1/s: 18 s for the
+    300 steps). A relaxation faster than that resolution is refused up front, naming the
+    limit; at the limit the scene runs its 300 steps at once."""
+    from iceimpact.limits import EXACT_DRAG_RATE_MAX, TIME_RESOLUTION
+
+    with pytest.raises(ParameterError, match=r"B \* drag.v_lin / ice.M = 3.51\d*e\+37 is not "
+                       r"allowed: <= 1.12e\+15 1/s with linear drag and solver.method = 1"):
+        Scene(**LOCKED_TO_THE_FLOW["scene"])
+    assert EXACT_DRAG_RATE_MAX == 1.0 / TIME_RESOLUTION
+    scene = dict(LOCKED_TO_THE_FLOW["scene"])
+    scene["drag_v_lin"] *= 0.999 * EXACT_DRAG_RATE_MAX / 3.5124495532675686e+37
+    outcome = _far_replay({**LOCKED_TO_THE_FLOW, "scene": scene})
+    assert outcome.cpu < 5.0
+    # methods 2 and 3 have their own rules (3: the explicit rate limit; 2: closed forms)
+    Scene(**{**LOCKED_TO_THE_FLOW["scene"], "solver_method": 2})
+
+
+def test_method_2_linear_drag_lag_evaluates_its_series_only_where_it_is_used():
+    """Method 2's vectorised linear-drag flight evaluated the series of its lag
+    ((1 - e^-x) / x - 1 below x = 1e-2) at every grid point and kept it only where x was
+    small: at b / M = 1e137 1/s the series overflowed ('overflow encountered in multiply', a
+    value computed and discarded). It is now evaluated at the small x only; the values are the
+    same to the bit."""
+    from iceimpact.physics.ice import _decay_lag_array, _log_lag_array
+
+    x = np.array([0.0, 1e-3, 5e-3, 0.5, 1e140, np.inf])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lag = _decay_lag_array(x)
+        log_lag = _log_lag_array(x[:-1])
+    small = x[:3]
+    assert lag[:3].tolist() == (-small * (0.5 - small * (1 / 6 - small * (
+        1 / 24 - small * (1 / 120 - small / 720))))).tolist()
+    assert lag[3] == -math.expm1(-0.5) / 0.5 - 1.0 and lag[4] == -1.0 and lag[5] == -1.0
+    assert log_lag[3] == math.log1p(0.5) / 0.5 - 1.0 and log_lag[4] == pytest.approx(-1.0)
+    case = {"scene": {"structure_m": 1.0023052380778996, "structure_c": 0.0,
+                      "structure_k": 3.890700515741856e-05, "structure_v0": 0.9924532333761928,
+                      "ice_M": 1e-06, "ice_A": 0.01979433004127083,
+                      "ice_Cd": 0.22340065856941888, "ice_z0": -0.08509427629300018,
+                      "ice_v0": 0.26875042375604674, "fluid_rho": 3.1622776601683795,
+                      "drag_v_lin": 9.231604537263085e+134, "flow_u": -0.9999999999999999,
+                      "solver_method": 2},
+            "h": 1.0, "flow": "constant", "signs": [True], "sizes": [1.0], "steps": 3}
+    _far_replay(case)
+
+
+def test_method_3_error_norm_of_states_far_below_the_tolerance_is_not_a_nan():
+    """Method 3, a damped structure decayed to 5e-167 m: scipy's DOP853 error norm,
+    err5^2 / sqrt(err5^2 + 0.01 err3^2), was 0 / 0 once both squares underflowed ('invalid
+    value encountered in scalar divide', printed to the user), and the NaN rejected the step
+    (retried at a fifth of it). The norm of an error below any double is now 0 (a NaN from
+    non-finite stages still rejects); ordinary steps are unchanged to the bit."""
+    _far_replay(DECAYED_BELOW_THE_TOLERANCE)
+
+
+def test_the_search_counts_method_3_busy_integrating_a_fast_structure_for_long():
+    """The far-scale search's 300 steps of up to 1 s are up to 300 s of simulated time: an
+    undamped 1087 rad/s structure (nothing else to integrate, so no rate) ran 250 s in its 30 s
+    of CPU at 23 evaluations per rad/s of omega_n and simulated second, DOP853's ~12 steps a
+    period, and was flagged a TIMEOUT. The work its omega_n rule allows, ODE_OMEGA_WORK per
+    rad/s and simulated second (or the rate's, where that is more), now counts as busy."""
+    from random_search import ODE_OMEGA_WORK, ODE_RESTART_WORK, ODE_WORK_FLOOR, busy_integrating
+
+    scene = Scene(structure_m=1.0, structure_c=0.0, structure_k=1181163.7258910956,
+                  structure_v0=6.103515625e-05, ice_M=1.0, ice_Cd=0.0, ice_z0=0.0,
+                  ice_v0=6.103515625e-05, impact_e=1.0, drag_model=2, flow_u=0.0,
+                  solver_method=3)
+    omega = scene.omega_n
+    measured = 23.1 * omega * 250.0
+    assert busy_integrating(scene, 0.0, 250.0, int(measured), 250)
+    allowed = ODE_OMEGA_WORK * omega * 250.0 + ODE_RESTART_WORK * 250 + ODE_WORK_FLOOR
+    assert busy_integrating(scene, 0.0, 250.0, int(allowed), 250)
+    assert not busy_integrating(scene, 0.0, 250.0, int(allowed) + 1, 250)
+
+
+def test_method_2_does_not_pin_the_bodies_at_a_far_steady_state():
+    """Method 2's steady state (eq. 27-29) pins the bodies at x = F / k once conditions (i)-(iii)
+    hold near x = 0. On a structure of k = 8e-182 N/m under b u = 1.2e-10 N that position is
+    8e170 m: the first grid step after the start moved both bodies there, creating k x^2 / 2 =
+    2.5e160 J (the search's energy, computed with **, raised OverflowError). The pin now needs
+    its own position within threshold (i) too, where the article's scenes have it (Figure 2:
+    5e-6 m); here the ice drifts on with the flow."""
+    scene = Scene(structure_m=1.0, structure_c=5.662101206033905e-91,
+                  structure_k=8.01484751684265e-182, structure_v0=7.72942080896352e-141,
+                  ice_M=1e-06, ice_A=0.002549214770303985, ice_Cd=1e-05, ice_z0=-1e-05,
+                  ice_v0=7.72942080896352e-141, fluid_rho=1.0, impact_e=0.0,
+                  drag_v_lin=0.0026403612183405326, flow_u=1.9, solver_method=2)
+    sim = Simulator(scene)
+    for _ in range(3):
+        report = sim.advance(0.06955705053537756)
+        assert abs(report.x) < 1e-4 and abs(report.z) < 1e-4
+        assert not sim.sticking
+    assert Simulator(Scene(solver_method=2, impact_e=0.0)).solver._pinnable()  # 5e-6 m

@@ -2,6 +2,7 @@
 
     python tools/random_search.py --method 1 --seed 23 --examples 2000
     python tools/random_search.py --method 1 --seed 5 --examples 3000 --scales --flows
+    python tools/random_search.py --method 2 --seed 112 --examples 3000 --far
 
 Each random scene (the strategy of tests/test_properties.py, with the chosen solver method;
 method 2 uses the gap-sign test unless --detection 1) runs for 3 s (method 3: 1 s) at a random
@@ -11,9 +12,15 @@ shared: wall time would flag scenes slowed by other work).
 ``--scales`` draws the scales out to what validation accepts (omega_n up to the method's limit,
 masses from 1e-6 to 1e9 kg, flows up to the drag-rate limit, steps down to 0.1 ms); ``--flows``
 drives the flow input with a random sequence: constant, reversing at every step, random signs,
-zero, reversed one step in four. Scenes the model refuses (ParameterError, at the start or at a
-step, or a SolverError naming the limit, such as method 2's unstable Euler step) are
-counted and skipped.
+zero, reversed one step in four. ``--far`` draws from a wider box than validation's limits
+(stiffness down to 1e-200 N/m, fluid.rho 1e-200 to 1e30 kg/m^3, drag.v_lin up to 1e200 m/s,
+masses 1e-6 to 1e9 kg, impact.e 1e-12 to 1) and runs each scene FAR_STEPS = 300 communication
+steps of 0.01 to 1 s under a flow constant, zero, reversing at every step or random in sign and
+size; the scenes validation refuses up front are counted by the rule that refused them. Scenes
+the model refuses (ParameterError, at the start or at a step, or a SolverError naming the
+limit, such as method 2's unstable Euler step) are counted and skipped. Every numpy warning is
+an error (a FAIL naming where it was raised): an invalid value computed on the way is a fault
+even where it is discarded.
 
 Printed: every scene that stalls (TIMEOUT: out of CPU time with its work beyond what its
 impacts or its rate rule allow, see :func:`busy_with_impacts` and :func:`busy_integrating`),
@@ -41,8 +48,10 @@ import math
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 
+import numpy as np
 from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
 
@@ -66,8 +75,15 @@ TIME_LIMIT = 30.0  # s of CPU time per scene (not wall time: the machine may be 
 GAP_TOLERANCE = {1: 1e-12, 2: math.inf, 3: 1e-10}
 # relative to the scene's momentum scale: rounding (methods 1, 2), integration error (3)
 IMPULSE_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
-# relative growth of the energy at u = 0 (docs/robustness.md, the extremes matrix)
+# relative growth of the energy at u = 0 (docs/robustness.md, the extremes matrix); method 3
+# is held to its integration's bound instead, ode_energy_bound
 ENERGY_TOLERANCE = {1: 1e-9, 2: 1e-9, 3: 1e-5}
+#: right-hand-side evaluations per step of method 3's explicit integrators (at least: rejected
+#: steps and the dense output's extra stages count too, so nfev / STAGES over-counts the steps)
+STAGES = {"RK45": 6, "DOP853": 12}
+#: the error norm of scipy's step control is an RMS over the state's (up to 5) components, so
+#: one component's error reaches sqrt(5) < 3 times its tolerance atol + rtol |y|
+NORM_FACTOR = 3.0
 #: rounding of the states: a few ulps of the positions and speeds they add up
 STATE_ULPS = 8.0 * 2.0 ** -52
 #: s of CPU per impact (with the search's checks) within which a run out of CPU time is busy
@@ -79,7 +95,15 @@ IMPACT_WORK = 1e-3
 #: all, within which a run out of CPU time is busy integrating (:func:`busy_integrating`; the
 #: bound of fix 30's test, and 100 for each restart at a flow change)
 ODE_WORK, ODE_RESTART_WORK, ODE_WORK_FLOOR = 4.0, 100, 2000
+#: method 3's evaluations per rad/s of omega_n and simulated second within which a run is busy
+#: integrating the structure's oscillation (DOP853: 23 measured on an undamped 1087 rad/s
+#: structure, 10-20 steps a period; docs/robustness.md, "The far-scale search")
+ODE_OMEGA_WORK = 40.0
 FLOWS = ("constant", "reversing", "random signs", "zero", "reversed 1 in 4")
+#: the flow sequences of the far-scale search (--far): "random" draws each step's sign and size
+FAR_FLOWS = ("constant", "zero", "reversing", "random")
+#: communication steps of the far-scale search: so many, of 0.01 to 1 s
+FAR_STEPS = 300
 OMEGA_MAX = {1: OMEGA_MAX_EXACT, 2: 1e12, 3: OMEGA_MAX_ODE}
 #: the drag-rate limit of each method's validation (method 3: its explicit integrators, the
 #: default DOP853)
@@ -159,8 +183,73 @@ def _scene(draw, m, k, zeta, M, A, Cd, drag, u_max, x0, v0, method):
         solver_method=method)
 
 
-def flow_at(kind: str, i: int, u: float, signs: list[bool]) -> float:
-    """Flow speed of communication step i under a sequence ``kind`` around speed u."""
+@st.composite
+def far_scenes(draw, method: int):
+    """Scenes from the far box (docs/robustness.md, "The far-scale search"): stiffness from
+    1e-200 N/m to the method's omega_n limit, fluid density 1e-200 to 1e30 kg/m^3, drag.v_lin
+    up to 1e200 m/s, masses 1e-6 to 1e9 kg, restitution 1e-12 to 1 (and 0, 1 exactly); flows
+    up to 1e4 m/s, or within 0.4 of the drag-rate limits. Scenes validation refuses up front
+    are counted by the caller (:class:`_Refusals`) and not run."""
+    m = 10 ** draw(st.floats(-6.0, 9.0))
+    M = 10 ** draw(st.floats(-6.0, 9.0))
+    k_max = math.log10(m) + 2.0 * math.log10(OMEGA_MAX[method])
+    k = 10 ** draw(st.one_of(st.floats(-200.0, k_max),
+                             st.floats(math.log10(m) - 6.0, k_max)))
+    zeta = draw(st.one_of(st.just(0.0), st.just(1.0), st.floats(0.0, 50.0)))
+    rho = 10 ** draw(st.one_of(st.floats(-200.0, 30.0), st.floats(-3.0, 4.0)))
+    A = 10 ** draw(st.floats(-3.0, 3.0))
+    Cd = draw(st.one_of(st.just(0.0), st.floats(0.0, 2.0)))
+    drag = draw(st.sampled_from([1, 2]))
+    v_lin = 10 ** draw(st.one_of(st.floats(-3.0, 200.0), st.floats(-3.0, 1.0)))
+    B = 0.5 * rho * Cd * A
+    u_free = 10 ** draw(st.floats(-3.0, 4.0))
+    u_max = u_free if B == 0.0 else min(u_free, 0.4 * RATE_MAX[method] * M / (2.0 * B))
+    if method == 1 and B > 0.0:
+        u_max = min(u_max, 0.4 * TAYLOR_RATE_MAX * (m + M) / (2.0 * B))
+    u_max = draw(st.sampled_from([u_max, u_free]))
+    x0 = draw(st.one_of(st.just(0.0), st.floats(-1.0, 1.0)))
+    v0 = draw(st.floats(-1.0, 1.0))
+    e = draw(st.one_of(st.just(0.0), st.just(1.0),
+                       st.floats(-12.0, 0.0).map(lambda p: 10 ** p)))
+    try:
+        return Scene(
+            structure_m=m, structure_k=k, structure_c=2.0 * zeta * math.sqrt(k * m),
+            structure_x0=x0, structure_v0=v0, ice_M=M, ice_A=A, ice_Cd=Cd,
+            ice_z0=x0 - draw(st.one_of(st.just(0.0), st.floats(0.0, 0.1))),
+            ice_v0=draw(st.one_of(st.just(v0), st.just(0.0),
+                                  st.floats(-u_max / 2, u_max / 2))),
+            fluid_rho=rho, impact_e=e, drag_model=drag, drag_v_lin=v_lin,
+            flow_u=draw(st.one_of(st.just(0.0), st.floats(-u_max, u_max))),
+            solver_method=method)
+    except ParameterError as exc:  # refused up front: counted, not run
+        _REFUSALS.note(exc)
+        assume(False)
+
+
+class _Refusals:
+    """Scenes validation refused up front, by the name of the parameter or rule refused."""
+
+    def __init__(self):
+        self.by_name: dict[str, int] = {}
+
+    def note(self, exc: ParameterError) -> None:
+        name = getattr(exc, "name", None) or str(exc).split(" = ")[0]
+        self.by_name[name] = self.by_name.get(name, 0) + 1
+
+    def total(self) -> int:
+        return sum(self.by_name.values())
+
+
+_REFUSALS = _Refusals()
+
+
+def flow_at(kind: str, i: int, u: float, signs: list[bool],
+            sizes: list[float] | None = None) -> float:
+    """Flow speed of communication step i under a sequence ``kind`` around speed u ("random":
+    the sign from ``signs`` and the size from ``sizes``, fractions of u, each cycled)."""
+    if kind == "random":
+        size = sizes[i % len(sizes)] if sizes else 1.0
+        return (u if signs[i % len(signs)] else -u) * size
     if kind == "reversing":
         return u if i % 2 == 0 else -u
     if kind == "random signs":
@@ -173,9 +262,28 @@ def flow_at(kind: str, i: int, u: float, signs: list[bool]) -> float:
 
 
 def energy(scene: Scene, s) -> float:
-    """Mechanical energy 1/2 m v^2 + 1/2 k x^2 + 1/2 M w^2, J."""
-    return 0.5 * (scene.structure_m * s.v ** 2 + scene.structure_k * s.x ** 2
-                  + scene.ice_M * s.w ** 2)
+    """Mechanical energy 1/2 m v^2 + 1/2 k x^2 + 1/2 M w^2, J (products, not powers: a float's
+    ** raises OverflowError where x^2 alone overflows, k x^2 need not)."""
+    return 0.5 * (scene.structure_m * s.v * s.v + scene.structure_k * s.x * s.x
+                  + scene.ice_M * s.w * s.w)
+
+
+def ode_energy_bound(scene: Scene, e: float, nfev: int) -> float:
+    """Largest energy growth (J) method 3's step control allows over ``nfev`` right-hand-side
+    evaluations from energy e (J) at u = 0 (docs/accuracy.md, "Method 3's energy error").
+    Each accepted step keeps each state's local error within NORM_FACTOR (atol + rtol |y|),
+    atol = ATOL_SCALE rtol; E = 1/2 (m v^2 + k x^2 + M w^2) then moves by at most
+    NORM_FACTOR (2 rtol E + atol (k |x| + m |v| + M |w|)) <= NORM_FACTOR (2 rtol E + atol
+    sqrt(2 E) (sqrt(k) + sqrt(m) + sqrt(M))) a step (k |x| = sqrt(k) sqrt(k x^2)), and an
+    exactly elastic impact at the located state moves it by nothing; over N <= nfev / STAGES
+    steps, N times that. With nothing dissipating the error only accumulates: it grows with the
+    steps (20 a period: ~23 evaluations per omega_n and simulated second), not with time."""
+    rtol = scene.solver_rtol
+    atol = ATOL_SCALE * rtol
+    steps = nfev / STAGES.get(ODE_METHODS[scene.solver_ode_method], 1)
+    roots = (math.sqrt(scene.structure_k) + math.sqrt(scene.structure_m)
+             + math.sqrt(scene.ice_M))
+    return NORM_FACTOR * steps * (2.0 * rtol * e + atol * math.sqrt(2.0 * e) * roots)
 
 
 def energy_floor(scene: Scene, s, u: float, atol: float) -> float:
@@ -207,6 +315,7 @@ class Outcome:
     min_gap: float
     impacts: int = 0
     busy: bool = False
+    refusal: str | None = None  # the message of a refused step
 
 
 def busy_with_impacts(scene: Scene, t: float, impacts: int, cpu: float,
@@ -233,22 +342,37 @@ def busy_integrating(scene: Scene, u: float, t: float, nfev: int, steps: int) ->
     within what its rate rule allows: ODE_WORK evaluations per unit of the fastest rate it
     integrates (``integrated_rate`` at the flow speed u: DOP853 makes 15 evaluations per step
     of at most STABLE_STEP / rate = 1 / (5 rate) s, 3 rate per simulated second, plus its
-    restarts at impacts), ODE_RESTART_WORK per communication step (a flow change restarts the
-    integration) and ODE_WORK_FLOOR. Such a run costs up to ~10 s of CPU per simulated second
-    at the rate limit, 3e5 1/s (docs/robustness.md, fix 30, and Open)."""
+    restarts at impacts), or ODE_OMEGA_WORK per rad/s of omega_n where that is more (its steps
+    per period of the structure), ODE_RESTART_WORK per communication step (a flow change
+    restarts the integration) and ODE_WORK_FLOOR. Such a run costs up to ~10 s of CPU per
+    simulated second at the rate limit, 3e5 1/s (docs/robustness.md, fix 30, and Open), and
+    ~1 s at omega_n's, 1e4 rad/s (300 steps of 1 s: ~300 s)."""
     if (scene.solver_method != 3 or ODE_METHODS[scene.solver_ode_method] not in STABLE_STEP
             or t <= 0.0):
         return False
     rate = integrated_rate(scene, u)
-    return nfev <= ODE_WORK * rate * t + ODE_RESTART_WORK * steps + ODE_WORK_FLOOR
+    # the steps are the shorter of the rate's stable step and the accuracy's per period
+    return nfev <= (max(ODE_WORK * rate, ODE_OMEGA_WORK * scene.omega_n) * t
+                    + ODE_RESTART_WORK * steps + ODE_WORK_FLOOR)
 
 
 def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
-             time_limit: float = TIME_LIMIT) -> Outcome:
+             time_limit: float = TIME_LIMIT, sizes: list[float] | None = None,
+             steps: int | None = None) -> Outcome:
     """Run one scene of the search (its method is ``scene.solver_method``) at communication step
-    h under the flow sequence ``flow`` (with ``signs`` for "random signs"), checking every step:
-    finite outputs, gap, contact impulse, energy at u = 0. Stops at the first fault, at a
-    refused step, or after ``time_limit`` s of CPU time (a TIMEOUT fault)."""
+    h under the flow sequence ``flow`` (with ``signs`` for "random signs" and "random",
+    ``sizes`` for "random"), checking every step: finite outputs, gap, contact impulse, energy
+    at u = 0, and no numpy warning (each is an error: an invalid value computed on the way).
+    ``steps``: so many communication steps (the far-scale search), else the horizon of 3 s
+    (method 3: 1 s; 50 ms below 1 ms steps). Stops at the first fault, at a refused step, or
+    after ``time_limit`` s of CPU time (a TIMEOUT fault)."""
+    with warnings.catch_warnings(), np.errstate(all="warn", under="ignore"):
+        warnings.simplefilter("error")
+        return _run_case(scene, h, flow, signs, time_limit, sizes, steps)
+
+
+def _run_case(scene: Scene, h: float, flow: str, signs: list[bool], time_limit: float,
+              sizes: list[float] | None, steps: int | None) -> Outcome:
     method = scene.solver_method
     sim = Simulator(scene)
     t_end = 3.0 if method != 3 else 1.0
@@ -265,7 +389,9 @@ def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
     mu = scene.structure_m * scene.ice_M / (scene.structure_m + scene.ice_M)
     impulse_floor = mu * PARTING_NOISE * atol
     e_scale = max(e_last, 1e-300)
+    e_least = e_most = e_last
     fault, refused, min_gap, busy = None, False, math.inf, False
+    refusal = None
     reached = None  # (simulated time, impacts) where a run out of CPU time stood
     start = time.process_time()
     alarm = _HalfwayAlarm(sim)
@@ -273,13 +399,13 @@ def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
     signal.setitimer(signal.ITIMER_PROF, 0.5 * time_limit, 0.5 * time_limit)
     i = 0
     try:
-        while sim.t < t_end - 1e-12:
-            u = flow_at(flow, i, u0, signs)
+        while (i < steps) if steps is not None else (sim.t < t_end - 1e-12):
+            u = flow_at(flow, i, u0, signs, sizes)
             i += 1
             try:
-                r = sim.advance(min(h, t_end - sim.t), u)
-            except (ParameterError, SolverError):  # a refusal that names the limit
-                refused = True
+                r = sim.advance(h if steps is not None else min(h, t_end - sim.t), u)
+            except (ParameterError, SolverError) as exc:  # a refusal that names the limit
+                refused, refusal = True, str(exc)
                 break
             values = [r.x, r.v, r.z, r.w, r.gap, r.penetration, r.impulse, r.force, r.t_last]
             if not all(map(math.isfinite, values)):
@@ -295,8 +421,15 @@ def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
                                      f"t = {r.t} (scale {momentum:.3g})")
             e_now = energy(scene, s)
             floor = energy_floor(scene, s, u, atol) + energy_floor(scene, last, u, atol)
-            if flow == "zero" and e_now > (e_last + ENERGY_TOLERANCE[method] * e_scale
-                                           + floor):
+            if method == 3:  # since the least energy so far, by every step integrated yet
+                # (a chunk is integrated ahead of the steps it serves)
+                e_least, e_most = min(e_least, e_last), max(e_most, e_now)
+                if flow == "zero" and e_now > e_least + floor + ode_energy_bound(
+                        scene, e_most, sim.solver.nfev):
+                    raise AssertionError(f"energy created at u = 0: {e_least} -> {e_now} J "
+                                         f"by t = {r.t}, beyond the integration's bound")
+            elif flow == "zero" and e_now > (e_last + ENERGY_TOLERANCE[method] * e_scale
+                                             + floor):
                 raise AssertionError(f"energy created at u = 0: {e_last} -> {e_now} J "
                                      f"at t = {r.t}")
             e_last, last = e_now, s
@@ -310,20 +443,37 @@ def run_case(scene: Scene, h: float, flow: str, signs: list[bool],
         if not busy:
             fault = f"TIMEOUT at t = {sim.t} s, h = {h} s, flow {flow}: {scene}"
     except Exception as exc:
-        fault = f"FAIL {exc!r}, h = {h} s, flow {flow}: {scene}"
+        fault = f"FAIL {exc!r}{_where(exc)}, h = {h} s, flow {flow}: {scene}"
     finally:
         signal.setitimer(signal.ITIMER_PROF, 0.0)
         signal.signal(signal.SIGPROF, previous)
     t_out, impacts_out = reached or (sim.t, sim.impact_count)
     return Outcome(fault, refused, time.process_time() - start, t_out, min_gap, impacts_out,
-                   busy)
+                   busy, refusal)
+
+
+def _where(exc: Exception) -> str:
+    """' at file:line' of the innermost frame of the package that raised ``exc`` (a numpy
+    warning turned error is raised where it was computed)."""
+    where = ""
+    tb = exc.__traceback__
+    while tb is not None:
+        path = tb.tb_frame.f_code.co_filename
+        if "iceimpact" in path:
+            where = f" at {Path(path).name}:{tb.tb_lineno}"
+        tb = tb.tb_next
+    return where
 
 
 def case_text(scene: Scene, h: float, flow: str, signs: list[bool],
-              time_limit: float = TIME_LIMIT) -> str:
+              time_limit: float = TIME_LIMIT, sizes: list[float] | None = None,
+              steps: int | None = None) -> str:
     """One case as JSON, every float at repr() precision (what :func:`replay` reads)."""
-    return json.dumps({"scene": dataclasses.asdict(scene), "h": h, "flow": flow,
-                       "signs": list(signs), "time_limit": time_limit})
+    case = {"scene": dataclasses.asdict(scene), "h": h, "flow": flow, "signs": list(signs),
+            "time_limit": time_limit}
+    if steps is not None:
+        case.update(sizes=list(sizes or []), steps=steps)
+    return json.dumps(case)
 
 
 def replay(text: str) -> Outcome:
@@ -335,7 +485,7 @@ def replay(text: str) -> Outcome:
     except ParameterError as exc:  # a scene the validation now refuses up front
         return Outcome(f"REFUSED up front: {exc}", True, 0.0, 0.0, math.inf)
     return run_case(scene, case["h"], case["flow"], case["signs"],
-                    case.get("time_limit", TIME_LIMIT))
+                    case.get("time_limit", TIME_LIMIT), case.get("sizes"), case.get("steps"))
 
 
 def main() -> None:
@@ -348,6 +498,10 @@ def main() -> None:
     parser.add_argument("--scales", action="store_true",
                         help="scales out to the validation limits")
     parser.add_argument("--flows", action="store_true", help="random flow sequences")
+    parser.add_argument("--far", action="store_true",
+                        help=f"the far box: {FAR_STEPS} steps of 0.01-1 s, stiffness down to "
+                        "1e-200 N/m, fluid.rho 1e-200 to 1e30, drag.v_lin up to 1e200, flows "
+                        "constant, zero, reversing or random in sign and size")
     parser.add_argument("--time-limit", type=float, default=TIME_LIMIT,
                         help="s of CPU time per scene before it counts as a TIMEOUT")
     parser.add_argument("--replay", metavar="JSON",
@@ -362,28 +516,41 @@ def main() -> None:
         return
     found: list[str] = []
     count = refused = busy = 0
-    strategy = scale_scenes(args.method) if args.scales else scenes()
+    strategy = (far_scenes(args.method) if args.far else scale_scenes(args.method)
+                if args.scales else scenes())
     steps = [1e-4, 1e-3, 0.01, 0.37, 10.0] if args.scales else [1e-3, 0.01, 0.37, 10.0]
-    flows = st.sampled_from(FLOWS) if args.flows else st.just("constant")
+    step_strategy = (st.floats(-2.0, 0.0).map(lambda p: 10 ** p) if args.far
+                     else st.sampled_from(steps))
+    flows = (st.sampled_from(FAR_FLOWS) if args.far else st.sampled_from(FLOWS) if args.flows
+             else st.just("constant"))
+    n_steps = FAR_STEPS if args.far else None
 
     @seed(args.seed)
     @settings(max_examples=args.examples, deadline=None, database=None,
               suppress_health_check=list(HealthCheck))
-    @given(scene=strategy, h=st.sampled_from(steps), flow=flows,
-           signs=st.lists(st.booleans(), min_size=1, max_size=16))
-    def check(scene, h, flow, signs):
+    @given(scene=strategy, h=step_strategy, flow=flows,
+           signs=st.lists(st.booleans(), min_size=1, max_size=16),
+           sizes=st.lists(st.one_of(st.just(0.0), st.floats(-6.0, 0.0).map(lambda p: 10 ** p)),
+                          min_size=1, max_size=16))
+    def check(scene, h, flow, signs, sizes):
         nonlocal count, refused, busy
         try:
             scene = scene.replace(solver_method=args.method, solver_detection=args.detection)
-        except ParameterError:
+        except ParameterError as exc:
+            _REFUSALS.note(exc)
             assume(False)
         count += 1
         if count % 250 == 0:
             print(f"... {count} scenes, {refused} refused, {busy} busy, {len(found)} faults",
                   flush=True)
-        outcome = run_case(scene, h, flow, signs, args.time_limit)
+        sizes = sizes if n_steps is not None else None
+        outcome = run_case(scene, h, flow, signs, args.time_limit, sizes, n_steps)
         refused += outcome.refused
         busy += outcome.busy
+        if outcome.refusal is not None:
+            print(f"REFUSED at t = {outcome.t} s: {outcome.refusal}", flush=True)
+            print("REPLAY " + case_text(scene, h, flow, signs, args.time_limit, sizes, n_steps),
+                  flush=True)
         if outcome.fault is not None:
             found.append(outcome.fault)
             print(outcome.fault, flush=True)
@@ -393,11 +560,14 @@ def main() -> None:
                       f" s, h = {h} s, flow {flow}: {scene}", flush=True)
             elif outcome.fault is None:
                 print(f"SLOW {outcome.cpu:.1f} s, h = {h} s, flow {flow}: {scene}", flush=True)
-            print("REPLAY " + case_text(scene, h, flow, signs, args.time_limit), flush=True)
+            print("REPLAY " + case_text(scene, h, flow, signs, args.time_limit, sizes, n_steps),
+                  flush=True)
 
     check()
     print(f"{count} scenes, {refused} refused at a step, {busy} busy (impacts or integration), "
-          f"{len(found)} faults")
+          f"{len(found)} faults; {_REFUSALS.total()} drawn scenes refused up front")
+    for name, n in sorted(_REFUSALS.by_name.items(), key=lambda item: -item[1]):
+        print(f"  refused up front {n} times: {name}")
 
 
 if __name__ == "__main__":

@@ -230,6 +230,17 @@ def check_work(scene: Scene) -> None:
                              "steps grow as rtol^(-1/4) (an error estimate of order 3), "
                              "~500-800 steps (~0.1 s of CPU) per change of the flow at this "
                              "limit; solver.ode_method = 3 (LSODA) accepts tighter tolerances")
+    if (s.solver_method == METHOD_EXACT and s.drag_model == LINEAR_DRAG
+            and s.drag_b / s.ice_M > EXACT_DRAG_RATE_MAX):
+        raise ParameterError("B * drag.v_lin / ice.M", s.drag_b / s.ice_M,
+                             f"<= {EXACT_DRAG_RATE_MAX:.3g} 1/s with linear drag and "
+                             "solver.method = 1: the ice's relaxation time M / b must stay above "
+                             f"the time resolution of the exact method's root search "
+                             f"({TIME_RESOLUTION:g} s), which cannot resolve a faster "
+                             "relaxation; use solver.method = 2, whose closed forms on a grid "
+                             "need no root search (B = fluid.rho ice.Cd ice.A / 2 = "
+                             f"{s.drag_B:.6g} kg/m, drag.v_lin = {s.drag_v_lin:.6g} m/s, "
+                             f"ice.M = {s.ice_M:.6g} kg)")
     omega_max = omega_limit(s)
     if s.omega_n > omega_max:
         why = ("the chatter time (1e-2 of the structure's period) must stay above the time "
@@ -284,6 +295,11 @@ OVERFLOW = "this scene's scales overflow double precision"
 TIME_RESOLUTION = 8.9e-16
 #: Simulated time up to which the exact method must resolve the structure's motion (s).
 RESOLVED_HORIZON = 1e6
+#: Largest linear drag rate b / M (1/s) of method 1: the ice's relaxation time must stay above
+#: the root search's time resolution. Beyond it the rounding of the relaxed velocity w - u
+#: (a few ulps of u) times b / M is an acceleration bound that the search's steps shrink to
+#: (b / M = 3.5e37 1/s: no progress past 1e-9 s in 10 s of CPU; 1e27: 18 s for 300 s).
+EXACT_DRAG_RATE_MAX = 1.0 / TIME_RESOLUTION
 #: Largest omega_n (rad/s) of methods 1 and 3. Method 1 closes every bounce shorter than the
 #: chatter time (1e-2 of the structure's period, contact_rules.CHATTER_FRACTION) and resolves
 #: longer ones with its root search, whose time resolution is TIME_RESOLUTION * max(1, t). Above

@@ -27,7 +27,8 @@ def _decay_lag_array(x: np.ndarray) -> np.ndarray:
     evaluates it for one x (series below 1e-2)."""
     small = x < 1e-2
     safe = np.where(small, 1.0, x)
-    series = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
+    s = np.where(small, x, 0.0)  # the series only where it is used: a large x overflows it
+    series = -s * (0.5 - s * (1 / 6 - s * (1 / 24 - s * (1 / 120 - s / 720))))
     return np.where(small, series, -np.expm1(-safe) / safe - 1.0)
 
 
@@ -36,7 +37,8 @@ def _log_lag_array(y: np.ndarray) -> np.ndarray:
     evaluates it for one y (series below 1e-3)."""
     small = y < 1e-3
     safe = np.where(small, 1.0, y)
-    series = -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
+    s = np.where(small, y, 0.0)  # the series only where it is used: a large y overflows it
+    series = -s * (0.5 - s * (1 / 3 - s * (0.25 - s * (0.2 - s / 6))))
     return np.where(small, series, np.log1p(safe) / safe - 1.0)
 
 

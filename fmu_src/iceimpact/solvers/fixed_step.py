@@ -19,7 +19,8 @@ On a fixed grid of step dt = ``solver.dt`` (s), anchored at the last impact:
   The impact applies eq. 16-17 to the velocities at that grid point; both closed forms restart
   there from the structure's position (eq. 18-24: ``z = x_k``), the local time resets to 0 and the
   global grid goes on.
-- **Steady state** (eq. 27-29), only while the drag pushes (u >= 0: a contact cannot pull):
+- **Steady state** (eq. 27-29), only while the drag pushes (u >= 0: a contact cannot pull) and
+  its position F / k below is within threshold (i):
   when (i) ``max(|z|, |x|) < 1e-4 m``, (ii) ``max(|w|, |v|) <
   1e-4 m/s`` and (iii) ``max(|z''|, |x''|) < 1e-4 m/s^2`` hold at a grid point, the bodies are
   pinned at ``x = z = F / k``, ``v = w = 0``, with ``F = b u`` (linear drag, eq. 28-29) or
@@ -145,13 +146,17 @@ class FixedStepSolver(Solver):
         self._buf_start: tuple[int, Grid] | None = None
         self.grid: Grid = (x, v, z, w)  # state at that grid point (post-impact)
 
-    def _pin(self, t: float) -> None:
-        """Steady state of eq. 27-29: k x = F_drag(0)."""
-        self.pinned = True
+    def _pin_position(self) -> float:
+        """Where eq. 27-29 pin the bodies: k x = F_drag(0), m."""
         force = self.drag.force(0.0, self.u)
         if self.structure_drag is not None:  # the flow drags the structure as well
             force += self.structure_drag.force(0.0, self.u)
-        self.pin_x = force / self.k
+        return force / self.k
+
+    def _pin(self, t: float) -> None:
+        """Steady state of eq. 27-29: k x = F_drag(0)."""
+        self.pinned = True
+        self.pin_x = self._pin_position()
         self._set_sticking(True, t)
 
     def _release(self, t: float) -> None:
@@ -187,16 +192,20 @@ class FixedStepSolver(Solver):
             f"{q * abs(r):.3g} > {limit:g}, so the ice velocity would diverge; use "
             f"solver.dt < {limit / (self.drag.beta * abs(r)):.3g} s, or solver.method = 1")
 
-    def _pushes(self) -> bool:
+    def _pinnable(self) -> bool:
         """The steady state of eq. 27-29 presses the ice on the structure with k x = F_drag(0):
         it exists only while the drag pushes (u >= 0). A contact cannot pull, so with a reversed
-        flow the bodies are never pinned (the ice drifts away instead)."""
-        return self.drag.force(0.0, self.u) >= 0.0
+        flow the bodies are never pinned (the ice drifts away instead). And only where that
+        position is within threshold (i) itself: the thresholds hold near x = 0, and a pin at a
+        far equilibrium (b u / k = 8e170 m on k = 8e-182 N/m) moved the bodies there in one
+        grid step, creating its energy k x^2 / 2."""
+        return (self.drag.force(0.0, self.u) >= 0.0
+                and abs(self._pin_position()) < STEADY_THRESHOLD)
 
     def _steady(self, x, v, z, w, v_prev, w_prev) -> np.ndarray:
         """Conditions (i)-(iii) of Section 4.1 at each grid point of a chunk."""
         lim = STEADY_THRESHOLD
-        return (self._pushes()
+        return (self._pinnable()
                 & (np.maximum(np.abs(x), np.abs(z)) < lim)
                 & (np.maximum(np.abs(v), np.abs(w)) < lim)
                 & (np.maximum(np.abs(v - v_prev), np.abs(w - w_prev)) < lim * self.dt))
@@ -205,7 +214,7 @@ class FixedStepSolver(Solver):
                    w_prev: float) -> bool:
         """Conditions (i)-(iii) of Section 4.1 at one grid point."""
         lim = STEADY_THRESHOLD
-        return (self._pushes() and abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
+        return (self._pinnable() and abs(x) < lim and abs(z) < lim and abs(v) < lim and abs(w) < lim
                 and abs(v - v_prev) < lim * self.dt and abs(w - w_prev) < lim * self.dt)
 
     def _fill(self, n0: int, grid: Grid) -> None:

@@ -50,7 +50,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import DOP853, solve_ivp
 from scipy.optimize import brentq
 
 from ..errors import SolverError, StateError
@@ -195,6 +195,25 @@ class _ContactForce:
         return lam if t > self.start and lam != 0.0 else max(lam, _TINY)
 
 
+class _DOP853(DOP853):
+    """scipy's DOP853, its error norm's 0 / 0 taken for what it is. The norm is err5^2 /
+    sqrt(err5^2 + 0.01 err3^2): with the states some 1e-160 of the tolerance (a damped
+    structure decayed to 5e-167 m), err5^2 underflows to 0 and 0.01 err3^2 too, and the NaN
+    rejected a step whose error is below any double (a RuntimeWarning, the step retried at a
+    fifth). That error is 0; a NaN from non-finite stages still rejects the step."""
+
+    def _estimate_error_norm(self, K, h, scale):
+        with np.errstate(invalid="ignore"):  # the one 0 / 0, handled below
+            norm = super()._estimate_error_norm(K, h, scale)
+        if norm == norm or not np.isfinite(K).all():
+            return norm
+        return 0.0
+
+
+#: the integrator classes solve_ivp is given, by solver.ode_method's name (others: the name)
+_INTEGRATORS = {"DOP853": _DOP853}
+
+
 def _same_instant(t: float, t_ref: float) -> bool:
     """Events this close (s) are one instant: what separates them is rounding."""
     return abs(t - t_ref) <= 1e-12 * max(1.0, abs(t))
@@ -332,7 +351,8 @@ class OdeSolver(EventMarch):
         if lo < self.hold_until:
             hi, events = min(hi, self.hold_until), None
         implicit = {} if self.method in STABLE_STEP else {"jac": self.rhs.jacobian}
-        res = solve_ivp(self.rhs, (lo, hi), y_lo, method=self.method, rtol=self.rtol,
+        integrator = _INTEGRATORS.get(self.method, self.method)
+        res = solve_ivp(self.rhs, (lo, hi), y_lo, method=integrator, rtol=self.rtol,
                         atol=self.atol, dense_output=True, events=events,
                         max_step=self._max_step(y_lo), **implicit)
         if res.status == -1:

@@ -66,6 +66,46 @@ _RECIPROCALS = 1.0 / np.arange(1, ORDER + 1)
 _RECIPROCAL_LIST = _RECIPROCALS.tolist()
 _power = np.power
 _NO_TABLE = np.zeros((ORDER + 1, 3))
+_INT_POWERS = np.arange(ORDER + 1)
+#: Steps from this long on have h^ORDER beyond double precision (2^(28 x 36) < 2^1024 only
+#: just): _scaled scales their coefficients without forming h^n.
+_LONG_STEP = 2.0 ** 28
+
+
+def _scaled(table: np.ndarray, h: float) -> np.ndarray:
+    """The coefficients c_n h^n of theta = (tau - lo) / h. Beyond _LONG_STEP, h^n itself
+    overflows (a structure of period 1e74 s, k = 4e-148 N/m: h^36 = inf, and 0 x inf = NaN in
+    the terms that underflowed) though each c_n h^n is finite: scaled by h's mantissa and
+    exponent apart (ldexp)."""
+    if h < _LONG_STEP:
+        table *= h ** _POWERS
+        return table
+    mantissa, exponent = math.frexp(h)
+    return np.ldexp(table * mantissa ** _POWERS, exponent * _INT_POWERS)
+
+
+def _last_nonzero(row: np.ndarray) -> tuple[int, float] | None:
+    """(j, |c_j|) of the highest nonzero coefficient of a row whose last two are 0, if
+    3 <= j < ORDER - 1, else None. A row of degree 2 or less is exact (the drag impulse of a
+    pair at rest, linear in time), and the step's size c_0 + c_1 h + c_2 h^2 holds it; with
+    k > 0 a higher one is not a polynomial, and its last terms are 0 only by underflow (a rate
+    of 2e-30 1/s, terms rate^n): taking them as no bound let a step span 1e67 s, where the
+    terms in between are 1e400."""
+    nonzero = np.flatnonzero(row[3:ORDER - 1])
+    if nonzero.size == 0:
+        return None
+    j = int(nonzero[-1]) + 3
+    return j, abs(float(row[j]))
+
+
+def _root_of_ratio(c0: float, c1: float, c2: float, h: float, a: float, power: float) -> float:
+    """(TOLERANCE (c0 + c1 h + c2 h^2) / a)^power in logarithms, where the ratio overflows (a
+    step of a structure with a period of 1e91 s tried at that length: the ratio's inf kept the
+    step a period long, and its terms c_n h^n beyond double precision)."""
+    terms = [math.log(c) + n * math.log(h) for n, c in enumerate((c0, c1, c2)) if c > 0.0]
+    top = max(terms)
+    log_size = math.log(TOLERANCE) + top + math.log(sum(math.exp(t - top) for t in terms))
+    return math.exp(min(power * (log_size - math.log(a)), 700.0))
 
 
 class StepEnd(enum.Enum):
@@ -247,14 +287,26 @@ class StickingTaylor:
         last = np.abs(table[:3, ORDER - 1:]).tolist()
         h = self.max_step if math.isfinite(self.max_step) else 1.0
         low, high = 1.0 / (ORDER - 1), 1.0 / ORDER
+        underflowed = [_last_nonzero(table[row]) if a_low == 0.0 == a_high else None
+                       for row, (a_low, a_high) in enumerate(last)]
         for _ in range(3):
             bound = self.max_step
-            for (c0, c1, c2), (a_low, a_high) in zip(first, last, strict=True):
+            for (c0, c1, c2), (a_low, a_high), tail in zip(first, last, underflowed,
+                                                          strict=True):
                 size = TOLERANCE * (c0 + h * (c1 + h * c2)) + 1e-300
+                if tail is not None:  # the last terms underflowed: the last nonzero one bounds
+                    j, a_j = tail
+                    ratio = size / a_j
+                    bound = min(bound, ratio ** (1.0 / j) if ratio < math.inf
+                                else _root_of_ratio(c0, c1, c2, h, a_j, 1.0 / j))
                 if a_low > 0.0:
-                    bound = min(bound, (size / a_low) ** low)
+                    ratio = size / a_low
+                    bound = min(bound, ratio ** low if ratio < math.inf
+                                else _root_of_ratio(c0, c1, c2, h, a_low, low))
                 if a_high > 0.0:
-                    bound = min(bound, (size / a_high) ** high)
+                    ratio = size / a_high
+                    bound = min(bound, ratio ** high if ratio < math.inf
+                                else _root_of_ratio(c0, c1, c2, h, a_high, high))
             h = SAFETY * bound
         return h
 
@@ -270,7 +322,7 @@ class StickingTaylor:
         theta_end = 1.0
         if lo + h > until:
             theta_end = (until - lo) / h
-        table *= h ** _POWERS  # coefficients of theta = (tau - lo) / h
+        table = _scaled(table, h)  # coefficients of theta = (tau - lo) / h
         signals = table[3:] if look_for_separation else table[3:4]  # s r, then lam
         values = _VANDERMONDE @ signals.T
         curvatures = np.abs(signals) @ _CURVATURE_WEIGHTS
