@@ -29,8 +29,6 @@ import csv
 import io
 import json
 import math
-import os
-import stat
 import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -43,6 +41,7 @@ from ..errors import ParameterError, real_number, value_text
 from ..runspec import DEFAULT_DT, MAX_SAMPLES, SpecError, Value, apply, check_name, coerce
 from ..scene import Scene, load_scene
 from ..sweep.errors import SweepError
+from ..sweep.table import read_text_file
 from .loads import F_EQ, N_EQ, WOHLER_EXPONENTS, Loads, design_loads, load_columns, run_loads
 
 __all__ = [
@@ -226,20 +225,7 @@ def _flatten(where: str, table: Mapping[str, Any], prefix: str = "") -> dict[str
 
 
 def _read_text(path: Path) -> str:
-    try:
-        st = os.stat(path)
-        if not stat.S_ISREG(st.st_mode):
-            raise SeasonError(f"{path}: not a regular file")
-        if st.st_size > MAX_FILE_BYTES:
-            raise SeasonError(f"{path}: {st.st_size:,} bytes, more than the {MAX_FILE_BYTES:,} "
-                              "of a load-case table")
-        return path.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise SeasonError(f"{path}: no such file") from None
-    except OSError as exc:
-        raise SeasonError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-    except UnicodeDecodeError as exc:
-        raise SeasonError(f"{path}: byte {exc.start} is not UTF-8 text") from None
+    return read_text_file(path, MAX_FILE_BYTES, lambda p, problem: SeasonError(f"{p}: {problem}"))
 
 
 def _settings(path: str, given: Mapping[str, Any]) -> tuple[float, float, float]:

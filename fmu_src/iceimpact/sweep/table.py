@@ -25,7 +25,7 @@ import math
 import os
 import stat
 import tempfile
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -179,23 +179,30 @@ def _refuse(path: Path, problem: str) -> SweepError:
     return SweepError(f"{path}: {problem}; {_REFUSED}")
 
 
-def _read_text(path: Path, limit: int | None = None) -> str:
-    """The text of a regular file (a link to one is fine), refused with a SweepError if it is
-    something else, too large, unreadable or not UTF-8."""
+def read_text_file(path: Path, limit: int | None,
+                   refuse: Callable[[Path, str], Exception]) -> str:
+    """The text of a regular file from outside (a link to one is fine): the exception
+    ``refuse(path, problem)`` if it is missing, something else, over ``limit`` bytes, unreadable
+    or not UTF-8. Used for sweep tables, their journals and load-case tables."""
     try:
         st = os.stat(path)
         if not stat.S_ISREG(st.st_mode):
-            raise _refuse(path, "is not a regular file")
+            raise refuse(path, "is not a regular file")
         if limit is not None and st.st_size > limit:
-            raise _refuse(path, f"is {st.st_size:,} bytes, too large for a sweep file")
+            raise refuse(path, f"is {st.st_size:,} bytes, more than the {limit:,} allowed")
         data = path.read_bytes()
+    except FileNotFoundError:
+        raise refuse(path, "no such file") from None
     except OSError as exc:
-        raise _refuse(path, f"cannot be read ({exc.strerror or exc})") from None
+        raise refuse(path, f"cannot be read ({exc.strerror or exc})") from None
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise _refuse(path, f"byte {exc.start} is not UTF-8 text, so this is not a table "
-                            "written by a sweep (damaged?)") from None
+        raise refuse(path, f"byte {exc.start} is not UTF-8 text") from None
+
+
+def _read_text(path: Path, limit: int | None = None) -> str:
+    return read_text_file(path, limit, _refuse)
 
 
 def read_meta(path: Path) -> dict[str, Any]:
