@@ -25,16 +25,21 @@ from random_search import FLOWS, flow_at, scale_scenes
 
 SRC = Path(__file__).resolve().parents[1] / "fmu_src"
 
-#: scenes whose flights the function takes (under-damped structure, linear drag) and a run
-#: length (s) with some hundreds of impacts: Figure 2, a heavy floe, a damped structure, e < 1
-#: (sticking phases between the flights), the linearised Morison drag on the structure (an
-#: oscillator with an offset that moves with the flow)
+#: scenes whose flights the function takes (under-damped structure, either drag law) and a run
+#: length (s) with some hundreds of impacts: Figure 2, a heavy floe (the ice upstream of the
+#: structure's rest position: Flight.clearance), a damped structure, e < 1 (sticking phases
+#: between the flights), the linearised Morison drag on the structure (an oscillator with an
+#: offset that moves with the flow), the quadratic drag (Figure 13's A = 2 m2, a heavy floe,
+#: Figure 18's quadratic sticking)
 SCENES = {
     "figure2": ({}, 200.0),
     "heavy_floe": ({"ice_M": 6400.0, "flow_u": 2.0}, 60.0),
     "damped": ({"structure_c": 3000.0}, 60.0),
     "e_half": ({"impact_e": 0.5}, 60.0),
     "structure_drag": ({"structure_Cd": 1.0, "structure_A": 2.0}, 150.0),
+    "quadratic_A2": ({"drag_model": 2, "ice_A": 2.0}, 60.0),
+    "quadratic_heavy_floe": ({"drag_model": 2, "ice_M": 6400.0, "flow_u": 2.0}, 60.0),
+    "quadratic_e_half": ({"drag_model": 2, "impact_e": 0.5}, 100.0),
 }
 
 
@@ -71,17 +76,6 @@ def _generic(monkeypatch):
     monkeypatch.setattr(Flight, "_ONE_FUNCTION", False)
 
 
-def test_constants_are_root_searchs():
-    assert flight_search._DESCENT_STEPS == rootfind.DESCENT_STEPS
-    assert flight_search._BRACKET_STEPS == rootfind.BRACKET_STEPS
-    assert flight_search._ROOT_RTOL == rootfind.ROOT_RTOL
-    assert flight_search._ROOT_XTOL == rootfind.ROOT_XTOL
-    assert flight_search._FOREVER == rootfind.FOREVER
-    assert flight_search._SCALED_ABOVE == rootfind.SCALED_ABOVE
-    assert flight_search._SUM_NEAR_1_LOW == rootfind._SUM_NEAR_1_LOW
-    assert flight_search._SPREAD == rootfind.SPREAD
-
-
 @settings(max_examples=200, deadline=None)
 @given(x0=st.floats(-1e3, 1e3), v0=st.floats(-1e3, 1e3), w0=st.floats(-1e2, 1e2),
        u=st.floats(-10.0, 10.0), t=st.floats(0.0, 1e3))
@@ -99,6 +93,44 @@ def test_the_closed_forms_on_their_constants_are_the_physics(x0, v0, w0, u, t):
     assert linear_response(*drag.flight_constants(w0, u))(t) == drag.increment(w0, u)(t)
 
 
+@settings(max_examples=300, deadline=None)
+@given(x0=st.floats(-1.0, 1.0), v0=st.floats(-10.0, 10.0), dz=st.floats(1e-9, 2.0),
+       w0=st.floats(-5.0, 5.0), u=st.floats(-3.0, 3.0), c=st.sampled_from([0.0, 3000.0]),
+       model=st.sampled_from([1, 2]), t=st.floats(0.0, 50.0))
+def test_the_functions_pieces_are_the_flights(x0, v0, dz, w0, u, c, model, t):
+    """The function's written-out pieces give the Flight's own values to the bit, for both
+    drag laws: the motion (the physics' closed forms), the ice's acceleration bounds and the
+    clearance with the ice upstream of the structure's rest position (z < offset; NaN only where
+    the function hands the step back: an undamped structure's drift clearance)."""
+    from iceimpact.physics.structure import under_response
+    scene = Scene(drag_model=model, structure_c=c, ice_A=2.0)
+    solver = Simulator(scene).solver
+    offset = solver.osc.offset
+    flight = Flight(solver, 0.0, offset + x0, v0, offset - dz, w0, u)
+    osc, drag = flight.osc, flight.drag
+    xc, zc = osc.under_constants(offset + x0, v0), drag.flight_constants(w0, u)
+    coef, quadratic = drag.law_constants
+    dx, v, dzt, w = flight_search._motion(t, *xc, *zc, quadratic)
+    assert (dx, v) == under_response(*xc)(t) and (dzt, w) == drag.increment(w0, u)(t)
+    assert flight_search._ice_accel(w0, u, coef, quadratic) == drag.accel_bounds(w0, u)
+    cleared = flight_search._clearance(offset + x0, v0, offset - dz, w0, offset, osc.omega2,
+                                       xc[0], u, coef, quadratic)
+    if cleared == cleared:
+        assert cleared == flight.clearance(0.0)
+    else:  # an undamped structure, or an amplitude bound at the scales of math.hypot's form
+        assert c == 0.0 or not 1e-140 < math.hypot(x0, v0 / math.sqrt(osc.omega2)) < 1e140
+
+
+@pytest.mark.parametrize("name", ["figure2", "heavy_floe", "damped", "quadratic_A2"])
+def test_the_function_makes_nearly_every_search(name, pure_function):
+    """The clearance with the ice upstream, the quadratic drag and a bracket's last float are
+    the function's own: of some hundreds of flights at most two hand a step to RootSearch."""
+    fields, t_end = SCENES[name]
+    run(Scene(**fields), t_end, dt=1e-2)
+    assert pure_function.outcomes[ROOT] > 100
+    assert pure_function.outcomes[GENERIC] <= 2
+
+
 @pytest.mark.parametrize("name", list(SCENES))
 def test_runs_equal_root_search_to_the_bit(name, pure_function, monkeypatch):
     """run() with the flights' searches in flight_root gives RootSearch's arrays, bit for bit,
@@ -112,13 +144,14 @@ def test_runs_equal_root_search_to_the_bit(name, pure_function, monkeypatch):
 
 
 def test_hands_steps_back_and_continues(pure_function, monkeypatch):
-    """Over Figure 2 the function hands some steps to RootSearch (the ice upstream of the
-    structure's rest position: Flight.clearance's), and the run is RootSearch's."""
-    scene = Scene()
-    with_function = _digest(run(scene, 200.0, dt=1e-2))
+    """Over Figure 18 the function hands steps to RootSearch (flights that leave a sticking
+    phase with no opening speed: a probe with a zero rate, which RootSearch rescales), and the
+    run is RootSearch's."""
+    fields, t_end = SCENES["quadratic_e_half"]
+    with_function = _digest(run(Scene(**fields), t_end, dt=1e-2))
     assert pure_function.outcomes[GENERIC] > 0
     _generic(monkeypatch)
-    assert _digest(run(scene, 200.0, dt=1e-2)) == with_function
+    assert _digest(run(Scene(**fields), t_end, dt=1e-2)) == with_function
 
 
 def _stepped(scene: Scene, h: float, t_end: float) -> tuple:
@@ -241,13 +274,9 @@ def test_compiled_function_values_equal_pure():
         seg = sim.solver.seg
         if not isinstance(seg.search, FlightSearch):
             continue
-        osc = seg.osc
-        constants = (seg.gap0, seg.x0, seg.z0, osc.offset, osc.mass, osc.damping,
-                     osc.stiffness, osc.omega2, *seg._x_motion.__defaults__,
-                     *seg._z_motion.__defaults__, seg.u)
         for horizon in rng.uniform(0.0, 2.0, 3):
             args = (float(horizon), 0.0, 0, 0, math.nan, *(math.nan,) * 5,
-                    seg.search.time_eps, *constants)
+                    seg.search.time_eps, *seg.kernel_constants)
             pure, compiled = flight_root(*args), flight_search.COMPILED(*args)
             assert [float(v).hex() for v in compiled] == [float(v).hex() for v in pure]
             checked += 1

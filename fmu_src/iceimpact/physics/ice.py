@@ -66,16 +66,32 @@ def linear_response(kappa: float, w0: float, r0: float) -> Callable[[float], tup
     return linear
 
 
+def quadratic_response(rate: float, w0: float, r0: float
+                       ) -> Callable[[float], tuple[float, float]]:
+    """The free flight under the quadratic drag ``t -> (z(t) - z0, w(t))`` with the constants of
+    :meth:`QuadraticDrag.flight_constants` (rate = beta |r0|; exact solution of eq. 32)."""
+    def quadratic(t: float, rate=rate, w0=w0, r0=r0) -> tuple[float, float]:
+        y = rate * t
+        if y < 1e-3:  # series, truncation ~ y^6 / 7
+            lag = -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
+        else:
+            lag = log1p(y) / y - 1.0
+        return w0 * t + r0 * t * lag, w0 - r0 * (y / (1.0 + y))
+    return quadratic
+
+
 class LinearDrag(_DragLaw):
     """Linearised Morison drag ``M w' = -b (w - u)`` (eq. 4-5)."""
 
-    __slots__ = ("mass", "b", "kappa")
+    __slots__ = ("mass", "b", "kappa", "law_constants")
     quadratic = False
 
     def __init__(self, mass: float, b: float):
         self.mass = mass
         self.b = b
         self.kappa = b / mass
+        #: the law as the compiled flight search takes it: (coefficient, quadratic)
+        self.law_constants = (self.kappa, 0)
 
     def force(self, w: float, u: float) -> float:
         """Drag force on the ice, N."""
@@ -115,6 +131,9 @@ class LinearDrag(_DragLaw):
         (solvers/flight_search.py) takes them."""
         return self.kappa, w0, w0 - u
 
+    #: the flight's closed form on :meth:`flight_constants`
+    response = staticmethod(linear_response)
+
     def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
         """z(t) - z0 and w(t) of a free flight: :meth:`increment` at one time."""
         return self.increment(w0, u)(t)
@@ -142,13 +161,15 @@ class LinearDrag(_DragLaw):
 class QuadraticDrag(_DragLaw):
     """Quadratic Morison drag ``M w' = -B |w - u| (w - u)`` (eq. 3, 31-33)."""
 
-    __slots__ = ("mass", "B", "beta")
+    __slots__ = ("mass", "B", "beta", "law_constants")
     quadratic = True
 
     def __init__(self, mass: float, B: float):
         self.mass = mass
         self.B = B
         self.beta = B / mass
+        #: the law as the compiled flight search takes it: (coefficient, quadratic)
+        self.law_constants = (self.beta, 1)
 
     def force(self, w: float, u: float) -> float:
         """Drag force on the ice, N (eq. 2)."""
@@ -179,17 +200,17 @@ class QuadraticDrag(_DragLaw):
         is ``w0 - r0 y / (1 + y)``: exactly w0 at t = 0 and without drag, even when
         |w0| << |u|. (The returned function takes t alone; its constants are bound as its
         default values.)"""
-        r0 = w0 - u
-        rate = self.beta * abs(r0)
+        return quadratic_response(*self.flight_constants(w0, u))
 
-        def quadratic(t: float, rate=rate, w0=w0, r0=r0) -> tuple[float, float]:
-            y = rate * t
-            if y < 1e-3:  # series, truncation ~ y^6 / 7
-                lag = -y * (0.5 - y * (1 / 3 - y * (0.25 - y * (0.2 - y / 6))))
-            else:
-                lag = log1p(y) / y - 1.0
-            return w0 * t + r0 * t * lag, w0 - r0 * (y / (1.0 + y))
-        return quadratic
+    def flight_constants(self, w0: float, u: float) -> tuple[float, float, float]:
+        """The constants of the free flight from velocity w0 at flow speed u: ``(beta |r0|,
+        w0, r0 = w0 - u)``, as :meth:`increment` binds them and the compiled flight search
+        (solvers/flight_search.py) takes them."""
+        r0 = w0 - u
+        return self.beta * abs(r0), w0, r0
+
+    #: the flight's closed form on :meth:`flight_constants`
+    response = staticmethod(quadratic_response)
 
     def displacement_change(self, w0: float, u: float, t: float) -> tuple[float, float]:
         """z(t) - z0 and w(t) of a free flight: :meth:`increment` at one time."""

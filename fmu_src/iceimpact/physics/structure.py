@@ -86,7 +86,7 @@ class Oscillator:
     """Linear damped oscillator ``mass y'' + damping y' + stiffness (x - offset) = 0``."""
 
     __slots__ = ("mass", "damping", "stiffness", "offset", "sigma", "omega2", "regime", "omega",
-                 "_s_fast", "_s_slow")
+                 "_s_fast", "_s_slow", "search_constants")
 
     def __init__(self, mass: float, damping: float, stiffness: float, offset: float = 0.0):
         self.mass = mass
@@ -108,6 +108,10 @@ class Oscillator:
         # over-damped exponents: slow root -wn^2/(sigma+wo) (no cancellation) and fast root
         self._s_slow = -self.omega2 / (self.sigma + self.omega) if self.regime == OVER else 0.0
         self._s_fast = -(self.sigma + self.omega)
+        #: under-damped: (offset, mass, damping, stiffness, omega2) as the compiled flight
+        #: search (solvers/flight_search.py) takes them, else None (it does not apply)
+        self.search_constants = ((offset, mass, damping, stiffness, self.omega2)
+                                 if self.regime == UNDER else None)
 
     # basis -----------------------------------------------------------------------------------
     def basis(self, t: float) -> tuple[float, float]:

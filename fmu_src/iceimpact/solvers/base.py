@@ -31,6 +31,14 @@ __all__ = ["GAP_ROUNDING", "Impact", "Samples", "Solver", "SolverError", "State"
 #: them as 0, and the exact method never accepts a graze deeper than this as a touch.
 GAP_ROUNDING = 1e-12
 
+#: Rounding of a gap evaluated from positions of magnitude X is below GAP_ULPS * X (m).
+GAP_ULPS = 16.0 * 2.0 ** -52
+
+#: A flight's clearance from the ice's acceleration bound (Flight.clearance) counts only when it
+#: spans at least this much of the structure's phase omega_n t (rad), 256 periods: shorter
+#: stretches the root search crosses in a few steps by itself.
+ACCEL_CLEARANCE_PHASE = 512.0 * math.pi
+
 
 @dataclass
 class State:

@@ -1,6 +1,6 @@
 """The root search of a flight's gap in one function: :class:`~.rootfind.RootSearch`'s common
-steps, specialised to an under-damped structure (eq. 9-10) and the ice under the linear drag
-(eq. 6-7), compiled by numba when it is installed (the ``fast`` extra).
+steps, specialised to an under-damped structure (eq. 9-10) and the ice under either drag law
+(eq. 6-7, 31-33), compiled by numba when it is installed (the ``fast`` extra).
 
 A flight of Figure 2 spends most of its time in its root search: two probes of the gap and its
 bounds, a Taylor stretch, a monotone stretch and one or two Newton points, some 80 calls of small
@@ -9,13 +9,15 @@ and bounds written out, so that it compiles as one function; the solver calls it
 it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.exact`).
 
 Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
-(``Oscillator.deviation_increment``'s under-damped form, ``LinearDrag.increment``, ``bounds``,
-``accel_bounds``, ``Flight.probe``, ``gap_and_rate``, ``clearance``), operation for operation,
+(``Oscillator.deviation_increment``'s under-damped form, the drag laws' ``increment`` and
+``accel_bounds``, ``bounds``, ``Flight.probe``, ``gap_and_rate``, ``clearance``), operation for
+operation, with RootSearch's constants,
 so the points it visits and the root it returns are RootSearch's to the bit
 (tests/test_flight_search.py checks both against each other, and the runs with and without
-numba). Where a step leaves the common path (a probe to rescale, a clearance to compute, a
-degenerate or tangent start, a bracket whose Newton iteration stalls at an ulp) it returns the
-frontier as it was before that step, and RootSearch makes that step and the rest of the search.
+numba). Where a step leaves the common path (a probe to rescale, the drift clearance of an
+undamped structure, a degenerate or tangent start, a crossing at the frontier by rounding) it
+returns the frontier as it was before that step, and RootSearch makes that step and the rest of
+the search.
 
 numba compiles it without ``fastmath`` (no contraction of a product and a sum into one fused
 operation, no reordering), and its ``math`` functions call the same C library as CPython's, so the
@@ -30,31 +32,32 @@ import math
 import os
 import types
 import warnings
-from math import cos, exp, expm1, sin, sqrt
+from math import cos, exp, expm1, log1p, nextafter, sin, sqrt
 from typing import Any
 
 from ..limits import TIME_RESOLUTION
-from .rootfind import RootSearch
+from .base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
+from .rootfind import (
+    _SUM_NEAR_1_LOW,
+    BRACKET_STEPS,
+    DESCENT_STEPS,
+    FOREVER,
+    ROOT_RTOL,
+    ROOT_XTOL,
+    SCALED_ABOVE,
+    SPREAD,
+    RootSearch,
+)
 
 #: The outcomes of :func:`flight_root`: the frontier passed the horizon with no root, a root was
 #: found (it may lie beyond the horizon), or the next step is RootSearch's to make.
 PASSED, ROOT, GENERIC = 0, 1, 2
 
-# RootSearch's constants, repeated here as literals of the compiled function (a test checks them
-# against rootfind's)
-_DESCENT_STEPS = 12
-_BRACKET_STEPS = 1100
-_ROOT_RTOL = TIME_RESOLUTION
-_ROOT_XTOL = 1e-15
-_FOREVER = 1e300
-_SCALED_ABOVE = 1e100
-_SUM_NEAR_1_LOW = 5e-100
-_SPREAD = 1e-140
 
-
-def _motion(t, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0):
+def _motion(t, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic):
     """(x - x0, v, z - z0, w) at t: ``Oscillator.deviation_increment``'s under-damped form and
-    ``LinearDrag.increment``, written out."""
+    the ice's increment (``LinearDrag.increment``, rate kappa, or ``QuadraticDrag.increment``,
+    rate beta |r0|), written out."""
     arg = neg_sigma * t
     if arg < -0.7:
         decay = exp(arg)
@@ -68,7 +71,13 @@ def _motion(t, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0):
     s = decay * sin(wt) / omega
     dx = y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s
     v = v0 * (decay * cos_wt) - q * s
-    x = kappa * t
+    x = rate * t
+    if quadratic:
+        if x < 1e-3:  # series, truncation ~ y^6 / 7
+            lag = -x * (0.5 - x * (1 / 3 - x * (0.25 - x * (0.2 - x / 6))))
+        else:
+            lag = log1p(x) / x - 1.0
+        return dx, v, w0 * t + r0 * t * lag, w0 - r0 * (x / (1.0 + x))
     if x < 1e-2:  # series, truncation ~ x^6 / 5040
         lag = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
     else:
@@ -76,24 +85,95 @@ def _motion(t, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0):
     return dx, v, w0 * t + r0 * t * lag, w0 + r0 * expm1(-x)
 
 
-def _bracketed(lo, hi, t, f_t, df_t, gap0, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0):
-    """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t < 0, f'(t) = df_t),
-    its bracket [lo, hi]; NaN where it would step to the next float (RootSearch finishes)."""
+def _ice_accel(w, u, coef, quadratic):
+    """(acceleration, bound on |acceleration|, bound on |jerk|) of the ice for all later times:
+    ``LinearDrag.accel_bounds`` (coef kappa) or ``QuadraticDrag.accel_bounds`` (coef beta)."""
+    if quadratic:
+        r = w - u
+        speed = abs(r)
+        a = -coef * speed * r
+        size = abs(a)
+        return a, size, 2.0 * coef * speed * size
+    a = -coef * (w - u)
+    size = a if a > 0.0 else 0.0 - a
+    return a, size, coef * size
+
+
+def _clearance(x, v, z, w, offset, omega2, neg_sigma, u, coef, quadratic):
+    """``Flight.clearance`` at a point where the ice is upstream of the structure's rest
+    position (z < offset), written out for an under-damped oscillator; NaN where the drift
+    clearance or a hypot-scaled amplitude bound would be asked (RootSearch's)."""
+    y = x - offset
+    reach = sqrt(y * y + v * v / omega2)  # Oscillator.amplitude_bound
+    if not 1e-140 < reach < 1e140 and not (y == 0.0 and v == 0.0):
+        return math.nan  # (its math.hypot form: RootSearch's)
+    lowest = offset - reach - z
+    rounding = GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
+    # downstream_speed_bound
+    if coef > 0.0:
+        speed = max(w, u, 0.0)
+    else:
+        speed = max(w, 0.0)
+    margin = lowest - rounding
+    if margin <= 0.0:
+        if speed == 0.0 or w < 0.0:
+            if not (lowest >= -rounding and margin >= -GAP_ROUNDING):
+                return 0.0
+            if speed == 0.0:
+                return math.inf
+            return _accel_clearance(w, 0.0, u, coef, quadratic, omega2)
+        if neg_sigma == 0.0:
+            return math.nan  # (undamped: Flight._drift_clearance may prove periods)
+        return 0.0
+    if speed == 0.0:
+        return math.inf
+    cleared = margin / speed
+    if w < 0.5 * speed:
+        by_accel = _accel_clearance(w, margin, u, coef, quadratic, omega2)
+        if by_accel > cleared:
+            return by_accel
+    return cleared
+
+
+def _accel_clearance(w, margin, u, coef, quadratic, omega2):
+    """``Flight._accel_clearance``, written out."""
+    accel_bound = _ice_accel(w, u, coef, quadratic)[1]
+    if not accel_bound > 0.0:
+        root = margin / w if w > 0.0 else math.inf
+    else:
+        disc = sqrt(w * w + 2.0 * accel_bound * margin)
+        root = (2.0 * margin / (w + disc) if w > 0.0 else (disc - w) / accel_bound)
+        root *= 1.0 - 1e-12
+    if root * sqrt(omega2) < ACCEL_CLEARANCE_PHASE:
+        return 0.0
+    return root
+
+
+def _bracketed(lo, hi, t, f_t, df_t, gap0, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+               quadratic):
+    """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t, f'(t) = df_t), its
+    bracket [lo, hi] (f(lo) >= 0 > f(hi))."""
     step = step_before = hi - lo
-    for _ in range(_BRACKET_STEPS):
+    for _ in range(BRACKET_STEPS):
         nxt = t - f_t / df_t if df_t != 0.0 else math.nan
         if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
-            if abs(nxt - t) <= _ROOT_XTOL + _ROOT_RTOL * abs(t):
+            if abs(nxt - t) <= ROOT_XTOL + ROOT_RTOL * abs(t):
                 if f_t < 0.0:
                     return t
-                return math.nan  # (the next float's test: RootSearch's)
+                after = nextafter(t, math.inf)
+                if after < hi:
+                    dx, v, dz, w = _motion(after, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+                                           quadratic)
+                    if gap0 + (dx - dz) <= 0.0:
+                        return after
+                    lo = after
             nxt = lo + 0.5 * (hi - lo)
         step_before, step = step, abs(nxt - t)
-        converged = step <= _ROOT_XTOL + _ROOT_RTOL * abs(nxt)
+        converged = step <= ROOT_XTOL + ROOT_RTOL * abs(nxt)
         if converged or not lo < nxt < hi:
             return t if converged else nxt
         t = nxt
-        dx, v, dz, w = _motion(t, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+        dx, v, dz, w = _motion(t, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
         f_t, df_t = gap0 + (dx - dz), v - w
         if f_t < 0.0:
             hi = t
@@ -106,54 +186,59 @@ def _bracketed(lo, hi, t, f_t, df_t, gap0, neg_sigma, omega, y0, p, q, v0, kappa
 
 def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                 time_eps, gap0, x0, z0, offset, mass, damping, stiffness, omega2,
-                neg_sigma, omega, y0, p, q, v0, kappa, w0, r0, u):
+                neg_sigma, omega, y0, p, q, v0, rate, w0, r0, u, coef, quadratic):
     """RootSearch's steps from the frontier a (its probe there, if taken: ``probed_at`` and
     the five values) while a <= horizon, for the gap of a flight: structure from (x0, v0) on the
     under-damped oscillator (mass, damping, stiffness, offset; its increment's constants
-    neg_sigma, omega, y0, p, q, v0), ice from velocity w0 under the linear drag (kappa, r0 =
-    w0 - u), gap0 = x0 - z0.
+    neg_sigma, omega, y0, p, q, v0), ice from velocity w0 under its drag law (``quadratic`` 0:
+    the linear drag, coef = rate = kappa; 1: the quadratic drag, coef = beta, rate = beta |r0|;
+    r0 = w0 - u), gap0 = x0 - z0.
 
     Returns (outcome, a, root, iterations, creep, probed_at, f, f', f'', K, J, x - x0, v,
     z - z0, w): PASSED, ROOT (the root, and the motion there: the state of the event), or
     GENERIC with the frontier before the step RootSearch is to make."""
-    pdz = math.nan  # z - z0 at probed_at, when known
+    pdx = pv = pdz = pw = math.nan  # the motion at probed_at, when known
     outcome = PASSED
     while a <= horizon:
         if a == probed_at:
             f, df, d2, bound, jerk = pf, pdf, pd2, pbound, pjerk
-            dz = pdz
+            dx, v, dz, w = pdx, pv, pdz, pw
         else:
-            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
-            # Flight.probe: Oscillator.bounds (not over-damped) and LinearDrag.accel_bounds
+            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+            # Flight.probe: Oscillator.bounds (not over-damped) and the drag's accel_bounds
             a_x = -(damping * v + stiffness * ((x0 + dx) - offset)) / mass
             j_x = -(damping * a_x + stiffness * v) / mass
             s_x = -(damping * j_x + stiffness * a_x) / mass
-            a_z = -kappa * (w - u)
-            size = a_z if a_z > 0.0 else 0.0 - a_z
+            a_z, size, j_z = _ice_accel(w, u, coef, quadratic)
             f = gap0 + (dx - dz)
             df = v - w
             d2 = a_x - a_z
             bound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
-            jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + kappa * size
+            jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
         if f < 0.0 or (f == 0.0 and df < 0.0):
-            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
             return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                     dx, v, dz, w)
         df_size = df if df >= 0.0 else -df
         d2_size = d2 if d2 >= 0.0 else -d2
         total = f + df_size + d2_size + bound + jerk
-        floor = _SPREAD * total
+        floor = SPREAD * total
         outcome = GENERIC  # (any break below leaves the step to RootSearch)
         if (0.0 < f < floor or df_size < floor or d2_size < floor or bound < floor
-                or jerk < floor or not _SUM_NEAR_1_LOW <= total <= _SCALED_ABOVE
+                or jerk < floor or not _SUM_NEAR_1_LOW <= total <= SCALED_ABOVE
                 or bound <= 0.0):
             break  # (a probe RootSearch may rescale, or a linear signal)
-        if dz != dz:
-            dz = _motion(a, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)[2]
-        if not z0 + dz >= offset:
-            break  # Flight.clearance may prove a stretch: RootSearch asks it
+        if dz != dz:  # (a probe taken by RootSearch: the motion there not kept)
+            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
         disc = sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
+        if not z0 + dz >= offset:  # Flight.clearance (0 with the ice at or past x = offset)
+            cleared = _clearance(x0 + dx, v, z0 + dz, w, offset, omega2, neg_sigma, u, coef,
+                                 quadratic)
+            if cleared != cleared:
+                break  # (a clearance RootSearch's Flight computes)
+            if cleared > h_free:
+                h_free = cleared
         if df >= 0.0:
             if jerk > 0.0:
                 h_rise = (d2 + sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
@@ -176,7 +261,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             elif d2 <= 0.0:
                 h_mono = math.inf
             if h_mono > h_free:
-                b = a + (_FOREVER if _FOREVER < h_mono else h_mono)
+                b = a + (FOREVER if FOREVER < h_mono else h_mono)
                 if b > a:
                     # RootSearch._descend: Newton's method from a on the monotone stretch [a, b]
                     t, f_t, df_t = a, f, df
@@ -184,22 +269,22 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                     step = 2.0 * f / (sqrt(disc) - df) if disc >= 0.0 else f / -df
                     found = math.nan
                     stalled = False
-                    for _ in range(_DESCENT_STEPS):
+                    for _ in range(DESCENT_STEPS):
                         if not df_t < 0.0:
                             break
                         nxt = t + step
                         if nxt >= b:
                             break
-                        if step <= _ROOT_XTOL + _ROOT_RTOL * (t if t >= 0.0 else -t):
+                        if step <= ROOT_XTOL + ROOT_RTOL * (t if t >= 0.0 else -t):
                             found = t
                             break
-                        dx, v, dz, w = _motion(nxt, neg_sigma, omega, y0, p, q, v0, kappa,
-                                               w0, r0)
+                        dx, v, dz, w = _motion(nxt, neg_sigma, omega, y0, p, q, v0, rate,
+                                               w0, r0, quadratic)
                         f_n = gap0 + (dx - dz)
                         df_n = v - w
                         if f_n < 0.0:
                             found = _bracketed(t, nxt, nxt, f_n, df_n, gap0, neg_sigma, omega,
-                                               y0, p, q, v0, kappa, w0, r0)
+                                               y0, p, q, v0, rate, w0, r0, quadratic)
                             stalled = found != found
                             break
                         if f_n == 0.0:
@@ -208,40 +293,48 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                         t, f_t, df_t = nxt, f_n, df_n
                         step = f_t / -df_t if df_t < 0.0 else math.inf
                     if stalled:
-                        break  # (a bracket that stalled at an ulp: RootSearch's)
+                        break  # (a NaN from the bracket: RootSearch makes the step)
                     if found == found:
-                        dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, kappa,
-                                               w0, r0)
+                        dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
+                                               w0, r0, quadratic)
                         return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
                                 pbound, pjerk, dx, v, dz, w)
-                    dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
-                    if gap0 + (dx - dz) < 0.0:
-                        break  # (a crossing before b: RootSearch brackets it)
+                    dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+                                           quadratic)
+                    f_b = gap0 + (dx - dz)
+                    if f_b < 0.0:  # exactly one crossing in (t, b)
+                        found = _bracketed(t, b, b, f_b, v - w, gap0, neg_sigma, omega, y0, p,
+                                           q, v0, rate, w0, r0, quadratic)
+                        if found != found:
+                            break  # (RootSearch's, as a NaN from the bracket above)
+                        dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
+                                               w0, r0, quadratic)
+                        return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
+                                pbound, pjerk, dx, v, dz, w)
                     a = b
                     iterations += 1
                     outcome = PASSED
                     continue
-        if h_free > _FOREVER:
+        if h_free > FOREVER:
             return (PASSED, math.inf, math.nan, iterations + 1, creep, probed_at, pf, pdf,
                     pd2, pbound, pjerk, math.nan, math.nan, math.nan, math.nan)
         if h_free < time_eps + TIME_RESOLUTION * a:
             break  # (a tangent or degenerate start: RootSearch's creep)
         b = a + h_free
         # the sign test at b by the full probe, which the next step starts from
-        dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, kappa, w0, r0)
+        dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
         f_b = gap0 + (dx - dz)
         if f_b < 0.0:
             break  # (rounding at the frontier: RootSearch's bracket from b)
         a_x = -(damping * v + stiffness * ((x0 + dx) - offset)) / mass
         j_x = -(damping * a_x + stiffness * v) / mass
         s_x = -(damping * j_x + stiffness * a_x) / mass
-        a_z = -kappa * (w - u)
-        size = a_z if a_z > 0.0 else 0.0 - a_z
+        a_z, size, j_z = _ice_accel(w, u, coef, quadratic)
         a = probed_at = b
         pf, pdf, pd2 = f_b, v - w, a_x - a_z
         pbound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
-        pjerk = sqrt(j_x * j_x + s_x * s_x / omega2) + kappa * size
-        pdz = dz
+        pjerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
+        pdx, pv, pdz, pw = dx, v, dz, w
         iterations += 1
         creep = 0
         outcome = PASSED
@@ -271,10 +364,13 @@ def _compiled():
         copy.__qualname__ = function.__qualname__
         return numba.njit(signature, cache=True, fastmath=False, error_model="python")(copy)
     try:
-        motion = jit((f8,) * 10, _motion)
-        bracketed = jit((f8,) * 15, _bracketed, _motion=motion)
-        compiled = jit((f8, f8, i8, i8) + (f8,) * 25, flight_root, _motion=motion,
-                       _bracketed=bracketed)
+        motion = jit((f8,) * 10 + (i8,), _motion)
+        ice_accel = jit((f8, f8, f8, i8), _ice_accel)
+        accel_clearance = jit((f8, f8, f8, f8, i8, f8), _accel_clearance, _ice_accel=ice_accel)
+        clearance = jit((f8,) * 9 + (i8,), _clearance, _accel_clearance=accel_clearance)
+        bracketed = jit((f8,) * 15 + (i8,), _bracketed, _motion=motion)
+        compiled = jit((f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root, _motion=motion,
+                       _ice_accel=ice_accel, _clearance=clearance, _bracketed=bracketed)
         # its compiled entry point, called without the dispatcher's matching of argument types
         # (the arguments are the signature's, or converted as the dispatcher converts them)
         compiled = compiled.overloads[compiled.signatures[0]].entry_point
@@ -292,20 +388,17 @@ _UNPROBED = (math.nan,) * 5
 
 
 class FlightSearch(RootSearch):
-    """The root search of a flight's gap (structure under-damped, ice under the linear drag):
+    """The root search of a flight's gap (structure under-damped, ice under either drag law):
     RootSearch, whose common steps :func:`flight_root` makes. The signal is the
     :class:`~iceimpact.solvers.exact.Flight` itself (its anchor, its oscillator and the
     constants of its closed forms)."""
 
-    __slots__ = ("handed_back",)
     #: the steps' function: the compiled one (the pure one serves the tests)
     kernel = staticmethod(flight_root if COMPILED is None else COMPILED)
-
-    def __init__(self, start: float, time_eps: float):
-        super().__init__(start, time_eps)
-        # a step was RootSearch's: the rest of the search is too (the ice upstream of the
-        # structure's rest position, mostly, where every step asks Flight.clearance)
-        self.handed_back = False
+    #: a step was RootSearch's: the rest of the search is too (a probe to rescale, an undamped
+    #: structure's drift clearance, a tangent start: rare). A class default, so that the
+    #: search of a flight, made at every impact, needs no __init__ of its own.
+    handed_back = False
 
     def checkpoint(self) -> tuple:
         # RootSearch.checkpoint's fields and handed_back, in one tuple (taken at every step)
@@ -324,30 +417,31 @@ class FlightSearch(RootSearch):
             return None
         if self.handed_back:
             return RootSearch.next_root_of(self, horizon, signal)
-        osc = signal.osc
-        # the constants of the flight's closed forms: the structure's (neg_sigma, omega, y0,
-        # p, q, v0: Oscillator.under_constants), the ice's (kappa, w0, r0:
-        # LinearDrag.flight_constants)
-        out = self.kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
-                          *(self._probed or _UNPROBED), self.time_eps, signal.gap0, signal.x0,
-                          signal.z0, osc.offset, osc.mass, osc.damping, osc.stiffness,
-                          osc.omega2, *signal.closed_form_constants, signal.u)
-        outcome, a, root, iterations, creep, probed_at = out[:6]
+        # the flight's constants (Flight.kernel_constants): gap0, x0, z0, the oscillator
+        # (offset, mass, damping, stiffness, omega2), its closed form's (neg_sigma, omega, y0,
+        # p, q, v0: Oscillator.under_constants), the ice's (rate, w0, r0: the drag's
+        # flight_constants), u, the drag law (coefficient, quadratic: its law_constants)
+        (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
+         w) = self.kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
+                          *(self._probed or _UNPROBED), self.time_eps, *signal.kernel_constants)
         if a != a or (outcome == ROOT and root != root):
             # a NaN where Python's math would have raised (a domain error): the compiled
             # function's only departure from the pure one; RootSearch makes the search from
             # the frontier as it was, and raises or answers as the pure path does
-            self.handed_back = True
-            return RootSearch.next_root_of(self, horizon, signal)
+            return self._hand_back(horizon, signal)
         self.a, self.iterations, self.creep = a, iterations, creep
         if probed_at != self._probed_at:
             self._probed_at = probed_at
-            self._probed = out[6:11]
+            self._probed = (f, df, d2, bound, jerk)
         if outcome == ROOT:
             self.root = root
-            signal.remember((root, *out[11:]))  # the state there
+            signal.remember((root, dx, v, dz, w))  # the state there
             return root if root <= horizon else None
         if outcome == GENERIC:
-            self.handed_back = True
-            return RootSearch.next_root_of(self, horizon, signal)
+            return self._hand_back(horizon, signal)
         return None
+
+    def _hand_back(self, horizon: float, signal: Any) -> float | None:
+        """RootSearch makes this search from its frontier on."""
+        self.handed_back = True
+        return RootSearch.next_root_of(self, horizon, signal)

@@ -13,18 +13,19 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ...errors import SolverError, StateError
-from ...physics.ice import downstream_speed_bound, linear_response
+from ...limits import TIME_RESOLUTION
+from ...physics.ice import downstream_speed_bound
 from ...physics.structure import (
     UNDER,
     Oscillator,
     under_response,
 )
 from ...record import Record
-from ..base import GAP_ROUNDING
+from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
 from ..contact_rules import Phase
 from ..flight_search import COMPILED, FlightSearch
 from ..rootfind import RootSearch
-from .segment import GAP_ULPS, MARCHED, _floats, _SearchedSegment, _time_eps
+from .segment import MARCHED, _floats, _SearchedSegment
 
 if TYPE_CHECKING:
     from .solver import EventSolver
@@ -34,16 +35,13 @@ if TYPE_CHECKING:
 #: nears a degree.
 DRIFT_PHASE_LIMIT = 2.0 ** 46
 
-#: The ice's acceleration bound proves a stretch of the flight open (Flight.clearance) only when
-#: it spans at least this much of the structure's phase omega_n t (rad), 256 periods.
-ACCEL_CLEARANCE_PHASE = 512.0 * math.pi
 
 
 class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
     __slots__ = ("osc", "drag", "t0", "x0", "v0", "z0", "w0", "u", "start", "gap0", "_last",
-                 "search", "_x_motion", "_z_motion", "closed_form_constants")
+                 "search", "_x_motion", "_z_motion", "kernel_constants")
     phase = Phase.FLIGHT
     ANCHOR = ("x0", "v0", "z0", "w0")
     #: the search may be flight_search's (the gap and bounds are this class's closed forms);
@@ -64,24 +62,29 @@ class Flight(_SearchedSegment):
         self.u = u
         self.start = start
         self.gap0 = x0 - z0
+        scale = abs(t0)  # (segment._time_eps, inline: a flight starts at each impact)
+        time_eps = TIME_RESOLUTION * (scale if scale > 1.0 else 1.0)
         # the anchor itself: no increments, the anchor's velocities (the search starts there)
         self._last: tuple[float, float, float, float, float] = (0.0, 0.0, v0, 0.0, w0)
         # each body's closed form from the anchor, its constants computed once. The common
         # flight (an under-damped Oscillator, not a structure from outside or under the
-        # quadratic Morison drag, and the linear drag) has its search in one function
-        # (flight_search), which evaluates the same closed forms on the same constants.
-        if (self._ONE_FUNCTION and type(osc) is Oscillator and osc.regime == UNDER
-                and not drag.quadratic):
-            x_constants = osc.under_constants(x0, v0)
-            z_constants = drag.flight_constants(w0, u)
-            self._x_motion = under_response(*x_constants)
-            self._z_motion = linear_response(*z_constants)
-            self.closed_form_constants = x_constants + z_constants
-            self.search = FlightSearch(start, _time_eps(t0))
+        # quadratic Morison drag) has its search in one function (flight_search), which
+        # evaluates the same closed forms on the same constants.
+        # The Python closed forms of such a flight are built only when Python evaluates it
+        # (most flights are searched and ended by the compiled function alone).
+        if self._ONE_FUNCTION and type(osc) is Oscillator and osc.search_constants is not None:
+            self.kernel_constants = (x0 - z0, x0, z0, *osc.search_constants,
+                                     *osc.under_constants(x0, v0), *drag.flight_constants(w0, u),
+                                     u, *drag.law_constants)
+            self._x_motion = None
+            self.search = FlightSearch(start, time_eps)
         else:
-            self._x_motion = osc.increment(x0, v0)
-            self._z_motion = drag.increment(w0, u)
-            self.search = RootSearch(start, _time_eps(t0))
+            # (the under-damped form from its constants: osc.increment's, two calls fewer)
+            self._x_motion = (under_response(*osc.under_constants(x0, v0))
+                              if type(osc) is Oscillator and osc.search_constants is not None
+                              else osc.increment(x0, v0))
+            self._z_motion = drag.response(*drag.flight_constants(w0, u))
+            self.search = RootSearch(start, time_eps)
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact
     # (x ~ z, both large) keeps its accuracy instead of the rounding of x and z.
@@ -93,12 +96,22 @@ class Flight(_SearchedSegment):
         as :meth:`_motion` keeps the last one it evaluates."""
         self._last = state
 
+    def closed_forms(self) -> None:
+        """Build the bodies' closed forms of a flight searched by the compiled function, if not
+        yet built: Python evaluates its motion (a state between events, a step handed back;
+        every evaluation of the motion asks)."""
+        if self._x_motion is None:
+            self._x_motion = under_response(*self.osc.under_constants(self.x0, self.v0))
+            self._z_motion = self.drag.response(*self.drag.flight_constants(self.w0, self.u))
+
     def _motion(self, tau: float) -> tuple[float, float, float, float, float]:
         """(tau, x - x0, v, z - z0, w) at tau; the last one is kept, since the root search asks
         again for the point it just tested (a probe after a sign test, the state at a root)."""
         last = self._last
         if last[0] == tau:
             return last
+        if self._x_motion is None:
+            self.closed_forms()
         dx, v = self._x_motion(tau)
         dz, w = self._z_motion(tau)
         self._last = last = (tau, dx, v, dz, w)
@@ -122,6 +135,8 @@ class Flight(_SearchedSegment):
     def gap_and_rate(self, tau: float) -> tuple[float, float]:
         """Gap and its rate v - w. (Newton's method asks at new points only: the motion is
         evaluated at once, and kept as :meth:`_motion` keeps it.)"""
+        if self._x_motion is None:
+            self.closed_forms()
         dx, v = self._x_motion(tau)
         dz, w = self._z_motion(tau)
         self._last = (tau, dx, v, dz, w)
@@ -136,6 +151,8 @@ class Flight(_SearchedSegment):
         if last[0] == tau:  # (at the anchor)
             _, dx, v, dz, w = last
         else:  # (the end of a search step: a new point) as _motion
+            if self._x_motion is None:
+                self.closed_forms()
             dx, v = self._x_motion(tau)
             dz, w = self._z_motion(tau)
             self._last = (tau, dx, v, dz, w)

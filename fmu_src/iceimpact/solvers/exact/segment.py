@@ -22,8 +22,6 @@ if TYPE_CHECKING:
 #: dense output (``states_at``, Taylor steps), or stepped to each sample.
 GROUPED, STEPPED, MARCHED = "grouped", "stepped", "marched"
 
-#: Rounding of a gap evaluated from positions of magnitude X is below GAP_ULPS * X (m).
-GAP_ULPS = 16.0 * 2.0 ** -52
 
 
 

@@ -56,7 +56,9 @@ class EventSolver(EventMarch):
                                   if drag_s is not None and drag_s.quadratic else None)
         self._flight_cls = Flight if self.dragged_structure is None else DraggedFlight
         self._osc_by_flow: tuple[float, Oscillator] | None = None
-        self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels, EXACT_POLICY)
+        free_accels = (self._free_accels if self.structure_b or self.dragged_structure
+                       else self._free_accels_without_morison)
+        self.rules = ContactRules(self.m, self.M, scene.omega_n, free_accels, EXACT_POLICY)
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
         self.pending_impulse = 0.0
@@ -103,6 +105,11 @@ class EventSolver(EventMarch):
             osc = self.structure_osc(u) if self.structure_b else self.osc
             a_x = osc.acceleration(x, v)
         return a_x, self.drag.accel_bounds(w, u)[0]
+
+    def _free_accels_without_morison(self, x: float, v: float, w: float,
+                                     u: float) -> tuple[float, float]:
+        # _free_accels without the structure's Morison drag (asked at every impact)
+        return self.osc.acceleration(x, v), self.drag.accel_bounds(w, u)[0]
 
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
                reanchor: bool = False, after_impact: bool = False) -> None:
@@ -250,7 +257,7 @@ class EventSolver(EventMarch):
         last_type: type | None = None
         kind: Any = None
         grouped = False
-        take_event = self.take_event
+        at_event = self.at_event
         add_target, add_value = targets.append, values.append
         i = 0
         horizon = t_list[-1]
@@ -300,7 +307,9 @@ class EventSolver(EventMarch):
             if interval != j:  # (the event is sample j's: the first at or after it)
                 interval = j
                 self.begin_step(t_list[j - 1])
-            add_value(take_event(tau_event))
+            at_event(tau_event)  # (take_event, inline: this runs at every impact)
+            add_value(self.pending_impulse)
+            self.pending_impulse = 0.0
             i = j
         impulse = np.zeros(n)
         values_array = np.array(values)

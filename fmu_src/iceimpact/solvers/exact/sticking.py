@@ -16,7 +16,7 @@ from ...physics.structure import (
     Oscillator,
 )
 from ...record import Record
-from ..base import GAP_ROUNDING
+from ..base import GAP_ROUNDING, GAP_ULPS
 from ..contact_rules import (
     ROUNDING_SPEED,
     Phase,
@@ -27,7 +27,7 @@ from ..contact_rules import (
 )
 from ..rootfind import RootSearch
 from ..taylor import StepEnd, StickingTaylor, TaylorStep
-from .segment import GAP_ULPS, STEPPED, _entry, _SearchedSegment, _time_eps
+from .segment import STEPPED, _entry, _SearchedSegment, _time_eps
 
 if TYPE_CHECKING:
     from .solver import EventSolver
