@@ -78,11 +78,14 @@ import json, sys, time
 import_cpu = time.process_time()
 from iceimpact import Scene, run
 import_cpu = time.process_time() - import_cpu
-try:  # the compiled flight search (numba, the fast extra) is on
-    from iceimpact.solvers.flight_search import COMPILED
-    compiled = COMPILED is not None
-except ImportError:  # (a tree without it)
-    compiled = False
+import importlib
+compiled = False
+for where in ("iceimpact.solvers.search.flight_search", "iceimpact.solvers.flight_search"):
+    try:  # the compiled flight search (numba, the fast extra) is on (its module moved once)
+        compiled = importlib.import_module(where).COMPILED is not None
+        break
+    except ImportError:  # (a tree without it)
+        continue
 fields, t_end, dt = json.loads(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
 warm = int(sys.argv[4])
 scene = Scene(**fields)

@@ -143,9 +143,10 @@ def _aliases_removed() -> dict:
 
 
 #: In the host's environment, "1" lets the FMU's core compile its flight search where the
-#: host's Python has numba (solvers/flight_search.py): half the cost per impact, but about 1.7 s
-#: of compiling at the first instantiation of every freshly extracted FMU (numba's cache lives
-#: beside the extracted source), which a host extracting the FMU for each run pays each time.
+#: host's Python has numba (solvers/search/flight_search.py): half the cost per impact, but
+#: about 1.7 s of compiling at the first instantiation of every freshly extracted FMU (numba's
+#: cache lives beside the extracted source), which a host extracting the FMU for each run pays
+#: each time.
 FMU_COMPILED_ENV = "ICEIMPACT_FMU_COMPILED"
 
 

@@ -422,7 +422,7 @@ def test_taylor_sticking_steps_per_simulated_second_are_proportional_to_the_rate
     the given rate), the flow switched at every 1 ms step as there (1 and 0.5 m/s): the Taylor
     steps per simulated second stay below 0.6 x rate (measured 0.1-0.3 at 1e5 1/s), the work
     the limit was derived from; independent of CPU speed."""
-    from iceimpact.solvers import taylor
+    from iceimpact.solvers.search import taylor
     from taylor_rate_cost import LOW_FLOW, scene
 
     calls = [0]
@@ -544,7 +544,7 @@ def test_a_taylor_step_whose_last_terms_underflow_is_not_a_period_long():
     the fourth step). The highest nonzero term now bounds the step instead (a motion with
     k > 0 has no exactly polynomial part), and a ratio that overflows is taken in logarithms:
     the 300 steps run."""
-    from iceimpact.solvers import taylor
+    from iceimpact.solvers.search import taylor
 
     _far_replay(UNDERFLOWED_TERMS)
     # the rule at those scales: a finite step whose terms stay finite

@@ -22,7 +22,7 @@ import argparse
 import time
 
 from iceimpact import ParameterError, Scene, Simulator
-from iceimpact.solvers import taylor
+from iceimpact.solvers.search import taylor
 
 KINDS = ("stiff", "over-damped", "stiff drag")
 #: masses (kg): the structure, the floe, together

@@ -69,7 +69,7 @@ def omega_limit(scene: Scene) -> float:
 
 def integrates_taylor_sticking(scene: Scene) -> bool:
     """Method 1 with quadratic drag and the built-in structure: its sticking phase is integrated
-    by explicit Taylor steps (solvers/taylor.py)."""
+    by explicit Taylor steps (solvers/search/taylor.py)."""
     return (scene.solver_method == METHOD_EXACT and scene.drag_model == QUADRATIC_DRAG
             and not scene.external)
 
@@ -322,7 +322,7 @@ OMEGA_MAX_ODE = 1e4
 DRAG_RATE_MAX = 1e6
 #: Largest rate (1/s) of method 1's quadratic-drag sticking phase (sticking_rates: the bodies'
 #: stiffness sqrt(k / (m + M)), damping c / (m + M) and drag 2 (B + B_s) speed / (m + M)). Its
-#: explicit Taylor steps (solvers/taylor.py, order 36 at a tolerance of 1e-16) are about
+#: explicit Taylor steps (solvers/search/taylor.py, order 36 at a tolerance of 1e-16) are about
 #: 5 / rate long whatever the motion: their last terms (rate h)^36 / 36! must stay below 1e-16
 #: of it, and a higher order's longer steps would lose to cancellation (terms up to
 #: e^(rate h)) the digits they gain. Measured 0.1 to 0.3 steps and up to TAYLOR_COST s of CPU

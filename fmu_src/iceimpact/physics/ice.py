@@ -120,7 +120,7 @@ class LinearDrag(_DragLaw):
         rounding even when far below the rounding of u t. The velocity is
         ``w0 + r0 (e^{-x} - 1)``: exactly w0 at t = 0 and without drag, even when |w0| << |u|.
         (The returned function takes t alone; its constants, :meth:`flight_constants`, are bound
-        as its default values; solvers/flight_search.py's _motion repeats this form operation
+        as its default values; solvers/search/flight_search.py's _motion repeats this form operation
         for operation on the same constants.)"""
 
         return linear_response(self.kappa, w0, w0 - u)
@@ -128,7 +128,7 @@ class LinearDrag(_DragLaw):
     def flight_constants(self, w0: float, u: float) -> tuple[float, float, float]:
         """The constants of the free flight from velocity w0 at flow speed u: ``(kappa, w0,
         r0 = w0 - u)``, as :meth:`increment` binds them and the compiled flight search
-        (solvers/flight_search.py) takes them."""
+        (solvers/search/flight_search.py) takes them."""
         return self.kappa, w0, w0 - u
 
     #: the flight's closed form on :meth:`flight_constants`
@@ -205,7 +205,7 @@ class QuadraticDrag(_DragLaw):
     def flight_constants(self, w0: float, u: float) -> tuple[float, float, float]:
         """The constants of the free flight from velocity w0 at flow speed u: ``(beta |r0|,
         w0, r0 = w0 - u)``, as :meth:`increment` binds them and the compiled flight search
-        (solvers/flight_search.py) takes them."""
+        (solvers/search/flight_search.py) takes them."""
         r0 = w0 - u
         return self.beta * abs(r0), w0, r0
 

@@ -65,7 +65,7 @@ def under_response(neg_sigma: float, omega: float, y0: float, p: float, q: float
               v0=v0) -> tuple[float, float]:
         # _decay_pair(neg_sigma * t), written out: the free structure's form, evaluated
         # several times per impact (and again, operation for operation, in
-        # solvers/flight_search.py's _motion, on under_constants)
+        # solvers/search/flight_search.py's _motion, on under_constants)
         arg = neg_sigma * t
         if arg < -0.7:
             decay = exp(arg)
@@ -109,7 +109,7 @@ class Oscillator:
         self._s_slow = -self.omega2 / (self.sigma + self.omega) if self.regime == OVER else 0.0
         self._s_fast = -(self.sigma + self.omega)
         #: under-damped: (offset, mass, damping, stiffness, omega2) as the compiled flight
-        #: search (solvers/flight_search.py) takes them, else None (it does not apply)
+        #: search (solvers/search/flight_search.py) takes them, else None (it does not apply)
         self.search_constants = ((offset, mass, damping, stiffness, self.omega2)
                                  if self.regime == UNDER else None)
 
@@ -213,7 +213,7 @@ class Oscillator:
         ``(-sigma, omega, y0, p, q, v0)`` with y0 = x0 - offset, p = v0 + sigma y0 and
         q = omega^2 y0 + sigma v0, so that y = y0 C + p S and v = v0 C - q S (eq. 9-10). They
         are the ones :meth:`increment`'s under-damped function binds, and the compiled flight
-        search (solvers/flight_search.py) takes them in this order."""
+        search (solvers/search/flight_search.py) takes them in this order."""
         y0 = x0 - self.offset
         return (-self.sigma, self.omega, y0, v0 + self.sigma * y0,
                 self.omega2 * y0 + self.sigma * v0, v0)

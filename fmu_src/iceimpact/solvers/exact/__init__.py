@@ -4,8 +4,8 @@ Between events each body follows its closed form (structure: eq. 9-10 and the ot
 regimes, :mod:`iceimpact.physics.structure`; ice: eq. 6-7 or the exact quadratic-drag solution,
 :mod:`iceimpact.physics.ice`), anchored at the event that started the segment, so communication
 steps never re-base them. Impact times are the first roots of the gap g = x - z, located by
-:class:`~iceimpact.solvers.rootfind.RootSearch`, which proves the intervals it skips root-free and
-so never misses a grazing touch. Each impact applies eq. 16-17.
+:class:`~iceimpact.solvers.search.rootfind.RootSearch`, which proves the intervals it skips
+root-free and so never misses a grazing touch. Each impact applies eq. 16-17.
 
 The contact rules (impact step, chatter and Zeno closure, degenerate contacts, sticking entry,
 contact force, separation, re-anchoring on a flow change) are those of
@@ -13,7 +13,7 @@ contact force, separation, re-anchoring on a flow change) are those of
 bodies pressed together) is closed by one plastic impact once the rest of the sequence would take
 less than ``ZENO_TIME``; the bodies then stick: linear drag in closed
 form (a damped oscillator of mass m + M, damping c + b, equilibrium b u / k, cf. eq. 27-29),
-quadratic drag by high-order Taylor steps (:mod:`iceimpact.solvers.taylor`: while the sign of
+quadratic drag by high-order Taylor steps (:mod:`iceimpact.solvers.search.taylor`: while the sign of
 u - x' holds the right-hand side is a polynomial, so the series follow by recurrence; each step
 from the state the previous one ended in, none ahead of the time asked for). They separate when
 the contact force would turn tensile.

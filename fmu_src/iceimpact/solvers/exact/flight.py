@@ -23,8 +23,8 @@ from ...physics.structure import (
 from ...record import Record
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
 from ..contact_rules import Phase
-from ..flight_search import COMPILED, FlightSearch
-from ..rootfind import RootSearch
+from ..search.flight_search import COMPILED, FlightSearch
+from ..search.rootfind import RootSearch
 from .segment import MARCHED, _floats, _SearchedSegment
 
 if TYPE_CHECKING:

@@ -11,7 +11,7 @@ import numpy as np
 from ...errors import StateError
 from ...limits import TIME_RESOLUTION
 from ...record import Record
-from ..rootfind import RootSearch
+from ..search.rootfind import RootSearch
 
 if TYPE_CHECKING:
     from .solver import EventSolver
@@ -57,7 +57,7 @@ class _SearchedSegment:
     def next_event(self, tau_end: float) -> float | None:
         """The segment's event if at or before tau_end: the first root of its ``value`` (a
         flight's gap, its impact; a sticking phase's contact force, its separation). The
-        segment is its root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`);
+        segment is its root search's signal (:class:`~iceimpact.solvers.search.rootfind.Signal`);
         :meth:`EventSolver.sample` calls the search directly, as here."""
         return self.search.next_root_of(tau_end, self)
 

@@ -25,8 +25,8 @@ from ..contact_rules import (
     separates,
     sticking_contact_force,
 )
-from ..rootfind import RootSearch
-from ..taylor import StepEnd, StickingTaylor, TaylorStep
+from ..search.rootfind import RootSearch
+from ..search.taylor import StepEnd, StickingTaylor, TaylorStep
 from .segment import STEPPED, _entry, _SearchedSegment, _time_eps
 
 if TYPE_CHECKING:
@@ -261,7 +261,8 @@ class LinearStick(_SearchedSegment):
         return (speed <= ROUNDING_SPEED * self.u
                 and speed * (2.0 * math.pi / turn) <= GAP_ROUNDING)
 
-    # the root search's signal (:class:`~iceimpact.solvers.rootfind.Signal`): the contact force
+    # the root search's signal (:class:`~iceimpact.solvers.search.rootfind.Signal`): the contact
+    # force
     value, value_and_rate = force, force_and_rate
 
     def impulse(self, tau_a: float, tau_b: float) -> float:

@@ -1,4 +1,4 @@
-"""The root search (solvers/rootfind.py) at scales whose squares underflow."""
+"""The root search (solvers/search/rootfind.py) at scales whose squares underflow."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from iceimpact.limits import (
 from iceimpact.physics.structure import Oscillator
 from iceimpact.solvers.base import GAP_ROUNDING
 from iceimpact.solvers.exact import Flight
-from iceimpact.solvers.rootfind import RootSearch
+from iceimpact.solvers.search.rootfind import RootSearch
 
 # --- the root search at scales whose squares underflow ------------------------------------------
 

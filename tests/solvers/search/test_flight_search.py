@@ -1,6 +1,6 @@
-"""The flight's root search in one function (solvers/flight_search.py) against RootSearch, whose
-steps it makes: the same points, the same roots, the same runs to the bit, in pure Python and
-compiled by numba (where installed), and the pure path kept by ICEIMPACT_PURE."""
+"""The flight's root search in one function (solvers/search/flight_search.py) against
+RootSearch, whose steps it makes: the same points, the same roots, the same runs to the bit, in
+pure Python and compiled by numba (where installed), and the pure path kept by ICEIMPACT_PURE."""
 
 from __future__ import annotations
 
@@ -18,12 +18,12 @@ from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError, run
-from iceimpact.solvers import flight_search, rootfind
 from iceimpact.solvers.exact import Flight
-from iceimpact.solvers.flight_search import GENERIC, PASSED, ROOT, FlightSearch, flight_root
+from iceimpact.solvers.search import flight_search, rootfind
+from iceimpact.solvers.search.flight_search import GENERIC, PASSED, ROOT, FlightSearch, flight_root
 from random_search import FLOWS, flow_at, scale_scenes
 
-SRC = Path(__file__).resolve().parents[1] / "fmu_src"
+SRC = Path(__file__).resolve().parents[3] / "fmu_src"
 
 #: scenes whose flights the function takes (under-damped structure, either drag law) and a run
 #: length (s) with some hundreds of impacts: Figure 2, a heavy floe (the ice upstream of the
@@ -217,7 +217,7 @@ def test_search_from_a_flight_directly(pure_function):
 
 def test_pure_environment_keeps_pure_path():
     """ICEIMPACT_PURE=1: no compiled function, every flight on RootSearch."""
-    code = ("from iceimpact.solvers import flight_search as f; from iceimpact.solvers.exact "
+    code = ("from iceimpact.solvers.search import flight_search as f; from iceimpact.solvers.exact "
             "import Flight; print(f.COMPILED is None, Flight._ONE_FUNCTION)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True, env={**os.environ, "PYTHONPATH": str(SRC),
@@ -346,7 +346,7 @@ import json, os, sys
 from fmpy import simulate_fmu
 simulate_fmu(sys.argv[1], stop_time=0.2, output_interval=0.1)
 compiled = [m.COMPILED is not None for k, m in sys.modules.items()
-            if k.startswith("_iceimpact_") and k.endswith(".solvers.flight_search")]
+            if k.startswith("_iceimpact_") and k.endswith(".solvers.search.flight_search")]
 print(json.dumps({"compiled": compiled, "pure_env": os.environ.get("ICEIMPACT_PURE")}))
 """
 

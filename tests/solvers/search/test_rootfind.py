@@ -1,5 +1,5 @@
-"""The no-miss root search (solvers/rootfind.py): Newton's method on monotone stretches against
-closed-form roots and against the brentq path, close roots, convex and concave crossings."""
+"""The no-miss root search (solvers/search/rootfind.py): Newton's method on monotone stretches
+against closed-form roots and against the brentq path, close roots, convex and concave crossings."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from iceimpact.solvers.rootfind import RootSearch, Signal
+from iceimpact.solvers.search.rootfind import RootSearch, Signal
 
 
 def _polynomial(coefficients):
@@ -191,7 +191,7 @@ def test_probes_with_values_far_apart_prove_what_their_bounds_prove(name):
 def test_the_rescaling_is_exact_and_balances_the_exponents():
     """``balanced`` multiplies by powers of 2 only, and leaves an ordinary probe's values
     within a few binades of one another."""
-    from iceimpact.solvers.rootfind import balanced
+    from iceimpact.solvers.search.rootfind import balanced
 
     probe = (1.1830521861667747e-271, -2.409919865102884e-184, 0.0, 4.909093465297727e-91, 1.0)
     *values, unit = balanced(*probe)

@@ -1,5 +1,6 @@
-"""The exact method's quadratic-drag sticking phase (Taylor steps, solvers/taylor.py) against an
-independent integration: scipy's DOP853 at rtol 1e-12 on the sticking equation written out here,
+"""The exact method's quadratic-drag sticking phase (Taylor steps, solvers/search/taylor.py)
+against an independent integration: scipy's DOP853 at rtol 1e-12 on the sticking equation
+written out here,
 
     (m + M) x'' + c x' + k x = B |u - x'| (u - x'),   contact force lam = drag - M x'',
 
@@ -15,7 +16,7 @@ from scipy.integrate import solve_ivp
 
 from iceimpact import Scene, Simulator, SolverError
 from iceimpact.solvers.exact import EventSolver, QuadraticStick
-from iceimpact.solvers.taylor import ORDER, StepEnd, StickingTaylor, TaylorStep, horner
+from iceimpact.solvers.search.taylor import ORDER, StepEnd, StickingTaylor, TaylorStep, horner
 
 RTOL = 1e-12
 

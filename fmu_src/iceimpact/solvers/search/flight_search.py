@@ -11,13 +11,12 @@ it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.exact`
 Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
 (``Oscillator.deviation_increment``'s under-damped form, the drag laws' ``increment`` and
 ``accel_bounds``, ``bounds``, ``Flight.probe``, ``gap_and_rate``, ``clearance``), operation for
-operation, with RootSearch's constants,
-so the points it visits and the root it returns are RootSearch's to the bit
-(tests/test_flight_search.py checks both against each other, and the runs with and without
-numba). Where a step leaves the common path (a probe to rescale, the drift clearance of an
-undamped structure, a degenerate or tangent start, a crossing at the frontier by rounding) it
-returns the frontier as it was before that step, and RootSearch makes that step and the rest of
-the search.
+operation, with RootSearch's constants, so the points it visits and the root it returns are
+RootSearch's to the bit (tests/solvers/search/test_flight_search.py checks both against each
+other, and the runs with and without numba). Where a step leaves the common path (a probe
+to rescale, the drift clearance of an undamped structure, a degenerate or tangent start, a
+crossing at the frontier by rounding) it returns the frontier as it was before that step, and
+RootSearch makes that step and the rest of the search.
 
 numba compiles it without ``fastmath`` (no contraction of a product and a sum into one fused
 operation, no reordering), and its ``math`` functions call the same C library as CPython's, so the
@@ -35,8 +34,8 @@ import warnings
 from math import cos, exp, expm1, log1p, nextafter, sin, sqrt
 from typing import Any
 
-from ..limits import TIME_RESOLUTION
-from .base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
+from ...limits import TIME_RESOLUTION
+from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
 from .rootfind import (
     _SUM_NEAR_1_LOW,
     BRACKET_STEPS,

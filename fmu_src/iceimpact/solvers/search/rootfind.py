@@ -41,8 +41,8 @@ from typing import Any
 
 from scipy.optimize import brentq
 
-from ..limits import TIME_RESOLUTION
-from ..record import Record
+from ...limits import TIME_RESOLUTION
+from ...record import Record
 
 #: Iterations before the search gives up proving and reports a touch where it stands
 #: (only a pathological, exactly tangent contact gets there; the touch is then real to rounding).
