@@ -13,13 +13,14 @@ import math
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from fmu_host import FMI_DISCARD, FMI_OK, Instance, errors
 from iceimpact import ParameterError, Scene, Simulator
-from iceimpact.contract import INT32_MAX, MAX_IMPACTS
+from iceimpact.contract import INT32_MAX, MAX_EVALUATIONS, MAX_IMPACTS
 from iceimpact.simulator import run
 from iceimpact.solvers.base import SolverError
 from test_properties import scenes
@@ -233,6 +234,131 @@ def test_the_budget_refuses_exactly_the_steps_that_need_more_impacts(scene, meth
             got = limited.advance(h)
         except SolverError as exc:
             assert made > budget, (made, str(exc))
+            after = limited.save()
+            assert after.pop("failed") and before.pop("failed") is None
+            assert after == before
+            continue
+        assert made <= budget
+        assert got == want
+
+
+# method 3's evaluation budget (solver.max_evaluations) ------------------------------------------
+@pytest.mark.parametrize("bad", [0, -1, 1.5, INT32_MAX + 1, math.nan, math.inf, True, "10"])
+def test_the_evaluation_budget_is_a_positive_32_bit_integer(bad):
+    with pytest.raises(ParameterError, match=r"solver\.max_evaluations = .* is not allowed: .*"
+                                             r"1 <= max_evaluations <= 2147483647"):
+        Scene(solver_max_evaluations=bad)
+    assert Scene().solver_max_evaluations == MAX_EVALUATIONS == 4_000_000
+
+
+def _evaluations(sim: Simulator, h: float) -> int:
+    """The right-hand-side evaluations a step of h is charged (it is taken): those of its
+    integration chunks that end before the step does."""
+    sim.advance(h)
+    return sim.solver.step_evaluations
+
+
+def test_a_step_over_the_evaluation_budget_is_refused_and_changes_nothing():
+    """Method 3 on Figure 2: a 29 s step needs some 18,000 evaluations. With a budget of 3,000
+    it is refused with the budget, where the integration stood and its rate, and the simulator
+    is exactly as before the step; a budget of exactly the step's evaluations lets it through;
+    0.5 s steps then go on and end where a run without a budget ends, to the bit."""
+    scene = Scene(solver_method=3)
+    free = Simulator(scene)
+    free.advance(1.0)
+    need = _evaluations(Simulator.from_snapshot(free.save()), 29.0)
+    assert need > 3000
+    tight = Simulator(scene.replace(solver_max_evaluations=3000))
+    tight.advance(1.0)
+    before = tight.save()
+    with pytest.raises(SolverError) as refused:
+        tight.advance(29.0)
+    text = str(refused.value)
+    assert "solver.max_evaluations = 3000 evaluations" in text
+    assert "1 <= max_evaluations <= 2147483647" in text
+    assert "shorter communication steps" in text and "evaluations a simulated second" in text
+    after = tight.save()
+    assert after.pop("failed").endswith(text) and before.pop("failed") is None
+    assert after == before
+    with pytest.raises(SolverError):  # the same step is refused again
+        tight.advance(29.0)
+    exact = Simulator.from_snapshot({**before, "failed": None, "scene": {
+        **before["scene"], "solver.max_evaluations": need}})
+    exact.advance(29.0)  # exactly the step's evaluations: taken
+    for _ in range(58):
+        tight.advance(0.5)
+        free.advance(0.5)
+    assert tight.solver.state == free.solver.state
+    assert tight.impact_count == free.impact_count
+
+
+@pytest.mark.parametrize("method", [1, 2])
+def test_methods_that_do_not_integrate_ignore_the_evaluation_budget(method):
+    extra = {"solver_detection": 2} if method == 2 else {}
+    scene = Scene(solver_method=method, **extra)
+    limited = run(scene.replace(solver_max_evaluations=1), 30.0, dt=10.0)
+    free = run(scene, 30.0, dt=10.0)
+    assert np.array_equal(limited.x, free.x) and len(limited.impacts) == len(free.impacts)
+
+
+def test_run_has_the_evaluation_budget_per_sample_interval():
+    scene = Scene(solver_method=3, solver_max_evaluations=2000)
+    with pytest.raises(SolverError, match=r"solver\.max_evaluations = 2000 evaluations"):
+        run(scene, 30.0, dt=10.0)
+    stepped = Simulator(scene)
+    for k in range(60):
+        stepped.advance((k + 1) * 0.5 - stepped.t)
+    result = run(scene, 30.0, dt=0.5)
+    assert result.x[-1] == stepped.solver.state.x
+    assert len(result.impacts) == stepped.impact_count
+
+
+def test_the_fmu_discards_a_step_over_the_evaluation_budget_and_goes_on(fmu_dir,
+                                                                        model_description):
+    inst = Instance(fmu_dir, model_description)
+    try:
+        assert inst.initialize({"solver.method": 3, "solver.max_evaluations": 3000}) == FMI_OK
+        assert inst.step(0.0, 1.0) == FMI_OK
+        before = inst.outputs()
+        assert inst.step(1.0, 29.0) == FMI_DISCARD
+        assert "the step needs more than solver.max_evaluations = 3000" in errors(inst)
+        assert inst.outputs() == before
+        for k in range(29):
+            assert inst.step(1.0 + k, 1.0) == FMI_OK, errors(inst)
+        sim = Simulator(Scene(solver_method=3, solver_max_evaluations=3000))
+        for _ in range(30):
+            want = sim.advance(1.0)
+        got = inst.outputs()
+        assert got["contact.count"] == want.impact_count
+        assert got["structure.x"] == pytest.approx(want.x, rel=0, abs=1e-12)
+    finally:
+        inst.free()
+
+
+@settings(max_examples=40, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(scene=scenes(), budget=st.integers(50, 3000), h=st.sampled_from([0.05, 0.25, 1.0]))
+def test_the_evaluation_budget_refuses_exactly_the_steps_that_need_more(scene, budget, h):
+    """Random scenes over the extremes, method 3: from each state of a twin without a budget, a
+    simulator with the budget takes the same step. It is refused exactly when the twin's step
+    makes more evaluations than the budget (in the chunks that end before the step does: the
+    one that reaches past it integrates ahead), and then changes nothing but the record of why;
+    otherwise it reports exactly the twin's step."""
+    try:
+        twin = Simulator(scene.replace(solver_method=3, solver_max_evaluations=INT32_MAX))
+    except ParameterError:
+        assume(False)
+    while twin.t < 1.0 - 1e-12:
+        snapshot = twin.save()
+        limited = Simulator.from_snapshot(
+            {**snapshot, "scene": {**snapshot["scene"], "solver.max_evaluations": budget}})
+        before = limited.save()
+        want = twin.advance(h)
+        made = twin.solver.step_evaluations
+        try:
+            got = limited.advance(h)
+        except SolverError as exc:
+            assert made > budget and "solver.max_evaluations" in str(exc), (made, str(exc))
             after = limited.save()
             assert after.pop("failed") and before.pop("failed") is None
             assert after == before

@@ -16,7 +16,9 @@ zero, reversed one step in four. ``--far`` draws from a wider box than validatio
 (stiffness down to 1e-200 N/m, fluid.rho 1e-200 to 1e30 kg/m^3, drag.v_lin up to 1e200 m/s,
 masses 1e-6 to 1e9 kg, impact.e 1e-12 to 1) and runs each scene FAR_STEPS = 300 communication
 steps of 0.01 to 1 s under a flow constant, zero, reversing at every step or random in sign and
-size; the scenes validation refuses up front are counted by the rule that refused them. Scenes
+size; the scenes validation refuses up front are counted by the rule that refused them; method 3
+integrates with ``solver.max_evaluations`` = FAR_EVALUATIONS per step (``--max-evaluations``), so
+that a scene whose integration needs more is refused at a step naming that limit. Scenes
 the model refuses (ParameterError, at the start or at a step, or a SolverError naming the
 limit, such as method 2's unstable Euler step) are counted and skipped. Every numpy warning is
 an error (a FAIL naming where it was raised): an invalid value computed on the way is a fault
@@ -104,6 +106,10 @@ FLOWS = ("constant", "reversing", "random signs", "zero", "reversed 1 in 4")
 FAR_FLOWS = ("constant", "zero", "reversing", "random")
 #: communication steps of the far-scale search: so many, of 0.01 to 1 s
 FAR_STEPS = 300
+#: method 3's evaluation budget per step in the far-scale search (solver.max_evaluations), the
+#: host's bound on a 300-step run: at ~5 us an evaluation, 300 steps of 5,000 (and as much again
+#: integrated ahead and discarded at a change of the flow) are ~15 s of CPU
+FAR_EVALUATIONS = 5_000
 OMEGA_MAX = {1: OMEGA_MAX_EXACT, 2: 1e12, 3: OMEGA_MAX_ODE}
 #: the drag-rate limit of each method's validation (method 3: its explicit integrators, the
 #: default DOP853)
@@ -502,6 +508,9 @@ def main() -> None:
                         help=f"the far box: {FAR_STEPS} steps of 0.01-1 s, stiffness down to "
                         "1e-200 N/m, fluid.rho 1e-200 to 1e30, drag.v_lin up to 1e200, flows "
                         "constant, zero, reversing or random in sign and size")
+    parser.add_argument("--max-evaluations", type=int, metavar="N",
+                        help="method 3: solver.max_evaluations of every scene (default: the "
+                        f"scene's; {FAR_EVALUATIONS} with --far)")
     parser.add_argument("--time-limit", type=float, default=TIME_LIMIT,
                         help="s of CPU time per scene before it counts as a TIMEOUT")
     parser.add_argument("--replay", metavar="JSON",
@@ -524,6 +533,9 @@ def main() -> None:
     flows = (st.sampled_from(FAR_FLOWS) if args.far else st.sampled_from(FLOWS) if args.flows
              else st.just("constant"))
     n_steps = FAR_STEPS if args.far else None
+    evaluations = args.max_evaluations or (FAR_EVALUATIONS if args.far else None)
+    budget = ({"solver_max_evaluations": evaluations}
+              if args.method == 3 and evaluations is not None else {})
 
     @seed(args.seed)
     @settings(max_examples=args.examples, deadline=None, database=None,
@@ -535,7 +547,8 @@ def main() -> None:
     def check(scene, h, flow, signs, sizes):
         nonlocal count, refused, busy
         try:
-            scene = scene.replace(solver_method=args.method, solver_detection=args.detection)
+            scene = scene.replace(solver_method=args.method, solver_detection=args.detection,
+                                  **budget)
         except ParameterError as exc:
             _REFUSALS.note(exc)
             assume(False)

@@ -96,6 +96,7 @@ class Scene:
     structure_Cd: float = _START["structure_Cd"]
     structure_A: float = _START["structure_A"]
     solver_max_impacts: int = _START["solver_max_impacts"]
+    solver_max_evaluations: int = _START["solver_max_evaluations"]
 
     def __post_init__(self) -> None:
         validate(self)

@@ -175,21 +175,25 @@ class Solver:
         if self.record_impacts:
             self.impacts.append(impact)
 
-    def _over_budget(self, t: float) -> str:
-        """The refusal of a step that needs more than solver.max_impacts impacts: the budget,
-        where the step stood and the rate of its impacts, and the two ways on."""
-        budget = self.scene.solver_max_impacts
+    def _over_budget(self, t: float, name: str = "solver.max_impacts",
+                     what: str = "impacts") -> str:
+        """The refusal of a step that needs more than its budget ``name`` of ``what`` (the
+        impacts, or method 3's evaluations): the budget, where the step stood and the rate so
+        far, and the two ways on."""
+        budget = getattr(self.scene, name.replace(".", "_"))
         span = t - self.step_start
+        at = "the next one at" if what == "impacts" else "the budget spent by"
         if span > 0.0:
             rate = budget / span
-            where = (f"the next one at t = {t!r} s, {span:.3g} s into the step: {rate:.3g} "
-                     f"impacts a simulated second; at that rate steps of {0.5 * span:.3g} s "
+            where = (f"{at} t = {t!r} s, {span:.3g} s into the step: {rate:.3g} "
+                     f"{what} a simulated second; at that rate steps of {0.5 * span:.3g} s "
                      f"take half the budget")
         else:
             where = f"all at t = {t!r} s"
-        return (f"the step needs more than solver.max_impacts = {budget} impacts ({where}). "
+        short = name.split(".")[1]
+        return (f"the step needs more than {name} = {budget} {what} ({where}). "
                 f"Take shorter communication steps (run(): a shorter dt), or raise "
-                f"solver.max_impacts (allowed: an integer, 1 <= max_impacts <= {INT32_MAX}) if "
+                f"{name} (allowed: an integer, 1 <= {short} <= {INT32_MAX}) if "
                 f"a step may take that long")
 
     def _set_sticking(self, sticking: bool, t: float) -> None:

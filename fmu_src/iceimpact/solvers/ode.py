@@ -248,7 +248,11 @@ class OdeSolver(EventMarch):
         self.u = scene.flow_u
         self._set_chunks(self.u)
         self.pending_impulse = 0.0
-        self.nfev = 0                   # right-hand-side evaluations, for the benchmarks
+        self.nfev = 0                   # right-hand-side evaluations since the start
+        # the step's evaluations (those of its chunks that end before the step does) and the
+        # most it may make (solver.max_evaluations; none outside a step)
+        self.step_evaluations = 0
+        self.evaluation_budget = math.inf
         self._events_here = 0
         self._last_event_t = -math.inf
         s = self.state
@@ -360,8 +364,24 @@ class OdeSolver(EventMarch):
                               f"{res.message}")
         return res, hi, events
 
-    def _extend(self) -> None:
-        """Integrate one more chunk of the current segment (stops at its event)."""
+    def begin_step(self, start: float | None = None) -> None:
+        """The step's budgets: the impacts' (:meth:`Solver.begin_step`) and the integrator's,
+        ``solver.max_evaluations`` right-hand-side evaluations (:meth:`_extend`)."""
+        super().begin_step(start)
+        self.step_evaluations = 0
+        self.evaluation_budget = self.scene.solver_max_evaluations
+
+    def end_step(self) -> None:
+        super().end_step()
+        self.evaluation_budget = math.inf
+
+    def _extend(self, t_end: float) -> None:
+        """Integrate one more chunk of the current segment (stops at its event), for a step to
+        ``t_end``. A chunk that ends before t_end counts against the step's budget, and the one
+        beyond the budget refuses the step (the simulator restores the state before it). The
+        chunk that reaches past t_end is not counted: it integrates ahead for the steps after
+        (a chunk is at most 20 periods or CHUNK_RATE / rate long), so a step short enough to end
+        inside its chunk always goes on."""
         lo = self.t_hi
         res, hi, events = self._integrate(lo, self.y_hi, lo + self._next_span())
         self.nfev += res.nfev
@@ -382,6 +402,11 @@ class OdeSolver(EventMarch):
                 self.t_hi, self.y_hi = t_ev, res.y_events[0][0]
             else:
                 self.t_hi, self.y_hi = hi, res.y[:, -1]
+        if self.t_hi < t_end:
+            self.step_evaluations += res.nfev
+            if self.step_evaluations > self.evaluation_budget:
+                raise SolverError(self._over_budget(self.t_hi, "solver.max_evaluations",
+                                                    "evaluations"))
 
     def _hidden_event(self, res) -> float | None:
         """The first event of the segment inside one integrator step that scipy's event test
@@ -494,7 +519,7 @@ class OdeSolver(EventMarch):
 
     def next_event(self, t_end: float) -> tuple[float, np.ndarray] | None:
         while self.event is None and self.t_hi < t_end:
-            self._extend()
+            self._extend(t_end)
         if self.event is not None and self.event[0] <= t_end:
             return self.event
         return None
