@@ -38,12 +38,30 @@ def _impacts_by(scene: Scene, t: float) -> int:
 
 
 @pytest.mark.parametrize("bad", [0, -1, 1.5, INT32_MAX + 1, math.nan, math.inf, True, "10"])
-def test_the_budget_is_a_positive_32_bit_integer(bad):
-    with pytest.raises(ParameterError, match=r"solver\.max_impacts = .* is not allowed: .*"
-                                             r"1 <= max_impacts <= 2147483647"):
-        Scene(solver_max_impacts=bad)
-    assert Scene().solver_max_impacts == MAX_IMPACTS == 100_000
-    assert Scene(solver_max_impacts=INT32_MAX).solver_max_impacts == INT32_MAX
+@pytest.mark.parametrize("name, default", [("max_impacts", MAX_IMPACTS),
+                                           ("max_evaluations", MAX_EVALUATIONS)])
+def test_the_budgets_are_positive_32_bit_integers(bad, name, default):
+    with pytest.raises(ParameterError, match=rf"solver\.{name} = .* is not allowed: .*"
+                                             rf"1 <= {name} <= 2147483647"):
+        Scene(**{f"solver_{name}": bad})
+    assert getattr(Scene(), f"solver_{name}") == default
+    assert getattr(Scene(**{f"solver_{name}": INT32_MAX}), f"solver_{name}") == INT32_MAX
+    assert (MAX_IMPACTS, MAX_EVALUATIONS) == (100_000, 4_000_000)
+
+
+def _refused_unchanged(sim: Simulator, h: float) -> tuple[str, dict]:
+    """A step of h that the simulator refuses: its message, and the simulator's record before
+    it, which the refusal (and a second try) leaves as it was but for the record of why."""
+    before = sim.save()
+    with pytest.raises(SolverError) as refused:
+        sim.advance(h)
+    text = str(refused.value)
+    after = sim.save()
+    assert after.pop("failed").endswith(text) and before.pop("failed") is None
+    assert after == before  # the refused step changed nothing else
+    with pytest.raises(SolverError):  # the same step is refused again
+        sim.advance(h)
+    return text, before
 
 
 @pytest.mark.parametrize("method", _METHODS, ids=["exact", "fixed-step", "ode"])
@@ -57,17 +75,9 @@ def test_a_step_over_the_budget_is_refused_and_changes_nothing(method):
     assert n == 10
     tight = Simulator(scene.replace(solver_max_impacts=3))
     tight.advance(1.0)
-    before = tight.save()
-    with pytest.raises(SolverError) as refused:
-        tight.advance(29.0)
-    text = str(refused.value)
+    text, _ = _refused_unchanged(tight, 29.0)
     assert "solver.max_impacts = 3" in text and "1 <= max_impacts <= 2147483647" in text
     assert "shorter communication steps" in text and "impacts a simulated second" in text
-    after = tight.save()
-    assert after.pop("failed").endswith(text) and before.pop("failed") is None
-    assert after == before  # the refused step changed nothing else
-    with pytest.raises(SolverError):  # the same step is refused again
-        tight.advance(29.0)
     assert Simulator(scene.replace(solver_max_impacts=n)).advance(30.0).impact_count == n
     free = Simulator(scene)
     free.advance(1.0)
@@ -108,20 +118,25 @@ def test_the_cli_refuses_a_run_over_the_budget_with_exit_status_2():
     assert out.returncode == 0 and "10 impacts" in out.stdout, out.stderr
 
 
-def test_the_fmu_discards_a_step_over_the_budget_and_goes_on(fmu_dir, model_description):
-    """At the FMU: fmi2Discard with the core's message, outputs unchanged; shorter steps then go
-    on and give the core's outputs."""
+@pytest.mark.parametrize("budget", [{"solver.max_impacts": 3},
+                                    {"solver.method": 3, "solver.max_evaluations": 3000}],
+                         ids=["impacts", "evaluations"])
+def test_the_fmu_discards_a_step_over_the_budget_and_goes_on(fmu_dir, model_description,
+                                                             budget):
+    """At the FMU, either budget: fmi2Discard with the core's message, outputs unchanged;
+    shorter steps then go on and give the core's outputs."""
+    name, value = list(budget.items())[-1]
     inst = Instance(fmu_dir, model_description)
     try:
-        assert inst.initialize({"solver.max_impacts": 3}) == FMI_OK
+        assert inst.initialize(budget) == FMI_OK
         assert inst.step(0.0, 1.0) == FMI_OK
         before = inst.outputs()
         assert inst.step(1.0, 29.0) == FMI_DISCARD
-        assert "the step needs more than solver.max_impacts = 3 impacts" in errors(inst)
+        assert f"the step needs more than {name} = {value} " in errors(inst)
         assert inst.outputs() == before
         for k in range(29):
             assert inst.step(1.0 + k, 1.0) == FMI_OK, errors(inst)
-        sim = Simulator(Scene(solver_max_impacts=3))
+        sim = Simulator(Scene(**{key.replace(".", "_"): v for key, v in budget.items()}))
         for _ in range(30):
             want = sim.advance(1.0)
         got = inst.outputs()
@@ -205,6 +220,22 @@ def test_the_budget_refuses_a_long_step_of_the_stiff_stick_part_cycle_at_once():
     assert 1e5 < rate < 3e6
 
 
+def _as_twin(limited: Simulator, before: dict, h: float, want, made: int, budget: int,
+             name: str) -> None:
+    """The step of h with the budget: refused (naming it, and changing nothing but the record
+    of why) exactly when the twin's same step made more than the budget, else the twin's."""
+    try:
+        got = limited.advance(h)
+    except SolverError as exc:
+        assert made > budget and name in str(exc), (made, str(exc))
+        after = limited.save()
+        assert after.pop("failed") and before.pop("failed") is None
+        assert after == before
+        return
+    assert made <= budget
+    assert got == want
+
+
 @settings(max_examples=100, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(scene=scenes(), method=st.sampled_from([1, 2, 3]), budget=st.integers(1, 3),
@@ -230,27 +261,10 @@ def test_the_budget_refuses_exactly_the_steps_that_need_more_impacts(scene, meth
         made = -twin.impact_count
         want = twin.advance(h)
         made += twin.impact_count
-        try:
-            got = limited.advance(h)
-        except SolverError as exc:
-            assert made > budget, (made, str(exc))
-            after = limited.save()
-            assert after.pop("failed") and before.pop("failed") is None
-            assert after == before
-            continue
-        assert made <= budget
-        assert got == want
+        _as_twin(limited, before, h, want, made, budget, "solver.max_impacts")
 
 
 # method 3's evaluation budget (solver.max_evaluations) ------------------------------------------
-@pytest.mark.parametrize("bad", [0, -1, 1.5, INT32_MAX + 1, math.nan, math.inf, True, "10"])
-def test_the_evaluation_budget_is_a_positive_32_bit_integer(bad):
-    with pytest.raises(ParameterError, match=r"solver\.max_evaluations = .* is not allowed: .*"
-                                             r"1 <= max_evaluations <= 2147483647"):
-        Scene(solver_max_evaluations=bad)
-    assert Scene().solver_max_evaluations == MAX_EVALUATIONS == 4_000_000
-
-
 def _evaluations(sim: Simulator, h: float) -> int:
     """The right-hand-side evaluations a step of h is charged (it is taken): those of its
     integration chunks that end before the step does."""
@@ -270,18 +284,10 @@ def test_a_step_over_the_evaluation_budget_is_refused_and_changes_nothing():
     assert need > 3000
     tight = Simulator(scene.replace(solver_max_evaluations=3000))
     tight.advance(1.0)
-    before = tight.save()
-    with pytest.raises(SolverError) as refused:
-        tight.advance(29.0)
-    text = str(refused.value)
+    text, before = _refused_unchanged(tight, 29.0)
     assert "solver.max_evaluations = 3000 evaluations" in text
     assert "1 <= max_evaluations <= 2147483647" in text
     assert "shorter communication steps" in text and "evaluations a simulated second" in text
-    after = tight.save()
-    assert after.pop("failed").endswith(text) and before.pop("failed") is None
-    assert after == before
-    with pytest.raises(SolverError):  # the same step is refused again
-        tight.advance(29.0)
     exact = Simulator.from_snapshot({**before, "failed": None, "scene": {
         **before["scene"], "solver.max_evaluations": need}})
     exact.advance(29.0)  # exactly the step's evaluations: taken
@@ -313,28 +319,6 @@ def test_run_has_the_evaluation_budget_per_sample_interval():
     assert len(result.impacts) == stepped.impact_count
 
 
-def test_the_fmu_discards_a_step_over_the_evaluation_budget_and_goes_on(fmu_dir,
-                                                                        model_description):
-    inst = Instance(fmu_dir, model_description)
-    try:
-        assert inst.initialize({"solver.method": 3, "solver.max_evaluations": 3000}) == FMI_OK
-        assert inst.step(0.0, 1.0) == FMI_OK
-        before = inst.outputs()
-        assert inst.step(1.0, 29.0) == FMI_DISCARD
-        assert "the step needs more than solver.max_evaluations = 3000" in errors(inst)
-        assert inst.outputs() == before
-        for k in range(29):
-            assert inst.step(1.0 + k, 1.0) == FMI_OK, errors(inst)
-        sim = Simulator(Scene(solver_method=3, solver_max_evaluations=3000))
-        for _ in range(30):
-            want = sim.advance(1.0)
-        got = inst.outputs()
-        assert got["contact.count"] == want.impact_count
-        assert got["structure.x"] == pytest.approx(want.x, rel=0, abs=1e-12)
-    finally:
-        inst.free()
-
-
 @settings(max_examples=40, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(scene=scenes(), budget=st.integers(50, 3000), h=st.sampled_from([0.05, 0.25, 1.0]))
@@ -355,13 +339,4 @@ def test_the_evaluation_budget_refuses_exactly_the_steps_that_need_more(scene, b
         before = limited.save()
         want = twin.advance(h)
         made = twin.solver.step_evaluations
-        try:
-            got = limited.advance(h)
-        except SolverError as exc:
-            assert made > budget and "solver.max_evaluations" in str(exc), (made, str(exc))
-            after = limited.save()
-            assert after.pop("failed") and before.pop("failed") is None
-            assert after == before
-            continue
-        assert made <= budget
-        assert got == want
+        _as_twin(limited, before, h, want, made, budget, "solver.max_evaluations")
