@@ -175,14 +175,13 @@ class Solver:
         if self.record_impacts:
             self.impacts.append(impact)
 
-    def _over_budget(self, t: float, name: str = "solver.max_impacts",
-                     what: str = "impacts") -> str:
+    def _over_budget(self, t: float, name: str = "solver.max_impacts", what: str = "impacts",
+                     at: str = "the next one at") -> str:
         """The refusal of a step that needs more than its budget ``name`` of ``what`` (the
-        impacts, or method 3's evaluations): the budget, where the step stood and the rate so
-        far, and the two ways on."""
+        impacts, or method 3's evaluations), ``at`` time t: the budget, where the step stood
+        and the rate so far, and the two ways on."""
         budget = getattr(self.scene, name.replace(".", "_"))
         span = t - self.step_start
-        at = "the next one at" if what == "impacts" else "the budget spent by"
         if span > 0.0:
             rate = budget / span
             where = (f"{at} t = {t!r} s, {span:.3g} s into the step: {rate:.3g} "

@@ -406,7 +406,7 @@ class OdeSolver(EventMarch):
             self.step_evaluations += res.nfev
             if self.step_evaluations > self.evaluation_budget:
                 raise SolverError(self._over_budget(self.t_hi, "solver.max_evaluations",
-                                                    "evaluations"))
+                                                    "evaluations", "the budget spent by"))
 
     def _hidden_event(self, res) -> float | None:
         """The first event of the segment inside one integrator step that scipy's event test

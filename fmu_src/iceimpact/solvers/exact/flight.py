@@ -36,7 +36,6 @@ if TYPE_CHECKING:
 DRIFT_PHASE_LIMIT = 2.0 ** 46
 
 
-
 class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
