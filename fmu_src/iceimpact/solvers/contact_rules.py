@@ -344,19 +344,12 @@ class ContactRules:
         self.policy = policy
         self.parting_noise = parting_noise
         self.degenerate = DegenerateContacts(self.chatter_time)
-        self._last_force: tuple[tuple[float, ...], float] = ((), 0.0)
 
     def free_contact_force(self, x: float, v: float, w: float, u: float) -> float:
         """Contact force needed to keep the bodies together at state (x, v, w), N: the
-        separation test at a contact (< 0: they part). The last one is kept: an impact asks
-        for it after the impact step (chatter test) and again at the contact that follows."""
-        key = (x, v, w, u)
-        if key == self._last_force[0]:
-            return self._last_force[1]
+        separation test at a contact (< 0: they part)."""
         a_x, a_z = self.free_accels(x, v, w, u)
-        lam = contact_force(a_x, a_z, self.m, self.M)
-        self._last_force = (key, lam)
-        return lam
+        return contact_force(a_x, a_z, self.m, self.M)
 
     def is_rounding(self, closing: float, x: float, v: float, w: float, u: float) -> bool:
         """|closing| (m/s) is at rounding level of the speeds of the scene.
