@@ -97,6 +97,23 @@ def _add_scene_options(p: argparse.ArgumentParser) -> None:
                         "roughly proportional to t_end / dt")
 
 
+def _add_engine_options(parser: argparse.ArgumentParser, overwrite_help: str,
+                        what: str) -> None:
+    """The options of the sweep engine that ``sweep`` and ``loads`` share (``what``: the
+    things --max-runs counts runs of)."""
+    parser.add_argument("--workers", type=_count, default=None, metavar="N",
+                        help=f"worker processes (default: all cores, here {os.cpu_count()})")
+    parser.add_argument("--chunksize", type=_count, default=None, metavar="N",
+                        help="runs per task (default: automatic)")
+    parser.add_argument("--dask", default=None, metavar="ADDRESS",
+                        help="run on a dask.distributed scheduler, e.g. tcp://host:8786 "
+                             "(pip install 'iceimpact[dask]')")
+    parser.add_argument("--overwrite", action="store_true", help=overwrite_help)
+    parser.add_argument("--max-runs", type=_count, default=None, metavar="N",
+                        help=f"refuse {what} of more than N runs (default 100000)")
+    parser.add_argument("--allow-failures", action="store_true",
+                        help="exit 0 even when some runs failed (default: exit status 1)")
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``iceimpact`` (subcommands ``simulate``, ``sweep``, ``plot``)."""
     parser = argparse.ArgumentParser(
@@ -140,19 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="output table (.csv, or .parquet with pyarrow); resumed if it exists")
     sw.add_argument("--format", choices=("csv", "parquet"), default=None,
                     help="table format (default: from the --out suffix, else csv)")
-    sw.add_argument("--workers", type=_count, default=None, metavar="N",
-                    help=f"worker processes (default: all cores, here {os.cpu_count()})")
-    sw.add_argument("--chunksize", type=_count, default=None, metavar="N",
-                    help="runs per task (default: automatic)")
-    sw.add_argument("--dask", default=None, metavar="ADDRESS",
-                    help="run on a dask.distributed scheduler, e.g. tcp://host:8786 "
-                         "(pip install 'iceimpact[dask]')")
-    sw.add_argument("--overwrite", action="store_true",
-                    help="replace an output table written by a different sweep")
-    sw.add_argument("--max-runs", type=_count, default=None, metavar="N",
-                    help="refuse grids of more than N runs (default 100000)")
-    sw.add_argument("--allow-failures", action="store_true",
-                    help="exit 0 even when some runs failed (default: exit status 1)")
+    _add_engine_options(sw, "replace an output table written by a different sweep", "grids")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     sw.set_defaults(handler=_sweep, subparser=sw)
     _add_plot_parser(sub)
@@ -428,18 +433,7 @@ def _add_loads_parser(sub: argparse._SubParsersAction) -> None:
                     help="loads use t >= this, s (overrides the file's; default 0)")
     lo.add_argument("--dt", type=_positive, default=None, metavar="S",
                     help=f"sample step, s (overrides the file's; default {DEFAULT_DT:g})")
-    lo.add_argument("--workers", type=_count, default=None, metavar="N",
-                    help=f"worker processes (default: all cores, here {os.cpu_count()})")
-    lo.add_argument("--chunksize", type=_count, default=None, metavar="N",
-                    help="runs per task (default: automatic)")
-    lo.add_argument("--dask", default=None, metavar="ADDRESS",
-                    help="run on a dask.distributed scheduler, e.g. tcp://host:8786")
-    lo.add_argument("--overwrite", action="store_true",
-                    help="replace a PREFIX.csv written for other runs")
-    lo.add_argument("--max-runs", type=_count, default=None, metavar="N",
-                    help="refuse tables of more than N runs (default 100000)")
-    lo.add_argument("--allow-failures", action="store_true",
-                    help="exit 0 even when some runs failed (default: exit status 1)")
+    _add_engine_options(lo, "replace a PREFIX.csv written for other runs", "tables")
     lo.add_argument("--series", type=Path, default=None, metavar="DIR",
                     help="also write each run's time series as an OpenFAST .out file in DIR "
                          "(for pCrunch, pyDatView; runs the cases again, serially)")
