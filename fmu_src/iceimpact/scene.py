@@ -14,6 +14,7 @@ import dataclasses
 import difflib
 import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -389,6 +390,19 @@ def load_scene(path: str | Path) -> Scene:
     except ValueError as exc:  # tomllib: an integer of more than 4300 digits
         raise ParameterError("scene file", str(path), f"a TOML file with numbers Python can "
                              f"read ({value_text(str(exc))})") from None
+
+    def twice(name: str, first: str, first_value: Any, how: str, value: Any) -> Exception:
+        return ParameterError(name, value, f"given once: the scene file gives it twice, as "
+                              f"{first} = {first_value!r} and as {how} = {value!r}")
+
+    return Scene.from_fmi(flatten_table(data, twice))
+
+
+def flatten_table(table: dict[str, Any],
+                  twice: Callable[[str, str, Any, str, Any], Exception]) -> dict[str, Any]:
+    """A TOML document's values by their FMI names: ``[ice] M = 800.0`` and ``"ice.M" = 800.0``
+    both give ``{"ice.M": 800.0}``. A name given in two spellings raises ``twice(name, first
+    spelling, its value, second spelling, its value)``."""
     flat: dict[str, Any] = {}
     spelled: dict[str, str] = {}
 
@@ -399,12 +413,10 @@ def load_scene(path: str | Path) -> Scene:
             if isinstance(value, dict):
                 walk(name, value, f"[{name}]" if not spelling else f"{spelling}.{key}")
             elif name in flat:
-                raise ParameterError(name, value, f"given once: the scene file gives it twice, "
-                                     f"as {spelled[name]} = {flat[name]!r} and as {how} = "
-                                     f"{value!r}")
+                raise twice(name, spelled[name], flat[name], how, value)
             else:
                 flat[name] = value
                 spelled[name] = how
 
-    walk("", data, "")
-    return Scene.from_fmi(flat)
+    walk("", table, "")
+    return flat

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import ParameterError, real_number, value_text
 from ..runspec import DEFAULT_DT, MAX_SAMPLES, SpecError, Value, apply, check_name, coerce
-from ..scene import Scene, load_scene
+from ..scene import Scene, flatten_table, load_scene
 from ..sweep.errors import SweepError
 from ..sweep.table import read_text_file
 from .loads import F_EQ, N_EQ, WOHLER_EXPONENTS, Loads, design_loads, load_columns, run_loads
@@ -211,17 +211,10 @@ def _parameter(where: str, name: str, value: Any) -> Value:
                           "(the parameter's SI unit)") from None
 
 
-def _flatten(where: str, table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+def _flatten(where: str, table: Mapping[str, Any]) -> dict[str, Any]:
     """``{"drag": {"model": 2}}`` (TOML's ``drag.model = 2``) -> ``{"drag.model": 2}``."""
-    flat: dict[str, Any] = {}
-    for key, value in table.items():
-        name = f"{prefix}.{key}" if prefix else key
-        items = _flatten(where, value, name) if isinstance(value, dict) else {name: value}
-        for k, v in items.items():
-            if k in flat:
-                raise SeasonError(f"{where}{k} is given twice (dotted and as a table)")
-            flat[k] = v
-    return flat
+    return flatten_table(dict(table), lambda name, *_: SeasonError(
+        f"{where}{name} is given twice (dotted and as a table)"))
 
 
 def _read_text(path: Path) -> str:
