@@ -485,6 +485,19 @@ def season_rows(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
+#: The largest JSON file a plot reads (a load-case summary is a few kB).
+MAX_JSON_BYTES = 64 * 2**20
+
+
+def _read_json_text(path: Path) -> str:
+    """The text of a JSON file from outside, read as every outside text file is (a regular
+    file, within MAX_JSON_BYTES, UTF-8); PlotError otherwise."""
+    from .sweep.table import read_text_file
+
+    return read_text_file(path, MAX_JSON_BYTES,
+                          lambda p, problem: PlotError(f"{p}: not readable JSON ({problem})"))
+
+
 def season_summary(path: str | Path) -> dict[str, Any] | None:
     """The load-case summary of ``path``: PREFIX.json itself, or the one beside PREFIX.csv;
     None if there is none (or it is not one)."""
@@ -495,8 +508,8 @@ def season_summary(path: str | Path) -> dict[str, Any] | None:
     if not doc.is_file():
         return None
     try:
-        data = json.loads(doc.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
+        data = json.loads(_read_json_text(doc))
+    except (PlotError, ValueError):
         return None
     return data if isinstance(data, dict) and data.get("format") == SEASON_FORMAT else None
 
@@ -522,8 +535,8 @@ def read_rows(path: str | Path) -> list[dict[str, Any]]:
             raise PlotError(str(exc)) from None
     if suffix == ".json":
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            data = json.loads(_read_json_text(path))
+        except ValueError as exc:
             raise PlotError(f"{path}: not readable JSON ({exc})") from None
         if isinstance(data, dict):
             data = next((data[k] for k in ("cases", "rows", "table") if isinstance(data.get(k),
