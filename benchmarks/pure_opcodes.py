@@ -9,7 +9,7 @@ and where the rest is. It does not count what runs in C (numpy's vectorised samp
 functions, allocation and garbage collection), so the ratio of counts is not the ratio of times:
 the table gives both the count per impact and its share of the run's own time per opcode.
 
-    python benchmarks/pure_opcodes.py                       # the core_speed scenes, ~3 min
+    python benchmarks/pure_opcodes.py                       # the three scenes, about 1 min
     python benchmarks/pure_opcodes.py --scenes figure2 --lengths 400 --top 25
 
 For each scene, in fresh processes with ``ICEIMPACT_PURE=1`` (the compiled flight search off)
@@ -115,15 +115,14 @@ def main(argv=None) -> int:
     parser.add_argument("--base", default="7c9c6ad", help="reference commit (0.2.0)")
     parser.add_argument("--scenes", nargs="+", choices=list(SCENES))
     parser.add_argument("--lengths", type=float, nargs="+",
-                        help="run lengths, s (with --scenes: each scene at each length)")
+                        help="run lengths, s: each scene at each (default: 400, 60, 30 s)")
     parser.add_argument("--top", type=int, default=20, help="functions listed per scene")
     parser.add_argument("--out", type=Path, default=RESULTS / "pure_opcodes.json")
     args = parser.parse_args(argv)
-    if args.scenes:
-        runs = [(s, t) for s in args.scenes for t in (args.lengths or [dict(DEFAULT_RUNS)
-                                                                         .get(s, 60.0)])]
-    else:
-        runs = list(DEFAULT_RUNS)
+    # each scene at each --lengths, else at its length in DEFAULT_RUNS (60 s if it has none)
+    default_length = dict(DEFAULT_RUNS)
+    scenes = args.scenes or list(default_length)
+    runs = [(s, t) for s in scenes for t in (args.lengths or [default_length.get(s, 60.0)])]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         before_core = extract(args.base, Path(tmp))
