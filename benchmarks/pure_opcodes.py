@@ -2,7 +2,7 @@
 a run executes, before (a reference commit) and after (this tree), per impact and per function.
 
 Timing the pure path against release 0.2.0 (``core_speed.py --pure --warm 5``) gives ratios
-that move by 5-7 % between runs of the same code on this machine; a change of 1-2 % cannot be
+that move by up to 15 % between runs of the same code on this machine; a change of 1-2 % cannot be
 told from noise. The number of bytecode instructions CPython executes is the same in every run
 (it is counted with ``sys.settrace``'s opcode events), so it shows exactly what a change removes,
 and where the rest is. It does not count what runs in C (numpy's vectorised sampling, math
