@@ -4,6 +4,7 @@ march, evaluated in closed forms per group of segments (:meth:`EventSolver.sampl
 from __future__ import annotations
 
 import math
+from array import array
 from bisect import bisect_left
 from operator import attrgetter
 from typing import Any
@@ -53,12 +54,13 @@ class _SampleGroup:
 
     def __init__(self, representative: _SearchedSegment):
         self.rep = representative
-        # per segment its anchor's values, flat (floats: no tuple per segment for the cyclic
-        # garbage collector to track)
-        self.anchors: list[float] = []
-        self.t0: list[float] = []
-        self.first: list[int] = []                  # its samples: first..stop-1
-        self.stop: list[int] = []
+        # per segment its anchor's values, flat, and its samples first..stop-1: machine numbers
+        # copied as the march goes (the float objects, scattered in memory by then, would cost
+        # a cache miss each to read back at the end)
+        self.anchors = array("d")
+        self.t0 = array("d")
+        self.first = array("q")
+        self.stop = array("q")
         # force-carrying pieces, one run per segment: anchor index, tau_from, samples i..j-1,
         # tau_event (nan: none), position of the first piece in the impulse values
         self.pieces: list[tuple[int, float, int, int, float, int]] = []
@@ -70,7 +72,7 @@ class _SampleGroup:
         self._pushes = representative.PUSHES
 
     def add(self, seg: _SearchedSegment, tau_from: float, i: int, j: int,
-            tau_event: float | None, targets: list[int], values: list[float]) -> None:
+            tau_event: float | None, targets: array, values: array) -> None:
         """Samples i..j-1 in ``seg`` (from ``tau_from``); its event, if any, before sample j.
 
         A segment with a contact force adds one impulse piece per sample (from the previous
@@ -92,8 +94,8 @@ class _SampleGroup:
             values.append(0.0)
 
     def evaluate(self, times: np.ndarray, out: Samples, values: np.ndarray) -> None:
-        first = np.array(self.first, dtype=int)
-        counts = np.array(self.stop, dtype=int) - first
+        first = np.array(self.first, dtype=np.int64)
+        counts = np.array(self.stop, dtype=np.int64) - first
         rows = np.repeat(np.arange(len(counts)), counts)
         # sample indices: each segment's run first..stop-1, concatenated
         index = np.arange(len(rows)) + np.repeat(first - (np.cumsum(counts) - counts), counts)

@@ -3,6 +3,7 @@ works): its state, the march from event to event, the rules at each event, sampl
 one march, snapshots."""
 from __future__ import annotations
 
+from array import array
 from collections.abc import Callable
 from typing import Any
 
@@ -246,9 +247,10 @@ class EventSolver(EventMarch):
         n = len(t_list)
         out = Samples(n)
         # impulse contributions in the order the scalar march adds them: (sample, value); the
-        # values of force-carrying pieces are filled in by the vectorised pass
-        targets: list[int] = [0]
-        values: list[float] = [self.pending_impulse]
+        # values of force-carrying pieces are filled in by the vectorised pass (machine numbers,
+        # copied as the march goes: see _SampleGroup)
+        targets = array("q", (0,))
+        values = array("d", (self.pending_impulse,))
         self.pending_impulse = 0.0
         # per kind of segment: STEPPED, MARCHED or the _SampleGroup of its samples
         kinds: dict[type, Any] = {}
@@ -312,17 +314,17 @@ class EventSolver(EventMarch):
             self.pending_impulse = 0.0
             i = j
         impulse = np.zeros(n)
-        values_array = np.array(values)
+        values_array = np.array(values, dtype=float)
         for group in kinds.values():
             if isinstance(group, _SampleGroup):
                 group.evaluate(times, out, values_array)
-        np.add.at(impulse, targets, values_array)
+        np.add.at(impulse, np.array(targets, dtype=np.int64), values_array)
         out.impulse = impulse
         return out
 
     def _sample_steps(self, seg: QuadraticStick, times: np.ndarray, i: int, j: int,
-                      tau_event: float | None, out: Samples, targets: list[int],
-                      values: list[float]) -> None:
+                      tau_event: float | None, out: Samples, targets: array,
+                      values: array) -> None:
         """Samples i..j-1 in a sticking phase of Taylor steps, from the current position in it
         (and its end at ``tau_event`` before sample j, if it ends): states and the impulse
         pieces the scalar march adds, in its order, all evaluated at once."""
