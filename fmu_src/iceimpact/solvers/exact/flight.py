@@ -23,7 +23,7 @@ from ...physics.structure import (
 from ...record import Record
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
 from ..contact_rules import Phase
-from ..search.flight_search import COMPILED, FlightSearch
+from ..search.flight_search import FlightSearch
 from ..search.rootfind import RootSearch
 from .segment import MARCHED, _floats, _SearchedSegment
 
@@ -43,9 +43,10 @@ class Flight(_SearchedSegment):
                  "search", "_x_motion", "_z_motion", "kernel_constants")
     phase = Phase.FLIGHT
     ANCHOR = ("x0", "v0", "z0", "w0")
-    #: the search may be flight_search's (the gap and bounds are this class's closed forms);
-    #: it is where numba compiled it
-    _ONE_FUNCTION = COMPILED is not None
+    #: the search is flight_search's one function (the gap and bounds are this class's closed
+    #: forms), compiled where numba is; in pure Python too it takes fewer steps than
+    #: RootSearch's methods (False: RootSearch, which the tests compare it with)
+    _ONE_FUNCTION = True
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):

@@ -21,8 +21,9 @@ RootSearch makes that step and the rest of the search.
 numba compiles it without ``fastmath`` (no contraction of a product and a sum into one fused
 operation, no reordering), and its ``math`` functions call the same C library as CPython's, so the
 compiled function gives the same floats as the pure one. Without numba, or with
-``ICEIMPACT_PURE=1`` in the environment, the solver keeps RootSearch for every flight (in pure
-Python that is faster than this function); the results are the same either way.
+``ICEIMPACT_PURE=1`` in the environment, the function runs in Python (still faster than
+RootSearch's methods: it evaluates the closed forms no more often and makes fewer calls); the
+results are the same either way.
 """
 
 from __future__ import annotations
@@ -148,39 +149,42 @@ def _accel_clearance(w, margin, u, coef, quadratic, omega2):
     return root
 
 
-def _bracketed(lo, hi, t, f_t, df_t, gap0, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
-               quadratic):
-    """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t, f'(t) = df_t), its
-    bracket [lo, hi] (f(lo) >= 0 > f(hi))."""
+def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, neg_sigma, omega, y0, p, q, v0, rate, w0,
+               r0, quadratic):
+    """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t, f'(t) = df_t, the
+    motion there ``motion``), its bracket [lo, hi] (f(lo) >= 0 > f(hi)). Returns the root, and
+    the last point evaluated with its motion (the state at the root when it is that point)."""
     step = step_before = hi - lo
+    at = t
     for _ in range(BRACKET_STEPS):
         nxt = t - f_t / df_t if df_t != 0.0 else math.nan
         if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
             if abs(nxt - t) <= ROOT_XTOL + ROOT_RTOL * abs(t):
                 if f_t < 0.0:
-                    return t
+                    return t, at, motion
                 after = nextafter(t, math.inf)
                 if after < hi:
-                    dx, v, dz, w = _motion(after, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
-                                           quadratic)
-                    if gap0 + (dx - dz) <= 0.0:
-                        return after
+                    at, motion = after, _motion(after, neg_sigma, omega, y0, p, q, v0, rate, w0,
+                                                r0, quadratic)
+                    if gap0 + (motion[0] - motion[2]) <= 0.0:
+                        return after, at, motion
                     lo = after
             nxt = lo + 0.5 * (hi - lo)
         step_before, step = step, abs(nxt - t)
         converged = step <= ROOT_XTOL + ROOT_RTOL * abs(nxt)
         if converged or not lo < nxt < hi:
-            return t if converged else nxt
-        t = nxt
-        dx, v, dz, w = _motion(t, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+            return (t if converged else nxt), at, motion
+        t = at = nxt
+        motion = _motion(t, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+        dx, v, dz, w = motion
         f_t, df_t = gap0 + (dx - dz), v - w
         if f_t < 0.0:
             hi = t
         elif f_t > 0.0:
             lo = t
         else:
-            return t
-    return t
+            return t, at, motion
+    return t, at, motion
 
 
 def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
@@ -195,15 +199,20 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
 
     Returns (outcome, a, root, iterations, creep, probed_at, f, f', f'', K, J, x - x0, v,
     z - z0, w): PASSED, ROOT (the root, and the motion there: the state of the event), or
-    GENERIC with the frontier before the step RootSearch is to make."""
-    pdx = pv = pdz = pw = math.nan  # the motion at probed_at, when known
+    GENERIC with the frontier before the step RootSearch is to make.
+
+    The closed forms are evaluated where :class:`~iceimpact.solvers.exact.Flight` evaluates
+    them, no more: the last point evaluated and its motion are kept (``at``, ``motion``), first
+    the anchor (no increments, the anchor's velocities), as Flight keeps its last point."""
+    at, motion = 0.0, (0.0, v0, 0.0, w0)
     outcome = PASSED
     while a <= horizon:
+        if a != at:  # (the anchor, a sign test's end and a Newton point are kept)
+            at, motion = a, _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+        dx, v, dz, w = motion
         if a == probed_at:
             f, df, d2, bound, jerk = pf, pdf, pd2, pbound, pjerk
-            dx, v, dz, w = pdx, pv, pdz, pw
         else:
-            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
             # Flight.probe: Oscillator.bounds (not over-damped) and the drag's accel_bounds
             a_x = -(damping * v + stiffness * ((x0 + dx) - offset)) / mass
             j_x = -(damping * a_x + stiffness * v) / mass
@@ -215,7 +224,6 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             bound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
             jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
         if f < 0.0 or (f == 0.0 and df < 0.0):
-            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
             return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                     dx, v, dz, w)
         df_size = df if df >= 0.0 else -df
@@ -227,8 +235,6 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                 or jerk < floor or not _SUM_NEAR_1_LOW <= total <= SCALED_ABOVE
                 or bound <= 0.0):
             break  # (a probe RootSearch may rescale, or a linear signal)
-        if dz != dz:  # (a probe taken by RootSearch: the motion there not kept)
-            dx, v, dz, w = _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
         disc = sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
         if not z0 + dz >= offset:  # Flight.clearance (0 with the ice at or past x = offset)
@@ -277,13 +283,15 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                         if step <= ROOT_XTOL + ROOT_RTOL * (t if t >= 0.0 else -t):
                             found = t
                             break
-                        dx, v, dz, w = _motion(nxt, neg_sigma, omega, y0, p, q, v0, rate,
-                                               w0, r0, quadratic)
+                        at, motion = nxt, _motion(nxt, neg_sigma, omega, y0, p, q, v0, rate,
+                                                  w0, r0, quadratic)
+                        dx, v, dz, w = motion
                         f_n = gap0 + (dx - dz)
                         df_n = v - w
                         if f_n < 0.0:
-                            found = _bracketed(t, nxt, nxt, f_n, df_n, gap0, neg_sigma, omega,
-                                               y0, p, q, v0, rate, w0, r0, quadratic)
+                            found, at, motion = _bracketed(t, nxt, nxt, f_n, df_n, motion, gap0,
+                                                           neg_sigma, omega, y0, p, q, v0, rate,
+                                                           w0, r0, quadratic)
                             stalled = found != found
                             break
                         if f_n == 0.0:
@@ -294,20 +302,28 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                     if stalled:
                         break  # (a NaN from the bracket: RootSearch makes the step)
                     if found == found:
-                        dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
-                                               w0, r0, quadratic)
+                        if found == at:
+                            dx, v, dz, w = motion
+                        else:
+                            dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
+                                                   w0, r0, quadratic)
                         return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
                                 pbound, pjerk, dx, v, dz, w)
-                    dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
-                                           quadratic)
+                    at, motion = b, _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+                                            quadratic)
+                    dx, v, dz, w = motion
                     f_b = gap0 + (dx - dz)
                     if f_b < 0.0:  # exactly one crossing in (t, b)
-                        found = _bracketed(t, b, b, f_b, v - w, gap0, neg_sigma, omega, y0, p,
-                                           q, v0, rate, w0, r0, quadratic)
+                        found, at, motion = _bracketed(t, b, b, f_b, v - w, motion, gap0,
+                                                       neg_sigma, omega, y0, p, q, v0, rate, w0,
+                                                       r0, quadratic)
                         if found != found:
                             break  # (RootSearch's, as a NaN from the bracket above)
-                        dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
-                                               w0, r0, quadratic)
+                        if found == at:
+                            dx, v, dz, w = motion
+                        else:
+                            dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
+                                                   w0, r0, quadratic)
                         return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
                                 pbound, pjerk, dx, v, dz, w)
                     a = b
@@ -321,7 +337,8 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             break  # (a tangent or degenerate start: RootSearch's creep)
         b = a + h_free
         # the sign test at b by the full probe, which the next step starts from
-        dx, v, dz, w = _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+        at, motion = b, _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+        dx, v, dz, w = motion
         f_b = gap0 + (dx - dz)
         if f_b < 0.0:
             break  # (rounding at the frontier: RootSearch's bracket from b)
@@ -333,7 +350,6 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         pf, pdf, pd2 = f_b, v - w, a_x - a_z
         pbound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
         pjerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
-        pdx, pv, pdz, pw = dx, v, dz, w
         iterations += 1
         creep = 0
         outcome = PASSED
@@ -367,7 +383,8 @@ def _compiled():
         ice_accel = jit((f8, f8, f8, i8), _ice_accel)
         accel_clearance = jit((f8, f8, f8, f8, i8, f8), _accel_clearance, _ice_accel=ice_accel)
         clearance = jit((f8,) * 9 + (i8,), _clearance, _accel_clearance=accel_clearance)
-        bracketed = jit((f8,) * 15 + (i8,), _bracketed, _motion=motion)
+        bracketed = jit((f8,) * 5 + (numba.types.UniTuple(f8, 4),) + (f8,) * 10 + (i8,),
+                        _bracketed, _motion=motion)
         compiled = jit((f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root, _motion=motion,
                        _ice_accel=ice_accel, _clearance=clearance, _bracketed=bracketed)
         # its compiled entry point, called without the dispatcher's matching of argument types
@@ -381,7 +398,7 @@ def _compiled():
 
 
 #: numba's compiled :func:`flight_root` where available (``fast`` extra), else None: the
-#: solver then keeps RootSearch for every flight (in pure Python that is the faster of the two)
+#: flights then search with the pure function
 COMPILED = _compiled()
 _UNPROBED = (math.nan,) * 5
 
@@ -392,7 +409,7 @@ class FlightSearch(RootSearch):
     :class:`~iceimpact.solvers.exact.Flight` itself (its anchor, its oscillator and the
     constants of its closed forms)."""
 
-    #: the steps' function: the compiled one (the pure one serves the tests)
+    #: the steps' function: the compiled one where numba is, else the pure one
     kernel = staticmethod(flight_root if COMPILED is None else COMPILED)
     #: a step was RootSearch's: the rest of the search is too (a probe to rescale, an undamped
     #: structure's drift clearance, a tangent start: rare). A class default, so that the
