@@ -164,7 +164,8 @@ def extract(commit: str, dest: Path) -> Path:
     return dest / "fmu_src"
 
 
-#: --pure: the environment of the runs of this tree (its compiled flight search off)
+#: --pure: the environment of every run (the compiled flight search off, in a reference commit
+#: that has one too)
 PURE_ENV: dict[str, str] = {}
 #: --warm N: each process runs the scene once untimed, then N times, the best kept (0: one cold
 #: run, the first of its process)
@@ -173,9 +174,7 @@ WARM = {"runs": 0}
 
 def measure(core: Path, fields: dict, t_end: float) -> dict:
     """One timed run in a fresh interpreter whose ``iceimpact`` is the one under ``core``."""
-    env = {"PYTHONPATH": str(core), "PATH": "/usr/bin:/bin"}
-    if core == ROOT / "fmu_src":
-        env.update(PURE_ENV)
+    env = {"PYTHONPATH": str(core), "PATH": "/usr/bin:/bin", **PURE_ENV}
     done = subprocess.run([sys.executable, "-c", _WORKER, json.dumps(fields), repr(t_end),
                            repr(DT), str(WARM["runs"])], capture_output=True, text=True,
                           env=env, check=False)
@@ -329,8 +328,8 @@ def main(argv=None) -> int:
     parser.add_argument("--steps", action="store_true",
                         help="only the stepping costs docs/accuracy.md quotes")
     parser.add_argument("--pure", action="store_true",
-                        help="this tree's runs with ICEIMPACT_PURE=1: its compiled flight search "
-                             "(numba) off")
+                        help="every run with ICEIMPACT_PURE=1: the compiled flight search (numba) "
+                             "off, in the reference commit too where it has one")
     parser.add_argument("--warm", type=int, default=0, metavar="N",
                         help="time N runs after an untimed one in each process (a process that "
                              "has run before, as in a sweep), the best kept; 0: the first run")

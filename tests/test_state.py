@@ -518,6 +518,35 @@ def test_run_marches_a_segment_without_array_forms_sample_by_sample(monkeypatch)
                                atol=1e-12 * np.max(np.abs(vectorised.impulse)))
 
 
+@pytest.mark.parametrize("name", ["linear e=0.5", "linear e=0", "overdamped sticking"])
+def test_run_evaluates_samples_in_chunks_with_the_values_of_one_pass(name, monkeypatch):
+    """The sampler evaluates the closed forms in chunks of samples (CHUNK, for the cache and the
+    allocator): elementwise, so every state and impulse is the one pass's to the bit, however
+    the samples are cut, the flights' and the sticking phases' (with their impulse pieces)."""
+    from iceimpact.solvers.exact import sampling
+
+    values, t_end = SAMPLED_SCENES[name]
+    scene = Scene(**values)
+    monkeypatch.setattr(sampling, "CHUNK", 10**9)
+    one_pass = run(scene, t_end, dt=1e-3)
+    assert len(one_pass.t) > 2000 and one_pass.sticking.any() and not one_pass.sticking.all()
+    for chunk in (1, 7, 512):
+        monkeypatch.setattr(sampling, "CHUNK", chunk)
+        cut = run(scene, t_end, dt=1e-3)
+        for field in ("x", "v", "z", "w", "impulse", "sticking"):
+            assert getattr(cut, field).tobytes() == getattr(one_pass, field).tobytes(), field
+
+
+def test_chunks_cover_the_samples_once_in_order():
+    from iceimpact.solvers.exact.sampling import CHUNK, _chunks
+
+    for n in (0, 1, CHUNK, 2 * CHUNK, 2 * CHUNK + 1, 5 * CHUNK + 3):
+        parts = _chunks(n)
+        assert np.array_equal(np.concatenate([np.arange(n)[p] for p in parts] or [[]]),
+                              np.arange(n))
+        assert len(parts) == (1 if n <= 2 * CHUNK else -(-n // CHUNK))
+
+
 def test_run_gap_is_never_negative_where_the_ice_passes_through():
     """The fixed-step window (eq. 26) lets the ice through the structure: reported as a
     penetration, never as a negative gap."""
