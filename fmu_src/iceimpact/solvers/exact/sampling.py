@@ -42,10 +42,9 @@ def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float)
 
 
 #: Samples whose closed forms are evaluated at once, in runs of more than twice as many: their
-#: temporaries (some tens of arrays) stay in the processor's cache, and the allocator keeps
-#: reusing their memory instead of returning it after each run and faulting it back in (7 % of
-#: a 60 s run of 6,000 samples); a shorter run is one pass (each pass costs some 40 calls)
-CHUNK = 2048
+#: temporaries (some tens of arrays) then stay in the processor's cache (3 % of Figure 2 over
+#: 400 s, 40,000 samples); a shorter run is one pass (each pass costs some 40 numpy calls)
+CHUNK = 8192
 
 
 def _chunks(n: int) -> list[slice]:
