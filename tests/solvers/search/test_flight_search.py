@@ -1,6 +1,7 @@
 """The flight's root search in one function (solvers/search/flight_search.py) against
 RootSearch, whose steps it makes: the same points, the same roots, the same runs to the bit, in
-pure Python and compiled by numba (where installed), and the pure path kept by ICEIMPACT_PURE."""
+pure Python and compiled by numba (where installed), and ICEIMPACT_PURE turning the compiled one
+off."""
 
 from __future__ import annotations
 
