@@ -301,35 +301,28 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                         step = f_t / -df_t if df_t < 0.0 else math.inf
                     if stalled:
                         break  # (a NaN from the bracket: RootSearch makes the step)
-                    if found == found:
-                        if found == at:
-                            dx, v, dz, w = motion
-                        else:
-                            dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
-                                                   w0, r0, quadratic)
-                        return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
-                                pbound, pjerk, dx, v, dz, w)
-                    at, motion = b, _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
-                                            quadratic)
-                    dx, v, dz, w = motion
-                    f_b = gap0 + (dx - dz)
-                    if f_b < 0.0:  # exactly one crossing in (t, b)
+                    if found != found:  # no root in the descent: the sign test at b decides
+                        at, motion = b, _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+                                                quadratic)
+                        dx, v, dz, w = motion
+                        f_b = gap0 + (dx - dz)
+                        if not f_b < 0.0:  # root-free up to b
+                            a = b
+                            iterations += 1
+                            outcome = PASSED
+                            continue
+                        # exactly one crossing in (t, b)
                         found, at, motion = _bracketed(t, b, b, f_b, v - w, motion, gap0,
                                                        neg_sigma, omega, y0, p, q, v0, rate, w0,
                                                        r0, quadratic)
                         if found != found:
                             break  # (RootSearch's, as a NaN from the bracket above)
-                        if found == at:
-                            dx, v, dz, w = motion
-                        else:
-                            dx, v, dz, w = _motion(found, neg_sigma, omega, y0, p, q, v0, rate,
-                                                   w0, r0, quadratic)
-                        return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
-                                pbound, pjerk, dx, v, dz, w)
-                    a = b
-                    iterations += 1
-                    outcome = PASSED
-                    continue
+                    if found != at:  # (the state at the root: the last point evaluated, or anew)
+                        motion = _motion(found, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+                                         quadratic)
+                    dx, v, dz, w = motion
+                    return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
+                            pbound, pjerk, dx, v, dz, w)
         if h_free > FOREVER:
             return (PASSED, math.inf, math.nan, iterations + 1, creep, probed_at, pf, pdf,
                     pd2, pbound, pjerk, math.nan, math.nan, math.nan, math.nan)
