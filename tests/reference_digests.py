@@ -6,8 +6,9 @@ contact flags, impact times and velocities, as exact hexadecimal floats). The ca
 method, both drag laws, impacts and sticking, flow changes, the Morison terms, the external
 structure and ``run()``'s sampled path. ``tests/test_reference_digests.py`` recomputes them (with
 the compiled flight search where numba is installed, and pure) and asks for the same bits: code
-moved or rewritten without a change of behaviour passes, anything else fails. Regenerate the file
-only for a change of behaviour that is meant, and say so in the commit.
+moved or rewritten without a change of behaviour passes, anything else fails. The numbers are the
+same on every machine (any BLAS kernel, any numpy SIMD level: tests/test_machine_matrix.py).
+Regenerate the file only for a change of behaviour that is meant, and say so in the commit.
 """
 
 from __future__ import annotations
@@ -29,7 +30,10 @@ HEAVY = {"drag_model": 2, "flow_u": 0.3, "ice_M": 4800.0, "impact_e": 0.3}
 
 #: (name, kind, scene changes, horizon s, communication step s, flow changes (from s, u m/s)).
 #: kind: "step" (Simulator.advance), "run" (run(), sampled), "external" (structure.model = 2,
-#: coupled to an exact SDOF by a Gauss-Seidel loop).
+#: coupled to an exact SDOF by a Gauss-Seidel loop). Methods 1 and 2 only: their numbers are the
+#: same on every machine (tests/test_machine_matrix.py). Method 3's integrators (scipy) call BLAS,
+#: whose kernel differs by CPU: its runs are held to its error bound instead (METHOD_3_CASES,
+#: tests/solvers/test_ode.py).
 CASES = (
     ("method 1, figure 2", "step", {}, 20.0, 1e-2, ()),
     ("method 1, e = 0.5", "step", {"impact_e": 0.5}, 20.0, 1e-2, ()),
@@ -51,17 +55,21 @@ CASES = (
     ("method 2, quadratic", "step", {"solver_method": 2, "solver_detection": 2, **QUADRATIC}, 5.0,
      1e-2, ()),
     ("method 2, run()", "run", {"solver_method": 2, "solver_detection": 2}, 5.0, 1e-2, ()),
+    ("external, Gauss-Seidel", "external", {**HEAVY, "coupling_scheme": 1}, 2.0, 1e-3, ()),
+    ("external, Jacobi", "external", {**HEAVY, "coupling_scheme": 2}, 2.0, 1e-3, ()),
+)
+
+#: Method 3's reference runs, in CASES' form (compared with method 1 within its error bound).
+METHOD_3_CASES = (
     ("method 3, figure 2", "step", {"solver_method": 3}, 3.0, 1e-2, ()),
     ("method 3, quadratic e = 0.5", "step", {"solver_method": 3, **QUADRATIC, "impact_e": 0.5},
      3.0, 1e-2, ()),
     ("method 3, plastic, sticking", "step", {"solver_method": 3, "impact_e": 0.0}, 5.0, 1e-2,
      ((3.0, 0.05),)),
-    ("method 3, Radau", "step", {"solver_method": 3, "solver_ode_method": 2}, 2.0, 1e-2, ()),
+    ("method 3, Radau", "step", {"solver_method": 3, "solver_ode_method": 4}, 2.0, 1e-2, ()),
     ("method 3, Morison quadratic", "step", {"solver_method": 3, **MORISON, **QUADRATIC}, 2.0,
      1e-2, ()),
     ("method 3, run()", "run", {"solver_method": 3, "impact_e": 0.5}, 3.0, 1e-2, ()),
-    ("external, Gauss-Seidel", "external", {**HEAVY, "coupling_scheme": 1}, 2.0, 1e-3, ()),
-    ("external, Jacobi", "external", {**HEAVY, "coupling_scheme": 2}, 2.0, 1e-3, ()),
 )
 
 _REPORTED = ("t", "x", "v", "z", "w", "impulse", "gap", "penetration", "sticking", "impacts",

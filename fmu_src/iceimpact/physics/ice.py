@@ -21,6 +21,8 @@ from math import expm1, log1p
 
 import numpy as np
 
+from . import elementwise as ew
+
 
 def _decay_lag_array(x: np.ndarray) -> np.ndarray:
     """(1 - e^{-x}) / x - 1 for x >= 0, element by element, as :meth:`LinearDrag.increment`
@@ -29,7 +31,7 @@ def _decay_lag_array(x: np.ndarray) -> np.ndarray:
     safe = np.where(small, 1.0, x)
     s = np.where(small, x, 0.0)  # the series only where it is used: a large x overflows it
     series = -s * (0.5 - s * (1 / 6 - s * (1 / 24 - s * (1 / 120 - s / 720))))
-    return np.where(small, series, -np.expm1(-safe) / safe - 1.0)
+    return np.where(small, series, -ew.expm1(-safe) / safe - 1.0)
 
 
 def _log_lag_array(y: np.ndarray) -> np.ndarray:
@@ -39,7 +41,7 @@ def _log_lag_array(y: np.ndarray) -> np.ndarray:
     safe = np.where(small, 1.0, y)
     s = np.where(small, y, 0.0)  # the series only where it is used: a large y overflows it
     series = -s * (0.5 - s * (1 / 3 - s * (0.25 - s * (0.2 - s / 6))))
-    return np.where(small, series, np.log1p(safe) / safe - 1.0)
+    return np.where(small, series, ew.log1p(safe) / safe - 1.0)
 
 
 class _DragLaw:
@@ -144,7 +146,7 @@ class LinearDrag(_DragLaw):
         r0 = w0 - u
         x = self.kappa * t
         # the velocity as displacement_change's: w0 + r0 (e^{-x} - 1)
-        return z0 + w0 * t + r0 * t * _decay_lag_array(x), w0 + r0 * np.expm1(-x)
+        return z0 + w0 * t + r0 * t * _decay_lag_array(x), w0 + r0 * ew.expm1(-x)
 
     def accel_bounds(self, w: float, u: float) -> tuple[float, float, float]:
         """(acceleration, bound on |acceleration|, bound on |jerk|) for all later times.

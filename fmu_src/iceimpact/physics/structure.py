@@ -14,7 +14,9 @@ over-damped. The response is written on two basis functions, with sigma = dampin
     critical:      C = e^{-sigma t},            S = t e^{-sigma t}
     over-damped:   C = e^{-sigma t} cosh(wo t), S = e^{-sigma t} sinh(wo t) / wo
 
-Evaluation works on floats (``math``, fast, used by the event solver) and on numpy arrays.
+Evaluation works on floats (``math``, fast, used by the event solver) and on numpy arrays (the
+same functions of the C library element by element, :mod:`.elementwise`: the same floats on every
+CPU).
 
 Morison loads on the structure (docs/morison.md): the added mass m_a = rho Ca V moves with it
 (``mass`` m + m_a), and the linearised drag ``b_s (u - x')`` is a damping b_s plus a constant
@@ -28,6 +30,8 @@ from collections.abc import Callable
 from math import cos, cosh, exp, expm1, sin, sinh, sqrt
 
 import numpy as np
+
+from . import elementwise as ew
 
 UNDER, CRITICAL, OVER = "under-damped", "critically damped", "over-damped"
 
@@ -44,7 +48,21 @@ def _expm1_minus_x(s, t):
     xs = np.where(small, x, 0.0)
     series = xs * xs * (0.5 + xs * (1.0 / 6.0 + xs * (1.0 / 24.0 + xs * (1.0 / 120.0 + xs * (
         1.0 / 720.0 + xs * (1.0 / 5040.0))))))
-    return np.where(small, series, np.expm1(x) - x) / s
+    return np.where(small, series, ew.expm1(x) - x) / s
+
+
+def _decay_pair_array(arg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_decay_pair` element by element (arg <= 0, an array): e^arg where it is below
+    -0.7, e^arg - 1 elsewhere, each function evaluated where its value is used."""
+    low = arg < -0.7
+    decay = np.empty_like(arg)
+    decay_m1 = np.empty_like(arg)
+    decay[low] = ew.exp(arg[low])
+    decay_m1[low] = decay[low] - 1.0
+    high = ~low
+    decay_m1[high] = ew.expm1(arg[high])
+    decay[high] = 1.0 + decay_m1[high]
+    return decay, decay_m1
 
 
 def _decay_pair(arg: float) -> tuple[float, float]:
@@ -134,46 +152,41 @@ class Oscillator:
         """(C, C - 1, S) for an array of t >= 0, each without cancellation, as :meth:`increment`
         evaluates them for one t (see there)."""
         t = np.asarray(t, dtype=float)
-        arg = -self.sigma * t
-        exp_decay = np.exp(arg)
-        expm1_decay = np.expm1(arg)
-        low = arg < -0.7  # the decay is below 1/2: e - 1 has no cancellation
-        decay = np.where(low, exp_decay, 1.0 + expm1_decay)
-        decay_m1 = np.where(low, exp_decay - 1.0, expm1_decay)
+        decay, decay_m1 = _decay_pair_array(-self.sigma * t)
         if self.regime == UNDER:
             wt = self.omega * t
-            cos_wt = np.cos(wt)
-            half = np.sin(0.5 * wt)
+            cos_wt = ew.cos(wt)
+            half = ew.sin(0.5 * wt)
             return (decay * cos_wt, decay_m1 * cos_wt - 2.0 * half * half,
-                    decay * np.sin(wt) / self.omega)
+                    decay * ew.sin(wt) / self.omega)
         if self.regime == CRITICAL:
             return decay, decay_m1, t * decay
         wt = self.omega * t
         small = wt < 1.0
         ws = np.where(small, wt, 0.0)
-        cosh_ws = np.cosh(ws)
-        half = np.sinh(0.5 * ws)
+        cosh_ws = ew.cosh(ws)
+        half = ew.sinh(0.5 * ws)
         c, s = self.basis_array(t)
         return (np.where(small, decay * cosh_ws, c),
                 np.where(small, decay_m1 * cosh_ws + 2.0 * half * half, c - 1.0),
-                np.where(small, decay * np.sinh(ws) / self.omega, s))
+                np.where(small, decay * ew.sinh(ws) / self.omega, s))
 
     def basis_array(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(C(t), S(t)) for an array of t >= 0."""
         t = np.asarray(t, dtype=float)
         if self.regime == UNDER:
-            decay = np.exp(-self.sigma * t)
-            return decay * np.cos(self.omega * t), decay * np.sin(self.omega * t) / self.omega
+            decay = ew.exp(-self.sigma * t)
+            return decay * ew.cos(self.omega * t), decay * ew.sin(self.omega * t) / self.omega
         if self.regime == CRITICAL:
-            decay = np.exp(-self.sigma * t)
+            decay = ew.exp(-self.sigma * t)
             return decay, t * decay
         wt = self.omega * t
         small = wt < 1.0
         with np.errstate(over="ignore", invalid="ignore"):
-            decay = np.exp(-self.sigma * t)
-            c_small = decay * np.cosh(np.where(small, wt, 0.0))
-            s_small = decay * np.sinh(np.where(small, wt, 0.0)) / self.omega
-            slow, fast = np.exp(self._s_slow * t), np.exp(self._s_fast * t)
+            decay = ew.exp(-self.sigma * t)
+            c_small = decay * ew.cosh(np.where(small, wt, 0.0))
+            s_small = decay * ew.sinh(np.where(small, wt, 0.0)) / self.omega
+            slow, fast = ew.exp(self._s_slow * t), ew.exp(self._s_fast * t)
         return (np.where(small, c_small, 0.5 * (slow + fast)),
                 np.where(small, s_small, 0.5 * (slow - fast) / self.omega))
 
@@ -318,14 +331,14 @@ class Oscillator:
         response (:meth:`modes`); its rounding is a few ulps of the sum of their magnitudes."""
         return a * _expm1_minus_x(self._s_slow, t), b * _expm1_minus_x(self._s_fast, t)
 
-    def mode_steps(self, a, b, t_a, t_b, exp=np.exp, expm1=np.expm1):
+    def mode_steps(self, a, b, t_a, t_b, exp=ew.exp, expm1=ew.expm1):
         """The change of each mode of the well over-damped response with modes (A, B)
         (:meth:`modes`) between t_a and t_b: ``(A (e^{s1 t_b} - e^{s1 t_a}),
         B (e^{s2 t_b} - e^{s2 t_a}))``, each as ``A e^{s t_a} (e^{s (t_b - t_a)} - 1)``, to a
         few ulps of itself: the change of y is their sum, that of y' the sum of each times its
         exponent. (y(t_b) - y0 minus y(t_a) - y0 carries the rounding of the anchor's scale,
         |A| + |B|, however far the motion has decayed since.) Floats with ``exp``, ``expm1``
-        from :mod:`math`, or arrays with numpy's."""
+        from :mod:`math`, or arrays with :mod:`.elementwise`'s."""
         slow, fast = self._s_slow, self._s_fast
         dt = t_b - t_a
         return (a * exp(slow * t_a) * expm1(slow * dt), b * exp(fast * t_a) * expm1(fast * dt))
@@ -344,11 +357,11 @@ class Oscillator:
             a, b = self.modes(y0, v0)
             a_rate, b_rate = a * slow, b * fast
             fast_t = fast * t
-            slow_m1, fast_m1 = np.expm1(slow * t), np.expm1(fast_t)
+            slow_m1, fast_m1 = ew.expm1(slow * t), ew.expm1(fast_t)
             return (a * slow_m1 + b * fast_m1,
                     np.where(fast_t > MODE_VELOCITY_SWITCH,
                              v0 + (a_rate * slow_m1 + b_rate * fast_m1),
-                             a_rate * np.exp(slow * t) + b_rate * np.exp(fast_t)))
+                             a_rate * ew.exp(slow * t) + b_rate * ew.exp(fast_t)))
         c, cm1, s = self.basis_parts_array(t)
         return (y0 * cm1 + (v0 + self.sigma * y0) * s,
                 v0 * c - (self.omega2 * y0 + self.sigma * v0) * s)

@@ -9,10 +9,7 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-from scipy.integrate import solve_ivp
-
-from ...errors import SolverError, StateError
+from ...errors import SolverError
 from ...limits import TIME_RESOLUTION
 from ...physics.ice import downstream_speed_bound
 from ...physics.structure import (
@@ -25,6 +22,7 @@ from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
 from ..contact_rules import Phase
 from ..search.flight_search import FlightSearch
 from ..search.rootfind import RootSearch
+from ..search.taylor import StickingTaylor, TaylorStep
 from .segment import MARCHED, _floats, _SearchedSegment
 
 if TYPE_CHECKING:
@@ -325,35 +323,20 @@ class Flight(_SearchedSegment):
         return 0.0  # no contact force in flight
 
 
-#: Tolerances of the integration of the structure's flight under the quadratic Morison drag.
-DRAGGED_RTOL = 1e-12
-DRAGGED_ATOL = (1e-15, 1e-15)  # x - x0 (m), v (m/s)
-
-
-class _FlightChunk:
-    """One solve_ivp call of an integrated flight: from ``lo`` (state ``y_lo``) to ``hi`` =
-    ``lo + length``, its dense output ``sol``."""
-
-    __slots__ = ("lo", "hi", "y_lo", "sol", "length")
-
-    def __init__(self, lo: float, hi: float, y_lo: np.ndarray, sol: object | None,
-                 length: float):
-        self.lo, self.hi, self.y_lo, self.sol, self.length = lo, hi, y_lo, sol, length
-
-
 class DraggedFlight(Flight):
     """Flight with the quadratic Morison drag on the structure (docs/morison.md), which has no
-    closed form: the structure's increment ``[x - x0, v]`` is integrated with DOP853 (rtol 1e-12)
-    in chunks fixed from the anchor (so results do not depend on the communication step): the
-    first 1/128 of the longest, each one twice the previous, up to 2 periods (0.05 to 5 s), so
-    that the short bounces of a chatter integrate little beyond their end. The ice keeps its
-    closed form. The root search is the same as :class:`Flight`'s: its
-    bounds on the gap's second and third derivatives for all later times come from the
+    closed form: the structure's equation ``m x'' + c x' + k x = B_s |u - x'| (u - x')`` is the
+    sticking equation of the quadratic drag without the ice, and is integrated by the same
+    Taylor steps (:class:`~iceimpact.solvers.search.taylor.StickingTaylor` with no drag on an
+    ice and B_s on the structure: order 36, each step's last terms below 1e-16 of its motion,
+    at most a natural period long), from the anchor, each from the state the previous one
+    ended in, so results do not depend on the communication step and are the same on every
+    machine. The ice keeps its closed form. The root search is the same as :class:`Flight`'s:
+    its bounds on the gap's second and third derivatives for all later times come from the
     structure's equation of motion (:meth:`DraggedStructure.bounds`, a non-growing energy of
-    (v, x'')) and the ice's ``accel_bounds``; the values are the dense output's, so no root is
-    skipped beyond the integration's accuracy."""
+    (v, x'')) and the ice's ``accel_bounds``; the values are the steps' polynomials."""
 
-    FRONTIER_ONLY = False  # its integration chunks change while marching
+    FRONTIER_ONLY = False  # its Taylor steps are added while marching
     _ONE_FUNCTION = False  # (its motion is integrated)
     SAMPLING = MARCHED     # no closed form: stepped to each sample
     clearance = None       # no closed-form envelope of the structure's motion (RootSearch's
@@ -361,57 +344,60 @@ class DraggedFlight(Flight):
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
-        self.structure = solver.dragged_structure
-        self.chunk = self.longest_chunk(solver)
-        self.hi = 0.0                       # integrated up to here, s from the anchor
-        self.y_hi = np.array([0.0, v0])
-        self.next_length = self.chunk / 128.0  # of the chunk from hi, s
-        self.chunks: list[_FlightChunk] = []
+        structure = self.structure = solver.dragged_structure
+        self.period = self.natural_period(solver)
+        self.taylor = StickingTaylor(structure.mass, structure.damping, structure.stiffness,
+                                     0.0, u, 0.0, max_step=self.period,
+                                     structure_B=structure.drag.B)
+        self.steps: list[TaylorStep] = []  # from the one holding the current time on
+        self.frontier = -math.inf          # the steps reach this far, s from the anchor
         super().__init__(solver, t0, x0, v0, z0, w0, u, start)
-        # a search step never asks for the flight more than a chunk past its frontier
-        self.search.max_step = self.chunk
+        # a search step never asks for the flight more than a step past its frontier
+        self.search.max_step = self.period
 
     @staticmethod
-    def longest_chunk(solver: EventSolver) -> float:
-        """Longest integration chunk, s: 2 natural periods, 0.05 to 5 s."""
-        period = 2.0 * math.pi / math.sqrt(solver.k / solver.m)
-        return min(max(0.05, 2.0 * period), 5.0)
+    def natural_period(solver: EventSolver) -> float:
+        """The structure's natural period, s: the longest Taylor step."""
+        return 2.0 * math.pi / math.sqrt(solver.k / solver.m)
 
-    def _rhs(self, tau: float, y: np.ndarray) -> list[float]:
-        return [y[1], self.structure.acceleration(self.x0 + y[0], y[1], self.u)]
-
-    def _integrate(self, lo: float, hi: float, y_lo: np.ndarray):
-        res = solve_ivp(self._rhs, (lo, hi), y_lo, method="DOP853",
-                        rtol=DRAGGED_RTOL, atol=DRAGGED_ATOL, dense_output=True)
-        if not res.success:
+    def _step_from(self, lo: float, y: tuple[float, float, float]) -> None:
+        try:
+            step = self.taylor.step(lo, y, math.inf, False)
+        except (ArithmeticError, ValueError) as exc:
             raise SolverError(f"integration of the structure's flight failed at t = "
-                              f"{self.t0 + lo}: {res.message}")
-        return res
+                              f"{self.t0 + lo}: {exc}") from exc
+        if not (all(map(math.isfinite, step.y_hi)) and step.hi >= lo):
+            raise SolverError(f"integration of the structure's flight failed at t = "
+                              f"{self.t0 + lo}: state {step.y_hi!r} at t = {self.t0 + step.hi}")
+        if self.steps and step.hi == lo == self.steps[-1].lo:
+            # two steps in a row that do not advance the time (one at a sign change of
+            # u - v is normal: the next one starts from u - v = 0)
+            raise SolverError(f"integration of the structure's flight stalled at t = "
+                              f"{self.t0 + lo}")
+        self.steps.append(step)
+        self.frontier = step.hi
 
     def _structure(self, tau: float) -> tuple[float, float]:
         """x - x0 (m) and v (m/s) at tau (s from the anchor)."""
-        while tau > self.hi or (not self.chunks and tau > 0.0):  # (restored: none yet)
-            hi = self.hi + self.next_length
-            res = self._integrate(self.hi, hi, self.y_hi)
-            self.chunks.append(_FlightChunk(self.hi, hi, self.y_hi, res.sol, self.next_length))
-            self.hi, self.y_hi = hi, res.y[:, -1]
-            self.next_length = min(2.0 * self.next_length, self.chunk)
         if tau <= 0.0:
             return 0.0, self.v0
-        for chunk in reversed(self.chunks):
-            if chunk.lo <= tau <= chunk.hi:
-                if chunk.sol is None:  # restored from a snapshot: the same call, the same output
-                    chunk.sol = self._integrate(chunk.lo, chunk.hi, chunk.y_lo).sol
-                y = chunk.sol(tau)
-                return float(y[0]), float(y[1])
-        raise SolverError(f"the structure's flight is not integrated at t = {self.t0 + tau}")
+        if not self.steps:
+            self._step_from(0.0, (self.x0, self.v0, 0.0))
+        while tau > self.frontier:
+            last = self.steps[-1]
+            self._step_from(last.hi, last.y_hi)
+        for step in reversed(self.steps):  # the last step starting at or before tau
+            if step.lo <= tau:
+                break
+        x, v, _ = step.state(tau)
+        return x - self.x0, v
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         dx, v = self._structure(tau)
         dz, w = self._z_motion(tau)
-        # the solver never looks back before its current time: drop chunks that end before it
-        while len(self.chunks) > 1 and self.chunks[0].hi < tau:
-            self.chunks.pop(0)
+        # the solver never looks back before its current time: drop steps that end before it
+        while len(self.steps) > 1 and self.steps[0].hi < tau:
+            self.steps.pop(0)
         return self.x0 + dx, v, self.z0 + dz, w
 
     def gap(self, tau: float) -> float:
@@ -434,16 +420,12 @@ class DraggedFlight(Flight):
         return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
 
     def snapshot(self, tau: float) -> dict[str, Any]:
-        # The chunk holding tau is enough: integrated again from its start, it and the chunks
-        # after it come out the same, to the last bit (the solver never looks back before tau).
-        # (lengths: the chunk's own, then doubling as before)
-        chunk = next((c for c in self.chunks if c.hi >= tau), None)
-        if chunk is None:
-            lo, y_lo, length = self.hi, self.y_hi, self.next_length
-        else:
-            lo, y_lo, length = chunk.lo, chunk.y_lo, chunk.length
+        # The step holding tau is enough: taken again from its start, it and the steps after it
+        # come out the same, to the last bit (the solver never looks back before tau)
+        step = next((s for s in self.steps if s.hi >= tau), None)
         data = super().snapshot(tau)
-        data["integrated"] = {"lo": lo, "y_lo": _floats(y_lo), "length": length}
+        data["integrated"] = (None if step is None
+                              else {"lo": step.lo, "y_lo": _floats(step.y_lo[:2])})
         return data
 
     @classmethod
@@ -452,17 +434,15 @@ class DraggedFlight(Flight):
         rec.expect_keys(cls._SEARCHED_KEYS + ("integrated",))
         flight = Record({k: v for k, v in rec.data.items() if k != "integrated"}, rec.path)
         make_flight = super().read(solver, flight, u)
-        integrated = rec.record("integrated")
-        integrated.expect_keys(("lo", "y_lo", "length"))
-        lo = integrated.real("lo", low=0.0)
-        y_lo = integrated.reals("y_lo", 2)
-        longest = cls.longest_chunk(solver)
-        length = integrated.real("length", low=0.0, high=longest)
-        if length <= 0.0:
-            raise StateError(integrated.field("length"), length, f"in (0, {longest!r}] s")
+        start = None
+        integrated = rec.record("integrated", allow_none=True)
+        if integrated is not None:
+            integrated.expect_keys(("lo", "y_lo"))
+            start = (integrated.real("lo", low=0.0), tuple(integrated.reals("y_lo", 2)))
 
         def make() -> DraggedFlight:
             seg = make_flight()
-            seg.hi, seg.y_hi, seg.next_length, seg.chunks = lo, np.array(y_lo), length, []
+            if start is not None:
+                seg._step_from(start[0], (*start[1], 0.0))
             return seg
         return make

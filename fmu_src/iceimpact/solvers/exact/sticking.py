@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ...errors import SolverError
+from ...physics import elementwise as ew
 from ...physics.structure import (
     UNDER,
     Oscillator,
@@ -26,7 +27,7 @@ from ..contact_rules import (
     sticking_contact_force,
 )
 from ..search.rootfind import RootSearch
-from ..search.taylor import StepEnd, StickingTaylor, TaylorStep
+from ..search.taylor import StepEnd, StickingTaylor, TaylorStep, states_of_steps
 from .segment import STEPPED, _entry, _SearchedSegment, _time_eps
 
 if TYPE_CHECKING:
@@ -286,7 +287,7 @@ class LinearStick(_SearchedSegment):
             lam0, q0, rate0 = self._anchor_force(x0, v0)
             balance, integral, smaller = self._two_forms(
                 lam0, osc.modes(q0, rate0), osc.modes(x0 - osc.offset, v0), tau_a, tau_b,
-                np.exp, np.expm1)
+                ew.exp, ew.expm1)
             return np.where(tau_b > tau_a, np.where(smaller, balance, integral), 0.0)
         dxa, va = self.osc.displacement_change_array(*anchor, tau_a)
         dxb, vb = self.osc.displacement_change_array(*anchor, tau_b)
@@ -429,17 +430,13 @@ class QuadraticStick:
     def states_at(self, tau: np.ndarray) -> np.ndarray:
         """Vectorised :meth:`_y`: rows (x, v, P) at the times tau (s from the anchor,
         increasing, within the steps reached: :meth:`next_event` was asked up to the last one),
-        each in the last step starting at or before it, as :meth:`_y` picks it; the samples in
-        one step are evaluated at once (:meth:`TaylorStep.states`), equal to :meth:`_y` to
-        rounding."""
+        each in the last step starting at or before it, as :meth:`_y` picks it; all evaluated
+        at once (:func:`~iceimpact.solvers.search.taylor.states_of_steps`), the same floats as
+        :meth:`_y`'s."""
         steps = self.steps
         index = np.searchsorted([s.lo for s in steps], tau, side="right") - 1
         np.maximum(index, 0, out=index)  # none before the first step kept (as _y)
-        out = np.empty((tau.size, 3))
-        bounds = [0, *(np.flatnonzero(np.diff(index)) + 1).tolist(), tau.size]
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-            out[a:b] = steps[index[a]].states(tau[a:b])
-        return out
+        return states_of_steps(steps, index, tau)
 
     def impulses_between(self, tau: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Vectorised :meth:`impulse` over the pieces tau[k]..tau[k+1], from the states ``y``

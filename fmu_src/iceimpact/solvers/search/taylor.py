@@ -35,12 +35,24 @@ halved. A zero the polynomial only touches is no root (as in :mod:`.rootfind`).
 
 Each step depends only on its start time and state, so steps do not depend on the communication
 step, and a step rebuilt from its start (a restored state) has the same coefficients to the bit.
+
+**The same bits on every machine** (docs/accuracy.md#machine-independence). The arithmetic is
+``+ - * /`` in an order this module fixes, so no BLAS kernel or SIMD level moves a bit: the
+Cauchy products are summed by ``math.fsum`` (correctly rounded, whatever the order; the built-in
+``sum`` of floats changed its rounding in Python 3.12), the powers ``h^n`` are the C library's
+``pow`` (Python's ``**`` on floats, not numpy's vectorised ``power``), the polynomials are
+evaluated by Horner's rule, one coefficient after the other (:func:`horner`, and
+:func:`horner_rows` for many times at once, operation for operation the same), and the values on
+the sample grid are products summed by numpy's ``add.reduce`` along a row (an order fixed by
+numpy's code, not by the CPU), never a matrix product (``@`` goes to BLAS, whose kernels sum
+and fuse in CPU-specific orders).
 """
 
 from __future__ import annotations
 
 import enum
 import math
+from math import fsum as _fsum
 from operator import mul as _mul
 
 import numpy as np
@@ -57,15 +69,17 @@ SAMPLES = 8
 #: Halvings in one root search before a zero the polynomial approaches is taken for a touch.
 MAX_EVALUATIONS = 200
 
-_POWERS = np.arange(ORDER + 1.0)  # float exponents: numpy power is faster with them
+_POWERS = np.arange(ORDER + 1.0)
 _GRID = np.linspace(0.0, 1.0, SAMPLES + 1)
-_VANDERMONDE = _GRID[:, None] ** _POWERS[None, :]      # values at the sample points
+#: (i / SAMPLES)^n at the sample points, each correctly rounded (Python's int / int)
+_VANDERMONDE = np.array([[i ** n / SAMPLES ** n for n in range(ORDER + 1)]
+                         for i in range(SAMPLES + 1)])
 _CURVATURE_WEIGHTS = (_POWERS * (_POWERS - 1)).astype(float)  # |p''| <= sum n(n-1)|c_n| on [0,1]
 _PROOF_MARGIN = 1.0 / (8.0 * SAMPLES * SAMPLES)  # (b - a)^2 / 8 for a sample interval
 _RECIPROCALS = 1.0 / np.arange(1, ORDER + 1)
 _RECIPROCAL_LIST = _RECIPROCALS.tolist()
-_power = np.power
 _NO_TABLE = np.zeros((ORDER + 1, 3))
+_NO_COLUMNS = ([0.0] * (ORDER + 1),) * 3
 _INT_POWERS = np.arange(ORDER + 1)
 #: Steps from this long on have h^ORDER beyond double precision (2^(28 x 36) < 2^1024 only
 #: just): _scaled scales their coefficients without forming h^n.
@@ -78,10 +92,10 @@ def _scaled(table: np.ndarray, h: float) -> np.ndarray:
     the terms that underflowed) though each c_n h^n is finite: scaled by h's mantissa and
     exponent apart (ldexp)."""
     if h < _LONG_STEP:
-        table *= h ** _POWERS
+        table *= [h ** n for n in range(ORDER + 1)]  # the C library's pow, element by element
         return table
     mantissa, exponent = math.frexp(h)
-    return np.ldexp(table * mantissa ** _POWERS, exponent * _INT_POWERS)
+    return np.ldexp(table * [mantissa ** n for n in range(ORDER + 1)], exponent * _INT_POWERS)
 
 
 def _last_nonzero(row: np.ndarray) -> tuple[int, float] | None:
@@ -104,7 +118,7 @@ def _root_of_ratio(c0: float, c1: float, c2: float, h: float, a: float, power: f
     step a period long, and its terms c_n h^n beyond double precision)."""
     terms = [math.log(c) + n * math.log(h) for n, c in enumerate((c0, c1, c2)) if c > 0.0]
     top = max(terms)
-    log_size = math.log(TOLERANCE) + top + math.log(sum(math.exp(t - top) for t in terms))
+    log_size = math.log(TOLERANCE) + top + math.log(_fsum(math.exp(t - top) for t in terms))
     return math.exp(min(power * (log_size - math.log(a)), 700.0))
 
 
@@ -117,11 +131,36 @@ class StepEnd(enum.Enum):
 
 
 def horner(coeffs: list[float], theta: float) -> float:
-    """Value at theta of the polynomial sum coeffs[n] theta^n."""
+    """Value at theta of the polynomial sum coeffs[n] theta^n (Horner's rule, from the highest
+    coefficient)."""
     acc = 0.0
     for c in reversed(coeffs):
         acc = acc * theta + c
     return acc
+
+
+def horner_rows(coeffs: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """:func:`horner` for many polynomials at once, operation for operation (the same floats):
+    ``coeffs[i, n, j]`` the n-th coefficient of polynomial j at row i, theta one value a row;
+    rows of the values."""
+    acc = np.zeros((coeffs.shape[0], coeffs.shape[2]))
+    theta = theta[:, None]
+    for n in range(coeffs.shape[1] - 1, -1, -1):
+        acc *= theta
+        acc += coeffs[:, n, :]
+    return acc
+
+
+def _grid_values(signals: np.ndarray) -> np.ndarray:
+    """Values of the polynomials (rows of ``signals``) on the sample grid, a column each: each
+    the products c_n theta^n summed along a row (numpy's add.reduce: an order fixed by numpy's
+    code; a matrix product's would be the BLAS kernel's)."""
+    return (signals[:, None, :] * _VANDERMONDE).sum(axis=2).T
+
+
+def _curvature_bounds(signals: np.ndarray) -> np.ndarray:
+    """sum n (n - 1) |c_n| of each polynomial: a bound on |p''| on [0, 1]."""
+    return (np.abs(signals) * _CURVATURE_WEIGHTS).sum(axis=1)
 
 
 def _proven(values: np.ndarray, curvatures: np.ndarray) -> np.ndarray:
@@ -155,7 +194,7 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
                 # a root near theta = 0 may need bisection down to denormal scales (over 1,000
                 # halvings): brentq's default of 100 iterations raised there; its best bracket
                 # end is within the tolerance it reached
-                # the grid's values (a matrix product) and Horner's differ by rounding: where
+                # the grid's values (summed products) and Horner's differ by rounding: where
                 # they disagree on a sign, the crossing is at that end
                 if horner(poly, a) <= 0.0:
                     return a
@@ -181,13 +220,14 @@ class TaylorStep:
     how it ends and the state there. As constructed, a step that ends where it starts: a
     separation at once."""
 
-    __slots__ = ("lo", "hi", "h", "y_lo", "table", "end", "y_hi")
+    __slots__ = ("lo", "hi", "h", "y_lo", "table", "columns", "end", "y_hi")
 
     def __init__(self, lo: float, y_lo: tuple[float, float, float]):
         self.lo = lo
         self.y_lo = y_lo
         self.h = 0.0
-        self.table = _NO_TABLE
+        self.table = _NO_TABLE      # coefficients, a column each for x, v, P
+        self.columns = _NO_COLUMNS  # the same as lists of floats, for :meth:`evaluate`
         self.end = StepEnd.SEPARATION
         self.hi = lo
         self.y_hi = y_lo
@@ -199,19 +239,27 @@ class TaylorStep:
         return self.evaluate((tau - self.lo) / self.h)
 
     def evaluate(self, theta: float) -> list[float]:
-        """[x, v, P] at the normalised time theta of the step."""
-        return (_power(theta, _POWERS) @ self.table).tolist()
+        """[x, v, P] at the normalised time theta of the step (:func:`horner`)."""
+        x, v, p = self.columns
+        return [horner(x, theta), horner(v, theta), horner(p, theta)]
 
-    def states(self, tau: np.ndarray) -> np.ndarray:
-        """Vectorised :meth:`state`: rows (x, v, P) at the times tau (s from the segment's
-        anchor, each >= lo), the polynomials evaluated for all of them at once (equal to
-        :meth:`state` to rounding: one matrix product instead of one per time)."""
-        out = np.empty((tau.size, 3))
-        inside = tau < self.hi
-        theta = (tau[inside] - self.lo) / self.h
-        out[inside] = _power(theta[:, None], _POWERS) @ self.table
-        out[~inside] = self.y_hi
-        return out
+
+def states_of_steps(steps: list[TaylorStep], index: np.ndarray, tau: np.ndarray) -> np.ndarray:
+    """Vectorised :meth:`TaylorStep.state`: rows (x, v, P) at the times tau (s from the segment's
+    anchor), each in ``steps[index[k]]`` (tau >= its lo), all evaluated at once by
+    :func:`horner_rows`: the same floats as :meth:`TaylorStep.state` at each."""
+    out = np.empty((tau.size, 3))
+    his = np.array([s.hi for s in steps])[index]
+    inside = tau < his
+    if inside.any():
+        rows = index[inside]
+        los = np.array([s.lo for s in steps])[rows]
+        hs = np.array([s.h for s in steps])[rows]
+        tables = np.stack([s.table for s in steps])[rows]
+        out[inside] = horner_rows(tables, (tau[inside] - los) / hs)
+    if not inside.all():
+        out[~inside] = np.array([s.y_hi for s in steps])[index[~inside]]
+    return out
 
 
 class StickingTaylor:
@@ -243,7 +291,7 @@ class StickingTaylor:
         order_over = self._order_over
         reciprocals = _RECIPROCAL_LIST
         for n in range(ORDER):
-            square = sum(map(_mul, rs, backwards))  # (r^2)_n, the Cauchy product
+            square = _fsum(map(_mul, rs, backwards))  # (r^2)_n, the Cauchy product
             f = sB * square  # the drag on the ice
             fs.append(f)
             if s_total is not None:  # with the drag on the structure as well
@@ -324,8 +372,8 @@ class StickingTaylor:
             theta_end = (until - lo) / h
         table = _scaled(table, h)  # coefficients of theta = (tau - lo) / h
         signals = table[3:] if look_for_separation else table[3:4]  # s r, then lam
-        values = _VANDERMONDE @ signals.T
-        curvatures = np.abs(signals) @ _CURVATURE_WEIGHTS
+        values = _grid_values(signals)
+        curvatures = _curvature_bounds(signals)
         proven = _proven(values, curvatures)
         end = StepEnd.LENGTH
         if not (proven.all() and (values[0] >= 0.0).all()):  # else no root on the step
@@ -336,6 +384,7 @@ class StickingTaylor:
                     theta_end, end = root, kind
         step.h, step.end = h, end
         step.table = np.ascontiguousarray(table[:3].T)
+        step.columns = table[:3].tolist()
         if end is StepEnd.LENGTH:
             step.hi = until if theta_end < 1.0 else lo + h
         else:

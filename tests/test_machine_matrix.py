@@ -1,0 +1,157 @@
+"""The same answer on every machine: the reference runs of methods 1 and 2 (and the external
+structure) under each BLAS kernel and numpy SIMD level this CPU can run, in fresh processes.
+
+Each configuration sets ``OPENBLAS_CORETYPE`` (the kernel numpy's bundled OpenBLAS uses: Haswell,
+SkylakeX, Prescott) and, or not, ``NPY_DISABLE_CPU_FEATURES`` (numpy's AVX-512 loops off, as on a
+CPU without AVX-512). Its process reports the kernel and the SIMD target it really got, the
+digests of every number of the reference runs (tests/reference_digests.py: states, impulses,
+impact lists, ``run()``'s samples) and of the outputs of IceImpact.fmu simulated by FMPy. Every
+configuration must give the stored digests: the core's event arithmetic makes no BLAS call and
+uses no numpy function whose bits depend on the SIMD level (docs/accuracy.md#machine-independence).
+Method 3 integrates with scipy, which uses BLAS: its runs are compared within its error bound
+(tests/solvers/test_ode.py), never by digests.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+import reference_digests
+from fmu_host import ROOT
+
+KERNELS = ("Haswell", "SkylakeX", "Prescott")
+#: The CPU flags (/proc/cpuinfo) a kernel needs.
+KERNEL_NEEDS = {"Haswell": ("avx2", "fma"), "SkylakeX": ("avx512f", "avx512bw", "avx512vl"),
+                "Prescott": ("pni",)}  # (SSE3, as /proc/cpuinfo names it)
+CONFIGS = [(kernel, simd) for kernel in KERNELS for simd in ("all SIMD", "no AVX-512")]
+
+#: The FMU runs of each configuration: (scene changes, stop time s, step s).
+FMU_RUNS = ({"impact.e": 0.5}, {"drag.model": 2, "impact.e": 0.5},
+            {"solver.method": 2, "drag.model": 2})
+
+_WORKER = r"""
+import ctypes, glob, hashlib, json, os, sys
+import numpy as np
+from numpy.lib.introspect import opt_func_info
+sys.path.insert(0, sys.argv[1])
+import reference_digests
+
+def blas_kernel():
+    here = os.path.dirname(np.__file__)
+    for lib in glob.glob(os.path.join(here, os.pardir, "numpy.libs", "*openblas*.so*")):
+        cdll = ctypes.CDLL(lib)
+        for name in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename",
+                     "openblas_get_corename64_", "openblas_get_corename"):
+            if hasattr(cdll, name):
+                function = getattr(cdll, name)
+                function.restype = ctypes.c_char_p
+                return function().decode()
+    return "unknown"
+
+names = json.loads(sys.argv[2])
+out = {"kernel": blas_kernel(),
+       "exp_target": opt_func_info(func_name="^exp$", signature="float64")["exp"]["dd"]["current"],
+       "digests": reference_digests.compute(names), "fmu": {}}
+fmu = sys.argv[3]
+if fmu:
+    from fmpy import simulate_fmu
+    for i, changes in enumerate(json.loads(sys.argv[4])):
+        result = simulate_fmu(fmu, stop_time=5.0, step_size=1e-2, output_interval=1e-2,
+                              start_values=changes)
+        digest = hashlib.sha256(np.ascontiguousarray(
+            np.column_stack([result[name] for name in result.dtype.names])).tobytes())
+        out["fmu"][str(i)] = digest.hexdigest()
+print(json.dumps(out))
+"""
+
+
+def cpu_flags() -> set[str]:
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return set()
+    line = next((line for line in text.splitlines() if line.startswith("flags")), "")
+    return set(line.partition(":")[2].split())
+
+
+def avx512_features() -> str:
+    """numpy's names of the AVX-512 targets this CPU has, to disable together."""
+    from numpy._core._multiarray_umath import __cpu_features__ as features
+    names = [name for name in ("X86_V4", "AVX512_SKX", "AVX512_CLX", "AVX512_CNL", "AVX512_ICL",
+                               "AVX512_SPR", "AVX512F") if features.get(name)]
+    return " ".join(names)
+
+
+def exact_cases() -> list[str]:
+    """The reference runs that must hold on every machine: all but method 3's."""
+    return [case[0] for case in reference_digests.CASES]
+
+
+def skip_reason(kernel: str, simd: str) -> str | None:
+    flags = cpu_flags()
+    missing = [flag for flag in KERNEL_NEEDS[kernel] if flag not in flags]
+    if missing:
+        return f"this CPU cannot run OpenBLAS's {kernel} kernel: no {', '.join(missing)} in " \
+               "/proc/cpuinfo"
+    if simd == "no AVX-512" and not avx512_features():
+        return "this CPU has no AVX-512: the configuration with it is the one without"
+    return None
+
+
+def environment(kernel: str, simd: str) -> dict[str, str]:
+    env = {**os.environ, "OPENBLAS_CORETYPE": kernel}
+    env.pop("NPY_DISABLE_CPU_FEATURES", None)
+    if simd == "no AVX-512":
+        env["NPY_DISABLE_CPU_FEATURES"] = avx512_features()
+    return env
+
+
+@pytest.fixture(scope="module")
+def machine_runs(fmu) -> dict[tuple[str, str], dict]:
+    """Each configuration's report (or its skip reason), two processes at a time."""
+    def one(config):
+        reason = skip_reason(*config)
+        if reason:
+            return config, reason
+        done = subprocess.run([sys.executable, "-c", _WORKER, str(ROOT / "tests"),
+                               json.dumps(exact_cases()), str(fmu), json.dumps(FMU_RUNS)],
+                              env=environment(*config), capture_output=True, text=True,
+                              timeout=600, cwd=ROOT)
+        assert done.returncode == 0, f"{config}: {done.stderr[-3000:]}"
+        return config, json.loads(done.stdout)
+    with ThreadPoolExecutor(2) as pool:
+        return dict(pool.map(one, CONFIGS))
+
+
+@pytest.mark.parametrize("kernel,simd", CONFIGS)
+def test_every_reference_run_gives_the_stored_numbers(machine_runs, kernel, simd):
+    report = machine_runs[(kernel, simd)]
+    if isinstance(report, str):
+        pytest.skip(report)
+    # the configuration is the one asked for
+    assert report["kernel"].lower() == kernel.lower() or kernel == "Prescott", report["kernel"]
+    assert (report["exp_target"] != "X86_V4") == (simd == "no AVX-512"), report["exp_target"]
+    stored = reference_digests.stored()
+    moved = {case: sorted(key for key, value in digests.items() if stored[case][key] != value)
+             for case, digests in report["digests"].items()}
+    assert not {case: keys for case, keys in moved.items() if keys}
+
+
+def test_the_fmu_gives_the_same_outputs_in_every_configuration(machine_runs):
+    reports = [r for r in machine_runs.values() if not isinstance(r, str)]
+    assert len(reports) >= 2, "fewer than two configurations ran: nothing compared"
+    assert len({json.dumps(r["fmu"], sort_keys=True) for r in reports}) == 1, \
+        {config: r["fmu"] if not isinstance(r, str) else r for config, r in machine_runs.items()}
+    assert len({r["kernel"] for r in reports}) >= min(2, len(reports))
+
+
+def test_no_method_3_run_is_pinned_by_digest():
+    assert not [case for case in reference_digests.stored() if case.startswith("method 3")]
+
