@@ -126,6 +126,25 @@ def compute(names: list[str] | None = None) -> dict[str, dict[str, str]]:
     return {case[0]: fingerprint(*case) for case in CASES if names is None or case[0] in names}
 
 
+def event_quantities(digests: dict[str, str]) -> dict[str, str]:
+    """The digests of a run's events: its impacts (times, velocities, impulses, counts) and its
+    sticking flags (what holds where the C library runs its SSE2 variants: test_machine_matrix)."""
+    return {key: value for key, value in digests.items()
+            if key.startswith("impact") or key == "sticking"}
+
+
+def libm_has_fma_variants() -> bool:
+    """Whether this CPU has FMA and AVX2, with which glibc runs the variants of exp, sin, cos...
+    the stored digests were made with (elsewhere: its SSE2 ones, whose last bits differ for about
+    1 argument in 1,000)."""
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return True
+    flags = next((line for line in text.splitlines() if line.startswith("flags")), "").split()
+    return not flags or {"fma", "avx2"} <= set(flags)
+
+
 def stored() -> dict[str, dict[str, str]]:
     return json.loads(STORED.read_text())
 

@@ -10,11 +10,20 @@ configuration must give the stored digests: the core's event arithmetic makes no
 uses no numpy function whose bits depend on the SIMD level (docs/accuracy.md#machine-independence).
 Method 3 integrates with scipy, which uses BLAS: its runs are compared within its error bound
 (tests/solvers/test_ode.py), never by digests.
+
+One more configuration is the C library's: glibc picks its ``exp``, ``sin``, ``cos``... by CPU as
+well, an FMA variant where the CPU has FMA and AVX2, an SSE2 one where not (x86-64 CPUs before
+2013, and low-power ones since), and the two differ in the last bit for about 1 argument in 1,000.
+``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA`` gives a process the SSE2 variants: there the
+events of the reference runs (every impact's time, velocities and impulse, the sticking flags)
+are the stored ones, while states between impacts may differ in their last bits (measured, and
+what ``reference_digests.event_quantities`` names; docs/accuracy.md#machine-independence).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -30,7 +39,12 @@ KERNELS = ("Haswell", "SkylakeX", "Prescott")
 #: The CPU flags (/proc/cpuinfo) a kernel needs.
 KERNEL_NEEDS = {"Haswell": ("avx2", "fma"), "SkylakeX": ("avx512f", "avx512bw", "avx512vl"),
                 "Prescott": ("pni",)}  # (SSE3, as /proc/cpuinfo names it)
+LIBM_SSE2 = "C library without FMA"
 CONFIGS = [(kernel, simd) for kernel in KERNELS for simd in ("all SIMD", "no AVX-512")]
+CONFIGS.append(("Haswell", LIBM_SSE2))
+#: An argument whose exp the C library's FMA and SSE2 variants round differently (glibc 2.36):
+#: a process reports its exp, which tells which variant it runs.
+LIBM_PROBE = float.fromhex("-0x1.36c379d59ee98p+2")
 
 #: The FMU runs of each configuration: (scene changes, stop time s, step s).
 FMU_RUNS = ({"impact.e": 0.5}, {"drag.model": 2, "impact.e": 0.5},
@@ -56,7 +70,8 @@ def blas_kernel():
     return "unknown"
 
 names = json.loads(sys.argv[2])
-out = {"kernel": blas_kernel(),
+import math
+out = {"kernel": blas_kernel(), "libm_probe": math.exp(float.fromhex(sys.argv[5])).hex(),
        "exp_target": opt_func_info(func_name="^exp$", signature="float64")["exp"]["dd"]["current"],
        "digests": reference_digests.compute(names), "fmu": {}}
 fmu = sys.argv[3]
@@ -89,6 +104,13 @@ def avx512_features() -> str:
     return " ".join(names)
 
 
+def glibc() -> bool:
+    try:
+        return os.confstr("CS_GNU_LIBC_VERSION") is not None
+    except (ValueError, OSError):
+        return False
+
+
 def exact_cases() -> list[str]:
     """The reference runs that must hold on every machine: all but method 3's."""
     return [case[0] for case in reference_digests.CASES]
@@ -102,14 +124,22 @@ def skip_reason(kernel: str, simd: str) -> str | None:
                "/proc/cpuinfo"
     if simd == "no AVX-512" and not avx512_features():
         return "this CPU has no AVX-512: the configuration with it is the one without"
+    if simd == LIBM_SSE2:
+        if not glibc():
+            return "not the GNU C library: GLIBC_TUNABLES does not apply"
+        if not {"fma", "avx2"} <= flags:
+            return "this CPU has no FMA: its C library runs the SSE2 variants everywhere"
     return None
 
 
 def environment(kernel: str, simd: str) -> dict[str, str]:
     env = {**os.environ, "OPENBLAS_CORETYPE": kernel}
     env.pop("NPY_DISABLE_CPU_FEATURES", None)
+    env.pop("GLIBC_TUNABLES", None)
     if simd == "no AVX-512":
         env["NPY_DISABLE_CPU_FEATURES"] = avx512_features()
+    if simd == LIBM_SSE2:
+        env["GLIBC_TUNABLES"] = "glibc.cpu.hwcaps=-AVX2,-FMA,-AVX512F"
     return env
 
 
@@ -121,7 +151,8 @@ def machine_runs(fmu) -> dict[tuple[str, str], dict]:
         if reason:
             return config, reason
         done = subprocess.run([sys.executable, "-c", _WORKER, str(ROOT / "tests"),
-                               json.dumps(exact_cases()), str(fmu), json.dumps(FMU_RUNS)],
+                               json.dumps(exact_cases()), str(fmu), json.dumps(FMU_RUNS),
+                               LIBM_PROBE.hex()],
                               env=environment(*config), capture_output=True, text=True,
                               timeout=600, cwd=ROOT)
         assert done.returncode == 0, f"{config}: {done.stderr[-3000:]}"
@@ -138,14 +169,19 @@ def test_every_reference_run_gives_the_stored_numbers(machine_runs, kernel, simd
     # the configuration is the one asked for
     assert report["kernel"].lower() == kernel.lower() or kernel == "Prescott", report["kernel"]
     assert (report["exp_target"] != "X86_V4") == (simd == "no AVX-512"), report["exp_target"]
+    sse2 = report["libm_probe"] != math.exp(LIBM_PROBE).hex()
+    assert sse2 == (simd == LIBM_SSE2), report["libm_probe"]
     stored = reference_digests.stored()
-    moved = {case: sorted(key for key, value in digests.items() if stored[case][key] != value)
+    compared = reference_digests.event_quantities if simd == LIBM_SSE2 else dict
+    moved = {case: sorted(key for key, value in compared(digests).items()
+                          if stored[case][key] != value)
              for case, digests in report["digests"].items()}
     assert not {case: keys for case, keys in moved.items() if keys}
 
 
 def test_the_fmu_gives_the_same_outputs_in_every_configuration(machine_runs):
-    reports = [r for r in machine_runs.values() if not isinstance(r, str)]
+    reports = [r for (_, simd), r in machine_runs.items()
+               if not isinstance(r, str) and simd != LIBM_SSE2]
     assert len(reports) >= 2, "fewer than two configurations ran: nothing compared"
     assert len({json.dumps(r["fmu"], sort_keys=True) for r in reports}) == 1, \
         {config: r["fmu"] if not isinstance(r, str) else r for config, r in machine_runs.items()}

@@ -18,10 +18,15 @@ import pytest
 import reference_digests
 from fmu_host import ROOT
 
+#: every number, or on a CPU without FMA (the C library's SSE2 variants) the events
+COMPARED = (dict if reference_digests.libm_has_fma_variants()
+            else reference_digests.event_quantities)
+
 
 @pytest.mark.parametrize("case", [c[0] for c in reference_digests.CASES])
 def test_the_reference_run_reports_the_stored_numbers(case):
-    assert reference_digests.compute([case])[case] == reference_digests.stored()[case]
+    assert (COMPARED(reference_digests.compute([case])[case])
+            == COMPARED(reference_digests.stored()[case]))
 
 
 def test_the_pure_flight_search_reports_the_stored_numbers_too(tmp_path):
@@ -30,7 +35,9 @@ def test_the_pure_flight_search_reports_the_stored_numbers_too(tmp_path):
                           env={**os.environ, "ICEIMPACT_PURE": "1"}, capture_output=True,
                           text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
-    assert json.loads(out.read_text()) == reference_digests.stored()
+    pure, stored = json.loads(out.read_text()), reference_digests.stored()
+    assert {case: COMPARED(d) for case, d in pure.items()} == \
+        {case: COMPARED(d) for case, d in stored.items()}
 
 
 def test_every_case_is_stored():
