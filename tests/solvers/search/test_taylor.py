@@ -16,7 +16,14 @@ from scipy.integrate import solve_ivp
 
 from iceimpact import Scene, Simulator, SolverError
 from iceimpact.solvers.exact import EventSolver, QuadraticStick
-from iceimpact.solvers.search.taylor import ORDER, StepEnd, StickingTaylor, TaylorStep, horner
+from iceimpact.solvers.search.taylor import (
+    ORDER,
+    StepEnd,
+    StickingTaylor,
+    TaylorStep,
+    horner,
+    horner_rows,
+)
 
 RTOL = 1e-12
 
@@ -273,6 +280,15 @@ def test_horner():
     assert horner([1.0, -2.0, 3.0], 0.5) == 1.0 - 1.0 + 0.75
 
 
+def test_horner_rows_is_horner_for_each_row():
+    rng = np.random.default_rng(3)
+    tables = rng.normal(size=(ORDER + 1, 4, 3))  # order, table, column
+    rows, theta = rng.integers(0, 4, 50), rng.uniform(0.0, 1.0, 50)
+    want = [[horner(tables[:, r, j].tolist(), t) for j in range(3)]
+            for r, t in zip(rows.tolist(), theta.tolist(), strict=True)]
+    np.testing.assert_array_equal(horner_rows(tables, rows, theta), want)
+
+
 def test_steps_that_do_not_advance_the_time_are_refused(monkeypatch):
     """A sticking phase whose Taylor steps stop advancing the time ends in a SolverError (the
     step is refused and changes nothing), not in an endless loop."""
@@ -294,8 +310,9 @@ def test_steps_that_do_not_advance_the_time_are_refused(monkeypatch):
 @pytest.mark.parametrize("name", list(CASES))
 def test_vectorised_states_equal_the_point_by_point_ones(name):
     """run()'s sampling evaluates a sticking phase's Taylor polynomials at all its samples at
-    once (QuadraticStick.states_at, impulses_between): the scalar state and impulse at each
-    time to rounding, at times inside steps, on step boundaries and at the separation."""
+    once (QuadraticStick.states_at, impulses_between): the scalar state at each time to the
+    bit (Horner's rule, operation for operation), and the impulse to rounding, at times inside
+    steps, on step boundaries and at the separation."""
     make, t_end = CASES[name]
     scene, x0, v0 = make()
     vector = segment(scene, x0, v0)
@@ -309,9 +326,7 @@ def test_vectorised_states_equal_the_point_by_point_ones(name):
     scalar = segment(scene, x0, v0)
     assert scalar.next_event(t_end) == t_sep
     want = np.array([scalar._y(t) for t in times.tolist()])
-    for column, label in enumerate(("x", "v", "P")):
-        np.testing.assert_allclose(y[:, column], want[:, column], rtol=0,
-                                   atol=1e-14 * np.max(np.abs(want[:, column])), err_msg=label)
+    np.testing.assert_array_equal(y, want)
     want_impulses = [scalar.impulse(a, b) for a, b in zip(times[:-1], times[1:], strict=True)]
     # a piece is a difference of the drag impulse P and of M v: their rounding
     scale = np.max(np.abs(want[:, 2])) + scene.ice_M * np.max(np.abs(want[:, 1]))

@@ -38,8 +38,8 @@ step, and a step rebuilt from its start (a restored state) has the same coeffici
 
 **The same bits on every machine** (docs/accuracy.md#machine-independence). The arithmetic is
 ``+ - * /`` in an order this module fixes, so no BLAS kernel or SIMD level moves a bit: the
-Cauchy products are summed by ``math.fsum`` (correctly rounded, whatever the order; the built-in
-``sum`` of floats changed its rounding in Python 3.12), the powers ``h^n`` are the C library's
+Cauchy products are summed by a loop in a fixed order (not by the built-in ``sum``, whose
+rounding of floats changed in Python 3.12), the powers ``h^n`` are the C library's
 ``pow`` (Python's ``**`` on floats, not numpy's vectorised ``power``), the polynomials are
 evaluated by Horner's rule, one coefficient after the other (:func:`horner`, and
 :func:`horner_rows` for many times at once, operation for operation the same), and the values on
@@ -53,7 +53,6 @@ from __future__ import annotations
 import enum
 import math
 from math import fsum as _fsum
-from operator import mul as _mul
 
 import numpy as np
 from scipy.optimize import brentq
@@ -139,15 +138,15 @@ def horner(coeffs: list[float], theta: float) -> float:
     return acc
 
 
-def horner_rows(coeffs: np.ndarray, theta: np.ndarray) -> np.ndarray:
+def horner_rows(coeffs: np.ndarray, rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """:func:`horner` for many polynomials at once, operation for operation (the same floats):
-    ``coeffs[i, n, j]`` the n-th coefficient of polynomial j at row i, theta one value a row;
-    rows of the values."""
-    acc = np.zeros((coeffs.shape[0], coeffs.shape[2]))
+    ``coeffs[n, i, j]`` the n-th coefficient of polynomial j of table i; the values, a row for
+    each time, of table ``rows[k]`` at ``theta[k]``."""
+    acc = np.zeros((theta.size, coeffs.shape[2]))
     theta = theta[:, None]
-    for n in range(coeffs.shape[1] - 1, -1, -1):
+    for n in range(coeffs.shape[0] - 1, -1, -1):
         acc *= theta
-        acc += coeffs[:, n, :]
+        acc += coeffs[n][rows]
     return acc
 
 
@@ -244,21 +243,33 @@ class TaylorStep:
         return [horner(x, theta), horner(v, theta), horner(p, theta)]
 
 
+#: Samples evaluated together by :func:`states_of_steps` (their temporaries stay in cache)
+SAMPLE_CHUNK = 2048
+
+
 def states_of_steps(steps: list[TaylorStep], index: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """Vectorised :meth:`TaylorStep.state`: rows (x, v, P) at the times tau (s from the segment's
-    anchor), each in ``steps[index[k]]`` (tau >= its lo), all evaluated at once by
-    :func:`horner_rows`: the same floats as :meth:`TaylorStep.state` at each."""
+    anchor, increasing), each in ``steps[index[k]]`` (index nondecreasing, tau >= its lo),
+    evaluated SAMPLE_CHUNK at a time by :func:`horner_rows`: the same floats as
+    :meth:`TaylorStep.state` at each."""
     out = np.empty((tau.size, 3))
-    his = np.array([s.hi for s in steps])[index]
-    inside = tau < his
-    if inside.any():
-        rows = index[inside]
-        los = np.array([s.lo for s in steps])[rows]
-        hs = np.array([s.h for s in steps])[rows]
-        tables = np.stack([s.table for s in steps])[rows]
-        out[inside] = horner_rows(tables, (tau[inside] - los) / hs)
-    if not inside.all():
-        out[~inside] = np.array([s.y_hi for s in steps])[index[~inside]]
+    for start in range(0, tau.size, SAMPLE_CHUNK):
+        part = slice(start, start + SAMPLE_CHUNK)
+        first, last = int(index[part][0]), int(index[part][-1])
+        near = steps[first:last + 1]
+        rows = index[part] - first
+        times = tau[part]
+        inside = times < np.array([s.hi for s in near])[rows]
+        values = np.empty((times.size, 3))
+        if inside.any():
+            rows_in = rows[inside]
+            los = np.array([s.lo for s in near])[rows_in]
+            hs = np.array([s.h for s in near])[rows_in]
+            tables = np.stack([s.table for s in near], axis=1)  # order, step, column
+            values[inside] = horner_rows(tables, rows_in, (times[inside] - los) / hs)
+        if not inside.all():
+            values[~inside] = np.array([s.y_hi for s in near])[rows[~inside]]
+        out[part] = values
     return out
 
 
@@ -286,12 +297,21 @@ class StickingTaylor:
         s_total = sign * (self.B + self.structure_B) if self.structure_B else None
         x, v, p0 = y
         rs = [self.u - v]
-        backwards = rs[:]  # r_n, ..., r_0
         fs = []
         order_over = self._order_over
         reciprocals = _RECIPROCAL_LIST
         for n in range(ORDER):
-            square = _fsum(map(_mul, rs, backwards))  # (r^2)_n, the Cauchy product
+            # (r^2)_n = sum_i r_i r_{n-i}, the Cauchy product: each pair of terms once, doubled
+            # (exactly), then the middle term where n is even; the order this loop fixes
+            square = 0.0
+            j = n
+            for i in range((n + 1) >> 1):
+                square += rs[i] * rs[j]
+                j -= 1
+            square *= 2.0
+            if not n & 1:
+                middle = rs[n >> 1]
+                square += middle * middle
             f = sB * square  # the drag on the ice
             fs.append(f)
             if s_total is not None:  # with the drag on the structure as well
@@ -301,7 +321,6 @@ class StickingTaylor:
             x = v * reciprocals[n]
             v = v_next
             rs.append(-v_next)
-            backwards.insert(0, -v_next)
         table = np.empty((5, ORDER + 1))
         r = np.array(rs)
         table[1, 0] = y[1]
