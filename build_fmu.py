@@ -303,6 +303,17 @@ def python_version() -> str:
     return "{}.{}".format(*sys.version_info[:2])
 
 
+#: The Pythons a native host may run the default FMU with (its loader looks for their shared
+#: libraries, the build's first). PythonFMU's library uses Python's stable ABI only, so it runs
+#: in any of them; these are the versions tested (tests/test_native_hosts.py).
+PYTHON_VERSIONS = ("3.11", "3.12", "3.13")
+
+
+def python_versions() -> tuple[str, ...]:
+    """:data:`PYTHON_VERSIONS`, the building Python's version first."""
+    return (python_version(), *(v for v in PYTHON_VERSIONS if v != python_version()))
+
+
 def libpython() -> tuple[Path | None, str]:
     """The shared libpython of the building Python (None if it has none) and its soname.
 
@@ -354,11 +365,14 @@ def python_environment(requirement_lines: list[str], library: Path | None) -> di
 
 def compile_loader(dest: Path, library: Path | None, soname: str,
                    pythonfmu_library: str = PYTHONFMU_LIBRARY, *,
-                   bundled_python: bool = False) -> Path:
+                   bundled_python: bool = False,
+                   versions: tuple[str, ...] | None = None) -> Path:
     """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython();
     ``pythonfmu_library`` is where it finds PythonFMU's library, relative to binaries/linux64.
-    With ``bundled_python`` the loader starts the runtime of a standalone FMU
-    (:func:`make_standalone`) in a process without Python; that needs the build's Python.h."""
+    In a native host the loader also looks for ``libpython<version>.so.1.0`` of the other
+    ``versions`` (default :func:`python_versions`). With ``bundled_python`` the loader starts
+    the runtime of a standalone FMU (:func:`make_standalone`) in a process without Python; that
+    needs the build's Python.h."""
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     if compiler is None:
         raise NativeBuildError(
@@ -369,6 +383,7 @@ def compile_loader(dest: Path, library: Path | None, soname: str,
         "LIBPYTHON_PATH": str(library) if library else "",
         "LIBPYTHON_SONAME": soname,
         "PYTHON_VERSION": python_version(),
+        "PYTHON_VERSIONS": " ".join(python_versions() if versions is None else versions),
         "PYTHONFMU_LIBRARY": pythonfmu_library,
         "MODEL_IDENTIFIER": Path(pythonfmu_library).stem,
     }

@@ -7,11 +7,16 @@
  * messages to the host only when the host turned debug logging on, errors included. This library
  * sits in front of it:
  *
- *  1. At the first fmi2Instantiate, if the process has no Python yet, it loads the libpython the
- *     FMU was built with (LIBPYTHON_PATH, else LIBPYTHON_SONAME from the library search path)
- *     with RTLD_GLOBAL, so that PythonFMU's library and every extension module (numpy, scipy)
- *     find the Python symbols; then it loads PythonFMU's library. What is missing is reported
- *     through the host's logger (and stderr) and fmi2Instantiate returns NULL.
+ *  1. At the first fmi2Instantiate, if the process has no Python yet, it loads a libpython with
+ *     RTLD_GLOBAL, so that PythonFMU's library and every extension module (numpy, scipy) find
+ *     the Python symbols; then it loads PythonFMU's library. PythonFMU's library is built on
+ *     Python's stable ABI (Py_LIMITED_API), so any CPython 3 runs it: the loader takes the first
+ *     Python of PYTHON_VERSIONS (the build's first: LIBPYTHON_PATH, then LIBPYTHON_SONAME; then
+ *     libpython3.X.so.1.0 of the others from the library search path) whose site-packages
+ *     folders hold numpy and scipy (for the build's version also the folders recorded in
+ *     resources/iceimpact_fmu/python.json), else the first one found, which then says what it
+ *     lacks (the boot module checks the versions). What is missing is reported through the
+ *     host's logger (and stderr), naming what was looked for, and fmi2Instantiate returns NULL.
  *  2. It instantiates PythonFMU's component with debug logging on and its own logger, which
  *     forwards every message of status fmi2Warning or worse to the host always (FMI 2.0: errors
  *     are reported whatever loggingOn says) and fmi2OK messages only while the host asked for
@@ -44,12 +49,17 @@
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <limits.h>
+#include <link.h>
 #include <pthread.h>
+#include <pwd.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #ifndef LIBPYTHON_PATH
 #define LIBPYTHON_PATH ""
@@ -59,6 +69,9 @@
 #endif
 #ifndef PYTHON_VERSION
 #define PYTHON_VERSION "3"
+#endif
+#ifndef PYTHON_VERSIONS /* the Pythons a native host may run the FMU with, the build's first */
+#define PYTHON_VERSIONS PYTHON_VERSION
 #endif
 #ifndef PYTHONFMU_LIBRARY
 #define PYTHONFMU_LIBRARY "pythonfmu/IceImpact.so"
@@ -175,6 +188,10 @@ static int python_alive(void) { return py_is_initialized && py_is_initialized();
 
 /* An instance was made: from then on, Python not alive means finalized. */
 static int python_seen = 0;
+
+/* The Python this library chose and started in a native host ("Python 3.12
+   (/usr/lib/.../libpython3.12.so.1.0)"), said once to a host that turned debug logging on. */
+static char python_started[PATH_MAX + 64] = "";
 
 /* One instance: PythonFMU's component and what the host gave us. */
 typedef struct {
@@ -333,6 +350,309 @@ static int start_bundled_python(const fmi2CallbackFunctions *f, fmi2String name,
 }
 #endif
 
+#ifndef BUNDLED_PYTHON
+/* Finding a Python in a native host (1. above) ------------------------------------------------ */
+
+#define MAX_CANDIDATES 8
+#define MAX_FOLDERS 16
+#define FOLDER_SIZE 1024
+/* The build's environment, relative to binaries/linux64 (build_fmu.py writes it). */
+#define CONFIG_FILE "../../resources/iceimpact_fmu/python.json"
+
+/* Text that grows up to a fixed size, cut short beyond it. */
+typedef struct {
+    char text[8192];
+    size_t used;
+} Text;
+
+static void add_text(Text *t, const char *fmt, ...) {
+    if (t->used + 1 >= sizeof t->text) return;
+    va_list args;
+    va_start(args, fmt);
+    int n = vsnprintf(t->text + t->used, sizeof t->text - t->used, fmt, args);
+    va_end(args);
+    if (n > 0) t->used += (size_t)n < sizeof t->text - t->used ? (size_t)n
+                                                                : sizeof t->text - t->used - 1;
+}
+
+/* A Python found: its library and where its numpy and scipy would be. */
+typedef struct {
+    const char *version;              /* "3.12" */
+    char library[PATH_MAX];           /* the file, symbolic links resolved */
+    void *handle;                     /* dlopen'ed RTLD_LOCAL while the choice is made */
+    int numpy, scipy;                 /* found in one of its folders */
+    Text folders;                     /* its site folders that exist, for a message */
+} Candidate;
+
+static int has_package(const char *folder, const char *package) {
+    char path[FOLDER_SIZE + 64];
+    snprintf(path, sizeof path, "%.*s/%.32s/__init__.py", FOLDER_SIZE, folder, package);
+    return access(path, R_OK) == 0;
+}
+
+/* The strings of the JSON array `key` of the JSON text `json` (python.json: the escapes
+   json.dumps writes, \uXXXX included), at most `max`; their number. */
+static size_t json_strings(const char *json, const char *key, char out[][FOLDER_SIZE],
+                           size_t max) {
+    char quoted[64];
+    snprintf(quoted, sizeof quoted, "\"%s\"", key);
+    const char *p = strstr(json, quoted);
+    if (!p) return 0;
+    p += strlen(quoted);
+    while (*p == ' ' || *p == '\n' || *p == '\r' || *p == '\t') p++;
+    if (*p++ != ':') return 0;
+    while (*p == ' ' || *p == '\n' || *p == '\r' || *p == '\t') p++;
+    if (*p++ != '[') return 0;
+    size_t n = 0;
+    while (n < max) {
+        while (*p == ' ' || *p == '\n' || *p == '\r' || *p == '\t' || *p == ',') p++;
+        if (*p++ != '"') break; /* ']' ends the array */
+        char *s = out[n];
+        size_t k = 0;
+        while (*p && *p != '"' && k + 4 < FOLDER_SIZE) {
+            if (*p != '\\') {
+                s[k++] = *p++;
+                continue;
+            }
+            p++;
+            unsigned long cp;
+            switch (*p) {
+            case 'b': cp = '\b'; break;
+            case 'f': cp = '\f'; break;
+            case 'n': cp = '\n'; break;
+            case 'r': cp = '\r'; break;
+            case 't': cp = '\t'; break;
+            case 'u': {
+                char hex[5] = {0};
+                memcpy(hex, p + 1, 4);
+                cp = strtoul(hex, NULL, 16);
+                p += 4;
+                if (cp >= 0xD800 && cp < 0xDC00 && p[1] == '\\' && p[2] == 'u') {
+                    memcpy(hex, p + 3, 4);
+                    unsigned long low = strtoul(hex, NULL, 16);
+                    if (low >= 0xDC00 && low < 0xE000) {
+                        cp = 0x10000 + ((cp - 0xD800) << 10) + (low - 0xDC00);
+                        p += 6;
+                    }
+                }
+                break;
+            }
+            case '\0': return n;
+            default: cp = (unsigned char)*p; /* \" \\ \/ */
+            }
+            p++;
+            if (cp < 0x80) {
+                s[k++] = (char)cp;
+            } else if (cp < 0x800) {
+                s[k++] = (char)(0xC0 | (cp >> 6));
+                s[k++] = (char)(0x80 | (cp & 0x3F));
+            } else if (cp < 0x10000) {
+                s[k++] = (char)(0xE0 | (cp >> 12));
+                s[k++] = (char)(0x80 | ((cp >> 6) & 0x3F));
+                s[k++] = (char)(0x80 | (cp & 0x3F));
+            } else {
+                s[k++] = (char)(0xF0 | (cp >> 18));
+                s[k++] = (char)(0x80 | ((cp >> 12) & 0x3F));
+                s[k++] = (char)(0x80 | ((cp >> 6) & 0x3F));
+                s[k++] = (char)(0x80 | (cp & 0x3F));
+            }
+        }
+        if (*p != '"') break; /* cut short or malformed: not used */
+        p++;
+        s[k] = '\0';
+        n++;
+    }
+    return n;
+}
+
+/* The site-packages folders recorded at build time (python.json's "site"; relative ones are the
+   FMU's own, relative to resources/), at most `max`; their number. */
+static size_t recorded_folders(const char *dir, char out[][FOLDER_SIZE], size_t max) {
+    char path[4200];
+    snprintf(path, sizeof path, "%s/" CONFIG_FILE, dir);
+    FILE *file = fopen(path, "rb");
+    if (!file) return 0;
+    char *json = calloc(1, 1 << 20);
+    size_t n = 0;
+    if (json) {
+        size_t size = fread(json, 1, (1 << 20) - 1, file);
+        json[size] = '\0';
+        n = json_strings(json, "site", out, max);
+        for (size_t i = 0; i < n; i++) {
+            if (out[i][0] == '/') continue;
+            char relative[FOLDER_SIZE];
+            memcpy(relative, out[i], FOLDER_SIZE);
+            snprintf(out[i], FOLDER_SIZE, "%.*s/../../resources/%.*s", FOLDER_SIZE / 2, dir,
+                     FOLDER_SIZE / 3, relative);
+        }
+    }
+    free(json);
+    fclose(file);
+    return n;
+}
+
+/* The installation prefix of a libpython: /usr for /usr/lib/x86_64-linux-gnu/libpython3.12.so.1.0
+   or /usr/lib64/..., /opt/py for /opt/py/lib/libpython3.12.so.1.0. */
+static void library_prefix(const char *library, char *prefix, size_t n) {
+    snprintf(prefix, n, "%s", library);
+    char *slash = strrchr(prefix, '/');
+    if (!slash || slash == prefix) {
+        snprintf(prefix, n, "/usr");
+        return;
+    }
+    *slash = '\0'; /* its folder */
+    for (int up = 0; up < 2; up++) {
+        slash = strrchr(prefix, '/');
+        if (!slash || slash == prefix) break;
+        int lib = strcmp(slash, "/lib") == 0 || strcmp(slash, "/lib64") == 0;
+        *slash = '\0';
+        if (lib) return;
+    }
+    /* no lib folder: the folder above the library's */
+    snprintf(prefix, n, "%s", library);
+    *strrchr(prefix, '/') = '\0';
+    slash = strrchr(prefix, '/');
+    if (slash && slash != prefix) *slash = '\0';
+}
+
+/* Where the Python of `c` looks for packages (site.py's folders for its prefix: pyenv's and
+   python.org's lib/python3.X/site-packages, Debian's dist-packages, Fedora's lib64, the user's
+   site) and the recorded folders for the build's version: which hold numpy and scipy. */
+static void look_for_packages(Candidate *c, char recorded[][FOLDER_SIZE], size_t n_recorded) {
+    static const char *const layouts[] = {
+        "%s/lib/python%s/site-packages",       "%s/lib64/python%s/site-packages",
+        "%s/lib/python%s/dist-packages",       "%s/lib/python3/dist-packages",
+        "%s/local/lib/python%s/dist-packages", "%s/local/lib/python%s/site-packages",
+        "%s/local/lib64/python%s/site-packages"};
+    char prefix[PATH_MAX];
+    library_prefix(c->library, prefix, sizeof prefix);
+    char folders[MAX_FOLDERS + 16][FOLDER_SIZE];
+    size_t n = 0;
+    for (size_t i = 0; i < sizeof layouts / sizeof *layouts; i++)
+        snprintf(folders[n++], FOLDER_SIZE, layouts[i], prefix, c->version);
+    const char *home = getenv("HOME");
+    struct passwd *user = home ? NULL : getpwuid(getuid());
+    if (!home && user) home = user->pw_dir;
+    if (home) snprintf(folders[n++], FOLDER_SIZE, "%s/.local/lib/python%s/site-packages", home,
+                       c->version);
+    if (strcmp(c->version, PYTHON_VERSION) == 0)
+        for (size_t i = 0; i < n_recorded && n < sizeof folders / sizeof *folders; i++)
+            memcpy(folders[n++], recorded[i], FOLDER_SIZE);
+    for (size_t i = 0; i < n; i++) {
+        struct stat info;
+        if (stat(folders[i], &info) != 0 || !S_ISDIR(info.st_mode)) continue;
+        int numpy = has_package(folders[i], "numpy"), scipy = has_package(folders[i], "scipy");
+        c->numpy |= numpy;
+        c->scipy |= scipy;
+        add_text(&c->folders, "%s%s%s", c->folders.used ? ", " : "", folders[i],
+                 numpy && scipy ? " (numpy, scipy)" : numpy ? " (numpy)" : scipy ? " (scipy)"
+                                                                           : "");
+    }
+}
+
+/* "3.11, 3.12 or 3.13" */
+static void versions_text(Text *t, const char *const *versions, size_t n) {
+    for (size_t i = 0; i < n; i++)
+        add_text(t, "%s%s", i == 0 ? "" : i + 1 == n ? " or " : ", ", versions[i]);
+}
+
+/* Why a started Python could not run the FMU may lie in the choice: said with its failure. */
+static Text python_choice;
+
+/* Load the libpython of the Python chosen as described in 1. above, RTLD_GLOBAL; NULL after a
+   report naming what was looked for. */
+static void *open_python(const fmi2CallbackFunctions *f, fmi2String name, const char *dir) {
+    /* the versions, the build's first */
+    static char list[256];
+    snprintf(list, sizeof list, "%s", PYTHON_VERSIONS);
+    const char *versions[MAX_CANDIDATES];
+    size_t n_versions = 0;
+    versions[n_versions++] = PYTHON_VERSION;
+    for (char *save = NULL, *v = strtok_r(list, " ", &save); v && n_versions < MAX_CANDIDATES;
+         v = strtok_r(NULL, " ", &save))
+        if (strcmp(v, PYTHON_VERSION) != 0) versions[n_versions++] = v;
+    /* the files to try: the build's libpython, then each version's soname */
+    static struct { const char *version; char file[PATH_MAX]; } tries[MAX_CANDIDATES + 2];
+    size_t n_tries = 0;
+    if (LIBPYTHON_PATH[0]) {
+        tries[n_tries].version = PYTHON_VERSION;
+        snprintf(tries[n_tries++].file, PATH_MAX, "%s", LIBPYTHON_PATH);
+    }
+    tries[n_tries].version = PYTHON_VERSION;
+    snprintf(tries[n_tries++].file, PATH_MAX, "%s", LIBPYTHON_SONAME);
+    for (size_t i = 1; i < n_versions; i++) { /* LIBPYTHON_SONAME is the build's version's */
+        char soname[64];
+        snprintf(soname, sizeof soname, "libpython%s.so.1.0", versions[i]);
+        tries[n_tries].version = versions[i];
+        snprintf(tries[n_tries++].file, PATH_MAX, "%s", soname);
+    }
+
+    static char recorded[MAX_FOLDERS][FOLDER_SIZE];
+    size_t n_recorded = recorded_folders(dir, recorded, MAX_FOLDERS);
+    static Candidate found[MAX_CANDIDATES + 2];
+    size_t n_found = 0;
+    Text missing = {0};
+    int chosen = -1;
+    for (size_t i = 0; i < n_tries && chosen < 0; i++) {
+        void *handle = dlopen(tries[i].file, RTLD_NOW | RTLD_LOCAL);
+        if (!handle) {
+            add_text(&missing, "%s%s", missing.used ? "; " : "", dlerror());
+            continue;
+        }
+        Candidate *c = &found[n_found];
+        memset(c, 0, sizeof *c);
+        struct link_map *map = NULL;
+        if (dlinfo(handle, RTLD_DI_LINKMAP, &map) != 0 || !map || !map->l_name ||
+            !realpath(map->l_name, c->library))
+            snprintf(c->library, sizeof c->library, "%s", tries[i].file);
+        int again = 0; /* the same file under another name */
+        for (size_t j = 0; j < n_found; j++) again |= strcmp(found[j].library, c->library) == 0;
+        if (again) {
+            dlclose(handle);
+            continue;
+        }
+        c->version = tries[i].version;
+        c->handle = handle;
+        look_for_packages(c, recorded, n_recorded);
+        if (c->numpy && c->scipy) chosen = (int)n_found;
+        n_found++;
+    }
+    if (n_found == 0) {
+        Text wanted = {0};
+        versions_text(&wanted, versions, n_versions);
+        report(f, name,
+               "needs the shared library of Python %s (libpython3.X.so.1.0), which this "
+               "process has not loaded and which was not found: %s. Install one of them as a "
+               "shared library, with numpy and scipy (Debian/Ubuntu: apt-get install "
+               "libpython3.X python3-numpy python3-scipy, 3.X the version of python3), or use "
+               "the standalone FMU, which carries its own Python (docs/fmu.md).",
+               wanted.text, missing.text);
+        return NULL;
+    }
+    if (chosen < 0) { /* none has both: the first found says what it lacks */
+        chosen = 0;
+        Text wanted = {0};
+        versions_text(&wanted, versions, n_versions);
+        add_text(&python_choice, "looked for a Python %s whose site-packages hold numpy and "
+                 "scipy, found none: ", wanted.text);
+        for (size_t i = 0; i < n_found; i++)
+            add_text(&python_choice, "%sPython %s (%s): %s; site-packages: %s",
+                     i ? "; " : "", found[i].version, found[i].library,
+                     found[i].numpy ? "numpy, no scipy" : found[i].scipy ? "scipy, no numpy"
+                                                                           : "no numpy or scipy",
+                     found[i].folders.used ? found[i].folders.text : "none exists");
+        if (missing.used) add_text(&python_choice, "; not found: %s", missing.text);
+        add_text(&python_choice, ". Started Python %s (%s)", found[0].version, found[0].library);
+    }
+    void *py = dlopen(found[chosen].library, RTLD_NOW | RTLD_GLOBAL);
+    if (!py) report(f, name, "cannot load %s: %s", found[chosen].library, dlerror());
+    snprintf(python_started, sizeof python_started, "Python %s (%s)", found[chosen].version,
+             found[chosen].library);
+    for (size_t i = 0; i < n_found; i++) dlclose(found[i].handle); /* the others go */
+    return py;
+}
+#endif
+
 /* Load Python (if the process has none) and PythonFMU's library; 1 on success. */
 static int load(const fmi2CallbackFunctions *f, fmi2String name) {
     pthread_mutex_lock(&load_lock);
@@ -353,23 +673,8 @@ static int load(const fmi2CallbackFunctions *f, fmi2String name) {
 #ifdef BUNDLED_PYTHON
         if (!start_bundled_python(f, name, dir)) goto done;
 #else
-        void *py = NULL;
-        char first_error[1024] = "";
-        if (LIBPYTHON_PATH[0]) {
-            py = dlopen(LIBPYTHON_PATH, RTLD_NOW | RTLD_GLOBAL);
-            if (!py) snprintf(first_error, sizeof first_error, "%s", dlerror());
-        }
-        if (!py) py = dlopen(LIBPYTHON_SONAME, RTLD_NOW | RTLD_GLOBAL);
-        if (!py) {
-            report(f, name,
-                   "needs the shared library of Python " PYTHON_VERSION " (" LIBPYTHON_SONAME
-                   "), which this process has not loaded and which was not found: %s%s%s. "
-                   "Install Python " PYTHON_VERSION " as a shared library (Debian/Ubuntu: "
-                   "apt-get install libpython" PYTHON_VERSION " python3-numpy python3-scipy), or "
-                   "use the standalone FMU, which carries its own Python (docs/fmu.md).",
-                   first_error, first_error[0] ? "; " : "", dlerror());
-            goto done;
-        }
+        void *py = open_python(f, name, dir);
+        if (!py) goto done;
         py_is_initialized = (int (*)(void))dlsym(py, "Py_IsInitialized");
 #endif
     }
@@ -502,6 +807,9 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
                                        1);
     inst->instantiating = 0;
     if (!inst->component) {
+#ifndef BUNDLED_PYTHON
+        if (python_choice.used) report(functions, inst->name, "%s", python_choice.text);
+#endif
         report(functions, inst->name, "fmi2Instantiate of instance '%s' failed (the reason is "
                "above)", inst->name);
         free(inst->name);
@@ -509,6 +817,12 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
         return NULL;
     }
     python_seen = 1;
+    static int said_python = 0;
+    if (python_started[0] && !said_python && loggingOn && functions && functions->logger) {
+        said_python = 1;
+        functions->logger(functions->componentEnvironment, inst->name, fmi2OK, "logAll",
+                          "started %s", python_started);
+    }
     return inst;
 }
 

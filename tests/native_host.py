@@ -9,18 +9,26 @@
 - :func:`without_python` wraps a command so that it runs in a private mount namespace where
   every Python installation, venv and site-packages of this machine is hidden (root only: the
   tests skip with the reason elsewhere); :func:`without_numpy` hides only the site-packages, for
-  a machine with Python but no numpy.
+  a machine with Python but no numpy;
+- :func:`venv_for` makes a venv of another Python of this machine (3.12, 3.13) with numpy and
+  scipy, and :func:`only_python` runs a command on this machine made into one whose only Python
+  is that one, as Ubuntu 24.04 (3.12) or Debian 13 (3.13) install it.
 """
 
 from __future__ import annotations
 
+import fcntl
 import glob
+import hashlib
+import json
 import os
+import re
 import shutil
 import stat
 import subprocess
 import sys
 import sysconfig
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -138,12 +146,8 @@ def without_python(command: list[str]) -> list[str]:
             "env", "-i", *command]
 
 
-def without_numpy(command: list[str]) -> list[str]:
-    """``command`` where this machine's Python stays but no numpy or scipy is importable: every
-    site-packages folder and venv is hidden (not the standard library, nor libpython)."""
-    reason = _namespace_available()
-    if reason:
-        pytest.skip(reason)
+def _site_places() -> list[str]:
+    """The site-packages folders and venvs of this machine's Pythons (outermost only)."""
     folders = {sys.prefix} if sys.prefix != sys.base_prefix else set()
     folders.update(p for p in (sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"],
                                *glob.glob("/usr/lib/python3/dist-packages"),
@@ -154,5 +158,153 @@ def without_numpy(command: list[str]) -> list[str]:
     for folder in sorted(folders, key=len):
         if not any(folder == k or folder.startswith(k + "/") for k in kept):
             kept.append(folder)
-    return ["unshare", "-m", "sh", "-c", _namespace_script(kept, []), "hide-numpy",
+    return kept
+
+
+def without_numpy(command: list[str]) -> list[str]:
+    """``command`` where this machine's Python stays but no numpy or scipy is importable: every
+    site-packages folder and venv is hidden (not the standard library, nor libpython)."""
+    reason = _namespace_available()
+    if reason:
+        pytest.skip(reason)
+    return ["unshare", "-m", "sh", "-c", _namespace_script(_site_places(), []), "hide-numpy",
             "env", "-i", *command]
+
+
+# Other Pythons of this machine (3.12, 3.13) -----------------------------------------------------
+#: Where the tests keep the venvs they make for other Pythons (reused while their key matches).
+TEST_PYTHONS = Path(tempfile.gettempdir()) / "iceimpact-test-pythons"
+
+
+def other_python(version: str) -> Path | None:
+    """The interpreter of CPython ``version`` ("3.12"): pyenv's newest ``<version>.*``
+    (``$PYENV_ROOT``, else ``~/.pyenv``), else ``python<version>`` on the PATH; None if absent."""
+    root = Path(os.environ.get("PYENV_ROOT") or Path.home() / ".pyenv")
+    found = sorted((p for p in (root / "versions").glob(f"{version}.*")
+                    if re.fullmatch(rf"{re.escape(version)}\.\d+", p.name)
+                    and (p / "bin" / f"python{version}").exists()),
+                   key=lambda p: int(p.name.rsplit(".", 1)[1]))
+    if found:
+        return found[-1] / "bin" / f"python{version}"
+    which = shutil.which(f"python{version}")
+    return Path(which) if which else None
+
+
+def python_facts(python: Path) -> dict:
+    """prefix, version, its shared libpython (None without one) and site-packages folder."""
+    script = ("import json, sys, sysconfig, os; v = sysconfig.get_config_var; "
+              "lib = os.path.join(v('LIBDIR') or '', v('INSTSONAME') or ''); "
+              "print(json.dumps({'prefix': sys.base_prefix, 'version': '%d.%d' % "
+              "sys.version_info[:2], 'libpython': lib if v('Py_ENABLE_SHARED') and "
+              "os.path.isfile(lib) else None, 'site': sysconfig.get_paths()['purelib']}))")
+    done = subprocess.run([str(python), "-I", "-c", script], capture_output=True, text=True,
+                          timeout=60, check=True)
+    return json.loads(done.stdout)
+
+
+def venv_for(version: str, packages: dict[str, str]) -> Path:
+    """A venv of CPython ``version`` with ``packages`` ({name: version}) installed by pip: its
+    interpreter. Made once under :data:`TEST_PYTHONS` and reused; skips the test with the reason
+    where the interpreter is absent or pip cannot install them."""
+    python = other_python(version)
+    if python is None:
+        pytest.skip(f"no Python {version} on this machine (pyenv install {version}, or "
+                    f"python{version} on the PATH)")
+    pins = [f"{name}=={pin}" for name, pin in sorted(packages.items())]
+    key = hashlib.sha256("\n".join([str(python.resolve()), *pins]).encode()).hexdigest()[:12]
+    venv = TEST_PYTHONS / f"python{version}-{key}"
+    ready = venv / "ready"
+    TEST_PYTHONS.mkdir(parents=True, exist_ok=True)
+    with open(TEST_PYTHONS / f"{venv.name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # one maker at a time
+        if not ready.exists():
+            shutil.rmtree(venv, ignore_errors=True)
+            steps = ([str(python), "-m", "venv", str(venv)],
+                     [str(venv / "bin" / "python"), "-m", "pip", "install", "-q", *pins])
+            for step in steps:
+                done = subprocess.run(step, capture_output=True, text=True, timeout=600)
+                if done.returncode != 0:
+                    shutil.rmtree(venv, ignore_errors=True)
+                    pytest.skip(f"cannot make a Python {version} venv with {', '.join(pins)}: "
+                                f"{' '.join(step[:4])} failed: {done.stderr.strip()[-500:]}")
+            ready.write_text("\n".join(pins) + "\n")
+    return venv / "bin" / "python"
+
+
+def _overlay_available(scratch: Path) -> str | None:
+    """None where an overlay file system can be mounted in a private mount namespace."""
+    reason = _namespace_available()
+    if reason:
+        return reason
+    for name in ("lower", "upper", "work", "mnt"):
+        (scratch / name).mkdir(parents=True, exist_ok=True)
+    done = subprocess.run(
+        ["unshare", "-m", "mount", "-t", "overlay", "overlay", "-o",
+         f"lowerdir={scratch}/lower,upperdir={scratch}/upper,workdir={scratch}/work",
+         str(scratch / "mnt")], capture_output=True, text=True)
+    if done.returncode != 0:
+        return f"no overlay file system here: {done.stderr.strip()}"
+    return None
+
+
+def _system_library_folder() -> Path:
+    """The folder the dynamic linker searches by default for a library not in its cache."""
+    multiarch = sysconfig.get_config_var("MULTIARCH")
+    for folder in (f"/usr/lib/{multiarch}" if multiarch else None, "/usr/lib64", "/usr/lib"):
+        if folder and os.path.isdir(folder):
+            return Path(folder)
+    return Path("/usr/lib")
+
+
+def _hidden_around(folder: str, keep: str) -> list[str]:
+    """The folders to hide so that everything in ``folder`` is hidden but ``keep`` inside it."""
+    hidden, current = [], Path(folder)
+    for part in Path(keep).relative_to(folder).parts:
+        hidden += [str(p) for p in sorted(current.iterdir())
+                   if p.name != part and p.is_dir() and not p.is_symlink()]
+        current = current / part
+    return hidden
+
+
+def only_python(command: list[str], python: Path, site_packages: Path, scratch: Path, *,
+                others: str = "hidden") -> list[str]:
+    """``command`` with an empty environment on this machine made into one whose only Python with
+    numpy and scipy is ``python`` (another CPython, e.g. pyenv's 3.12), installed as a
+    distribution installs it: its libpython is where the dynamic linker finds it by default (an
+    overlay adds a link to it in the system's library folder, since pyenv's lib folder is on no
+    search path) and ``site_packages`` (a venv's, with numpy and scipy) is its site-packages
+    folder. The other Pythons, venvs and site-packages are hidden (``others="hidden"``, as
+    :func:`without_python` does), or only their site-packages and venvs (``others="no
+    packages"``, as :func:`without_numpy` does). ``scratch`` holds the overlay's folders. Skips
+    the test where no such namespace can be made, or ``python`` has no shared libpython."""
+    reason = _overlay_available(scratch / "probe")
+    if reason:
+        pytest.skip(reason)
+    facts = python_facts(python)
+    if facts["libpython"] is None:
+        pytest.skip(f"{python} has no shared libpython (built without --enable-shared): a "
+                    "native host cannot start it")
+    prefix = str(Path(facts["prefix"]).resolve())
+    library = Path(facts["libpython"]).resolve()
+    folders, files = _python_places() if others == "hidden" else (_site_places(), [])
+    kept_folders: list[str] = []
+    for folder in folders:
+        if prefix == folder or prefix.startswith(folder + "/"):
+            kept_folders += _hidden_around(folder, prefix)
+        elif not folder.startswith(prefix + "/"):
+            kept_folders.append(folder)
+    files = [f for f in files if Path(f).resolve() != library]
+    system = _system_library_folder()
+    upper, work = scratch / "upper", scratch / "work"
+    for folder in (upper, work):
+        shutil.rmtree(folder, ignore_errors=True)
+        folder.mkdir(parents=True)
+    (upper / library.name).symlink_to(library)
+    lines = ["set -e",
+             f"mount -t overlay overlay -o lowerdir='{system}',upperdir='{upper}',"
+             f"workdir='{work}' '{system}'"]
+    lines += [f"mount --bind /dev/null '{file}'" for file in files]
+    lines += [f"mount -t tmpfs -o ro none '{folder}'" for folder in kept_folders]
+    lines += [f"mount --bind '{site_packages}' '{facts['site']}'", 'exec "$@"']
+    return ["unshare", "-m", "sh", "-c", "\n".join(lines), "only-python", "env", "-i", *command]
+

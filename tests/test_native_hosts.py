@@ -5,7 +5,8 @@ no LD_PRELOAD, PYTHONPATH or PYTHONHOME. The FMU's loader (fmu_native/loader.c) 
 libpython it was built with and the boot module (fmu_src/iceimpact_fmu_boot.py) the Python
 environment recorded in resources/ (see docs/fmu.md, "What a host needs"). Also here: the FMU
 runs its own core whatever the host imported, errors reach a default host call, instances do not
-leak, and several FMUs share a process.
+leak, and several FMUs share a process; with Python 3.12 and 3.13 (FMPy under each, and a C host
+on a machine whose only Python is one of them) the results equal Python 3.11's to the last bit.
 """
 
 from __future__ import annotations
@@ -25,7 +26,17 @@ from fmpy.fmi1 import FMICallException
 
 from fmu_host import DT, FMI_ERROR, OUTPUTS, ROOT, Instance, build_module, columns, errors
 from iceimpact import Scene, Simulator
-from native_host import C_HOST, compile_c, ecos_binary, parse_csv, run_empty_env
+from native_host import (
+    C_HOST,
+    compile_c,
+    ecos_binary,
+    only_python,
+    other_python,
+    parse_csv,
+    python_facts,
+    run_empty_env,
+    venv_for,
+)
 
 VALUES = {"ice.M": 800.0}  # impacts within the first second
 N_STEPS = 2000
@@ -136,14 +147,28 @@ def test_recorded_environment_supplies_what_the_base_python_lacks(fmu_copy, c_ho
 
 
 def test_missing_libpython_is_named_not_an_undefined_symbol(fmu_copy, c_host, tmp_path):
+    build = build_module()
     loader = fmu_copy / "binaries" / "linux64" / "IceImpact.so"
-    build_module().compile_loader(loader, Path("/nonexistent/libpython3.11.so.1.0"),
-                                  "libpython3.11-absent.so.1.0")
+    # the build's version only: this machine has the other versions' libraries elsewhere
+    build.compile_loader(loader, Path("/nonexistent/libpython3.11.so.1.0"),
+                         "libpython3.11-absent.so.1.0", versions=(build.python_version(),))
     done = run_empty_env([str(c_host), str(fmu_copy), "-n", "3"])
     assert done.returncode == 3
     assert "needs the shared library of Python" in done.stderr
+    assert "/nonexistent/libpython3.11.so.1.0: cannot open" in done.stderr
     assert "libpython3.11-absent.so.1.0" in done.stderr and "standalone FMU" in done.stderr
     assert "undefined symbol" not in done.stderr
+
+
+def test_the_missing_libpython_message_names_every_version_looked_for(fmu_copy, c_host):
+    loader = fmu_copy / "binaries" / "linux64" / "IceImpact.so"
+    build_module().compile_loader(loader, Path("/nonexistent/libpython3.11.so.1.0"),
+                                  "libpython3.11-absent.so.1.0", versions=("3.11", "3.98", "3.99"))
+    done = run_empty_env([str(c_host), str(fmu_copy), "-n", "3"])
+    assert done.returncode == 3
+    assert "needs the shared library of Python 3.11, 3.98 or 3.99" in done.stderr
+    for soname in ("libpython3.11-absent.so.1.0", "libpython3.98.so.1.0", "libpython3.99.so.1.0"):
+        assert f"{soname}: cannot open shared object file" in done.stderr, soname
 
 
 # 3. Its own core, whatever the host imported ------------------------------------------------------
@@ -373,3 +398,80 @@ def test_the_loader_is_what_hosts_load(fmu_dir):
         assert "fmi2DoStep" in symbols and "Py_" not in symbols
     assert (Path(fmu_dir) / "binaries" / "linux64" / "pythonfmu" / "IceImpact.so").exists()
     assert os.path.getsize(loader) < 100_000
+
+
+# 7. Python 3.12 and 3.13 -------------------------------------------------------------------------
+#: The Pythons besides the build's (3.11) that the FMU runs with; each test skips, with the reason,
+#: where this machine lacks one (pyenv's, or python3.X on the PATH) or pip cannot make its venv.
+OTHER_PYTHONS = ("3.12", "3.13")
+
+
+def pins() -> dict[str, str]:
+    """numpy, scipy and fmpy at the versions of this test run: only the Python differs."""
+    import fmpy
+    import scipy
+
+    return {"numpy": np.__version__, "scipy": scipy.__version__, "fmpy": fmpy.__version__}
+
+
+FMPY_SCRIPT = """
+import json, sys
+import numpy
+from fmpy import simulate_fmu
+result = simulate_fmu({fmu!r}, stop_time={stop!r}, output_interval={dt!r}, start_values={values!r})
+print(json.dumps({{"python": "%d.%d" % sys.version_info[:2], "numpy": numpy.__version__,
+                  "columns": {{name: result[name].tolist() for name in result.dtype.names}}}}))
+"""
+
+
+@pytest.fixture(scope="module")
+def fmpy_run_here(fmu) -> np.ndarray:
+    """FMPy's run of the FMU in this Python (the build's, 3.11)."""
+    return simulate_fmu(str(fmu), stop_time=N_STEPS * DT, output_interval=DT,
+                        start_values=VALUES)
+
+
+@pytest.mark.parametrize("version", OTHER_PYTHONS)
+def test_fmpy_under_python_3_12_and_3_13_equals_the_build_python(fmu, fmpy_run_here, version):
+    python = venv_for(version, pins())
+    script = FMPY_SCRIPT.format(fmu=str(fmu), stop=N_STEPS * DT, dt=DT, values=VALUES)
+    done = subprocess.run([str(python), "-c", script], capture_output=True, text=True,
+                          timeout=120, env={k: v for k, v in os.environ.items()
+                                            if not k.startswith("PYTHON")})
+    assert done.returncode == 0, done.stderr[-3000:]
+    got = json.loads(done.stdout.strip().splitlines()[-1])
+    assert got["python"] == version and got["numpy"] == np.__version__
+    assert set(got["columns"]) == set(fmpy_run_here.dtype.names)
+    for name, column in got["columns"].items():  # JSON keeps every double exactly
+        np.testing.assert_array_equal(np.array(column, dtype=fmpy_run_here[name].dtype),
+                                      fmpy_run_here[name], err_msg=name)
+    assert got["columns"]["contact.count"][-1] > 0
+
+
+@pytest.fixture(scope="module")
+def c_host_run_here(fmu_dir, c_host) -> subprocess.CompletedProcess:
+    """The C host's run with this machine's Pythons all there: the build's (3.11) is started."""
+    done = run_empty_env([str(c_host), fmu_dir, "-n", str(N_STEPS), "-s", "ice.M=800"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "started Python 3.11 (" in done.stderr
+    return done
+
+
+@pytest.mark.parametrize("others", ["hidden", "without numpy and scipy"])
+@pytest.mark.parametrize("version", OTHER_PYTHONS)
+def test_c_host_on_a_machine_with_python_3_12_or_3_13_equals_the_build_python(
+        fmu_dir, c_host, c_host_run_here, tmp_path, version, others):
+    """A machine like Ubuntu 24.04 (3.12) or Debian 13 (3.13): the only Python with numpy and
+    scipy is ``version``, its libpython where the system's libraries are; Python 3.11 is either
+    absent (hidden) or there without numpy and scipy (its site-packages and the build's venv
+    hidden). The loader starts ``version``, whose numpy and scipy run the FMU."""
+    base = other_python(version)
+    site = python_facts(venv_for(version, pins()))["site"]
+    command = [str(c_host), fmu_dir, "-n", str(N_STEPS), "-s", "ice.M=800"]
+    done = subprocess.run(only_python(command, base, Path(site), tmp_path,
+                                      others="hidden" if others == "hidden" else "no packages"),
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert f"started Python {version} (" in done.stderr, done.stderr[-3000:]
+    assert done.stdout == c_host_run_here.stdout  # every output, %.17g: to the last bit
+    assert parse_csv(done.stdout)["contact.count"][-1] > 0
