@@ -44,6 +44,15 @@
  *     itself, isolated: its home and module path are set here from the FMU's own location, the
  *     host's environment (PYTHONHOME, PYTHONPATH, ...) is ignored, no signal handler is
  *     installed. A process that already runs Python keeps its interpreter (docs/fmu.md).
+ *  6. PythonFMU 0.7.0 frees its interpreter state twice at exit: the C++ static destructor of its
+ *     `pyState` (an exit handler) frees the block, then its ELF destructor (onLibraryUnload, run
+ *     by _dl_fini) assigns to the destroyed pointer and decrements a count inside the freed block,
+ *     which corrupts the heap (an abort at exit, "free(): corrupted unsorted chunks"). Right
+ *     after loading PythonFMU's library the loader registers the library's
+ *     finalizePythonInterpreter as an exit handler of its own: registered later, it runs first
+ *     and releases the state while the pointer is alive; both destructors then find it empty.
+ *     This covers a failed fmi2Instantiate too, where the slave (whose guard_native_exit does
+ *     the same) never ran.
  *
  * Every other call is passed through unchanged.
  */
@@ -60,6 +69,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+/* glibc's registration of an exit handler (what atexit and C++ static destructors use); with no
+   DSO handle it runs at exit only, whatever is unloaded before. */
+extern int __cxa_atexit(void (*function)(void *), void *argument, void *dso_handle);
 
 #ifndef LIBPYTHON_PATH
 #define LIBPYTHON_PATH ""
@@ -653,6 +666,14 @@ static void *open_python(const fmi2CallbackFunctions *f, fmi2String name, const 
 }
 #endif
 
+/* PythonFMU's finalizePythonInterpreter, run at exit before its own destructors (6. above). */
+static void (*pythonfmu_finalize)(void) = NULL;
+
+static void finalize_pythonfmu(void *unused) {
+    (void)unused;
+    pythonfmu_finalize();
+}
+
 /* Load Python (if the process has none) and PythonFMU's library; 1 on success. */
 static int load(const fmi2CallbackFunctions *f, fmi2String name) {
     pthread_mutex_lock(&load_lock);
@@ -685,6 +706,9 @@ static int load(const fmi2CallbackFunctions *f, fmi2String name) {
         report(f, name, "cannot load PythonFMU's library %s: %s", path, dlerror());
         goto done;
     }
+    /* 6. above: finalize PythonFMU's interpreter state before its static destructor frees it */
+    pythonfmu_finalize = (void (*)(void))dlsym(lib, "finalizePythonInterpreter");
+    if (pythonfmu_finalize) __cxa_atexit(finalize_pythonfmu, NULL, NULL);
     void **slots = (void **)&real;
     for (size_t i = 0; i < sizeof function_names / sizeof *function_names; i++) {
         slots[i] = dlsym(lib, function_names[i]);

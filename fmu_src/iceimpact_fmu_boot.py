@@ -6,9 +6,11 @@ On the first call it
 
 1. makes the FMU's requirements (numpy, scipy) importable: if the Python of the process cannot find
    them, the site-packages folders recorded at build time (``resources/iceimpact_fmu/python.json``)
-   are put on ``sys.path``, as long as the Python has the recorded minor version; if they still
-   cannot be imported, it raises ImportError with a message that names what is missing, where it
-   was looked for and how to install it;
+   are put on ``sys.path``, as long as the Python has the recorded minor version (any other
+   Python runs the FMU with the numpy and scipy it has itself); if they still cannot be imported,
+   or their versions are older than the requirements allow, it raises ImportError with a message
+   that names what is missing or too old, the versions allowed, where it was looked for and how
+   to install them;
 2. loads the model core from ``resources/iceimpact`` under a private name (``_iceimpact_<id>``,
    ``<id>`` a digest of the bundled sources), so that a host that imported another ``iceimpact``
    (or another build of this FMU) never makes the FMU run a core it was not built with;
@@ -42,14 +44,76 @@ def _resources() -> str:
 
 
 def _requirement_names(requirements: list[str]) -> list[str]:
-    names = []
-    for requirement in requirements:
-        name = requirement.split(";")[0].strip()
-        for mark in "<>=!~[ ":
-            name = name.split(mark)[0]
-        if name:
-            names.append(name)
-    return names
+    return [name for name, _ in map(_requirement, requirements) if name]
+
+
+def _requirement(requirement: str) -> tuple[str, list[tuple[str, str]]]:
+    """``"scipy>=1.10,<2"`` -> ``("scipy", [(">=", "1.10"), ("<", "2")])`` (the forms
+    requirements.txt uses here; extras and markers are dropped)."""
+    text = requirement.split(";")[0].strip()
+    name = text
+    for mark in "<>=!~[ ":
+        name = name.split(mark)[0]
+    rest = text[len(name):].strip()
+    if rest.startswith("["):
+        rest = rest[rest.find("]") + 1:]
+    specifiers = []
+    for part in filter(None, (p.strip() for p in rest.split(","))):
+        operator = next((op for op in ("~=", "==", "!=", ">=", "<=", ">", "<") if
+                         part.startswith(op)), None)
+        if operator:
+            specifiers.append((operator, part[len(operator):].strip()))
+    return name.strip(), specifiers
+
+
+def _release(version: str) -> tuple[int, ...]:
+    """The release numbers a version starts with: ``"1.26.4"``, ``"2.0.0rc1"`` -> (2, 0, 0)."""
+    numbers = []
+    for part in version.split("."):
+        digits = ""
+        for char in part:
+            if not char.isdigit():
+                break
+            digits += char
+        if not digits:
+            break
+        numbers.append(int(digits))
+        if len(digits) < len(part):
+            break
+    return tuple(numbers)
+
+
+def _allows(specifiers: list[tuple[str, str]], version: str) -> bool:
+    """Whether ``version`` meets every specifier (release numbers compared, padded with zeros)."""
+    have = _release(version)
+    if not have:
+        return True  # a version that cannot be read is not refused
+    for operator, wanted in specifiers:
+        want = _release(wanted.rstrip(".*"))
+        size = max(len(have), len(want))
+        a, b = have + (0,) * (size - len(have)), want + (0,) * (size - len(want))
+        if operator == "~=":
+            ok = a >= b and a[:max(len(want) - 1, 1)] == b[:max(len(want) - 1, 1)]
+        elif operator in ("==", "!=") and wanted.endswith(".*"):
+            ok = (a[:len(want)] == want) == (operator == "==")
+        else:
+            ok = {"==": a == b, "!=": a != b, ">=": a >= b, "<=": a <= b, ">": a > b,
+                  "<": a < b}[operator]
+        if not ok:
+            return False
+    return True
+
+
+def _installed_version(name: str, module=None) -> str | None:
+    version = getattr(module, "__version__", None)
+    if isinstance(version, str):
+        return version
+    try:
+        from importlib import metadata
+
+        return metadata.version(name)
+    except Exception:
+        return None
 
 
 def _tidy_sys_path(resources: str) -> None:
@@ -72,15 +136,41 @@ def prepare_environment(config: dict, resources: str) -> None:
     if same_python and any(importlib.util.find_spec(n) is None for n in names):
         position = sys.path.index(resources) + 1 if resources in sys.path else 0
         sys.path[position:position] = [d for d in recorded if d not in sys.path]
-    for name in names:
-        try:
-            importlib.import_module(name)
-        except Exception as exc:
-            raise ImportError(_missing_message(name, exc, config, resources, same_python,
-                                               recorded)) from exc
+    problems: list[str] = []
+    first_error: Exception | None = None
+    for requirement in config.get("requirements", []):
+        name, specifiers = _requirement(requirement)
+        if not name:
+            continue
+        module = sys.modules.get(name)
+        if module is None and problems:
+            # a requirement that failed may be what this one imports (scipy imports numpy):
+            # looked up, not imported
+            if importlib.util.find_spec(name) is None:
+                problems.append(f"cannot import {name} (no module named {name!r})")
+                continue
+        elif module is None:
+            try:
+                module = importlib.import_module(name)
+            except Exception as exc:
+                problems.append(f"cannot import {name} ({exc!r})")
+                first_error = first_error or exc
+                continue
+        version = _installed_version(name, module)
+        if version is None or _allows(specifiers, version):
+            continue
+        older = any(op in (">=", ">", "~=") and _release(version) < _release(wanted)
+                    for op, wanted in specifiers)
+        found = getattr(module, "__file__", None)
+        where = f" (in {os.path.dirname(os.path.dirname(found))})" if found else ""
+        problems.append(f"{name} {version}{where} is {'too old' if older else 'not allowed'}: "
+                        f"the FMU needs {requirement.strip()}")
+    if problems:
+        error = ImportError(_missing_message(problems, config, resources, same_python, recorded))
+        raise error from first_error
 
 
-def _missing_message(name: str, exc: Exception, config: dict, resources: str, same_python: bool,
+def _missing_message(problems: list[str], config: dict, resources: str, same_python: bool,
                      recorded: list[str]) -> str:
     version = config.get("python", "?")
     here = "{}.{}".format(*sys.version_info[:2])
@@ -94,8 +184,8 @@ def _missing_message(name: str, exc: Exception, config: dict, resources: str, sa
         where = f"looked in sys.path, which includes the recorded {', '.join(recorded)}"
     requirements = os.path.join(resources, "requirements.txt")
     fmu = config.get("model_identifier", "IceImpact")
-    return (f"{fmu}.fmu needs {', '.join(config.get('requirements', [name]))} in the Python "
-            f"of the host process (Python {here}, {sys.prefix}): cannot import {name} ({exc!r}); "
+    return (f"{fmu}.fmu needs {', '.join(config.get('requirements', []))} in the Python "
+            f"of the host process (Python {here}, {sys.prefix}): {'; '.join(problems)}; "
             f"{where}. Install them for Python {here}: on Debian/Ubuntu, whose Python refuses "
             f"pip (externally managed), apt-get install python3-numpy python3-scipy; elsewhere "
             f"python{here} -m pip install -r {requirements}; or use the standalone {fmu}.fmu, "

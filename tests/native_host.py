@@ -9,7 +9,8 @@
 - :func:`without_python` wraps a command so that it runs in a private mount namespace where
   every Python installation, venv and site-packages of this machine is hidden (root only: the
   tests skip with the reason elsewhere); :func:`without_numpy` hides only the site-packages, for
-  a machine with Python but no numpy;
+  a machine with Python but no numpy; :func:`partial_site` makes a site-packages folder with some
+  of the requirements, or too old ones;
 - :func:`venv_for` makes a venv of another Python of this machine (3.12, 3.13) with numpy and
   scipy, and :func:`only_python` runs a command on this machine made into one whose only Python
   is that one, as Ubuntu 24.04 (3.12) or Debian 13 (3.13) install it.
@@ -20,6 +21,7 @@ from __future__ import annotations
 import fcntl
 import glob
 import hashlib
+import importlib
 import json
 import os
 import re
@@ -308,3 +310,41 @@ def only_python(command: list[str], python: Path, site_packages: Path, scratch: 
     lines += [f"mount --bind '{site_packages}' '{facts['site']}'", 'exec "$@"']
     return ["unshare", "-m", "sh", "-c", "\n".join(lines), "only-python", "env", "-i", *command]
 
+
+# A machine whose Python has some of the requirements ---------------------------------------------
+def partial_site(folder: Path, **packages: str | None) -> Path:
+    """A site-packages folder with some of the FMU's requirements: ``numpy="real"`` links this
+    Python's numpy into it (hard links, so that it stays visible where the venv is hidden),
+    ``scipy="1.9.3"`` makes a stand-in package of that version (its ``__version__`` and
+    dist-info, nothing else), None leaves it out."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, version in packages.items():
+        if version is None:
+            continue
+        if version == "real":
+            module = importlib.import_module(name)
+            source = Path(module.__file__).parent
+            for entry in source.parent.iterdir():
+                if entry.name == name or entry.name == f"{name}.libs" or (
+                        entry.name.startswith(f"{name}-") and entry.name.endswith(".dist-info")):
+                    _link_tree(entry, folder / entry.name)
+            continue
+        (folder / name).mkdir()
+        (folder / name / "__init__.py").write_text(f'__version__ = "{version}"\n')
+        info = folder / f"{name}-{version}.dist-info"
+        info.mkdir()
+        (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n")
+    return folder
+
+
+def _link_tree(source: Path, target: Path) -> None:
+    def link(src: str, dst: str) -> None:
+        try:
+            os.link(src, dst)
+        except OSError:
+            shutil.copy2(src, dst)
+
+    if source.is_dir():
+        shutil.copytree(source, target, copy_function=link, symlinks=True)
+    else:
+        link(str(source), str(target))

@@ -6,12 +6,20 @@ fmi2SetupExperiment on the NULL a failed fmi2Instantiate returned; ``-S``: a log
 on a NULL category or instance name, as OMSimulator's does; ``-E``: exit without terminating;
 ``-P``: an embedded Python finalized before fmi2Terminate, as OMSimulator's static destructor
 does at the exit of a Python script), then ECOS and OMSimulator themselves. "No numpy" is this
-machine with every site-packages hidden (``native_host.without_numpy``).
+machine with every site-packages hidden (``native_host.without_numpy``); a Python with some of
+the requirements (numpy without scipy, scipy or numpy older than requirements.txt allows) is that
+machine with the FMU's recorded site-packages folder holding only those
+(``native_host.partial_site``). Every failed start is also run under valgrind: no invalid read,
+write or free, at exit either (PythonFMU's exit-time use-after-free, which the loader guards
+against since the slave's own guard never runs when the start fails).
 """
 
 from __future__ import annotations
 
+import json
 import os
+import re
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -21,10 +29,12 @@ from pathlib import Path
 import pytest
 
 from native_host import (
+    C_HOST,
     OMSIMULATOR,
     OMSIMULATOR_ABSENT,
     ecos_binary,
     parse_csv,
+    partial_site,
     run_empty_env,
     without_numpy,
     without_python,
@@ -151,3 +161,86 @@ def test_an_omsimulator_script_that_ends_without_terminate_exits_cleanly(fmu, tm
                cwd=tmp_path, env=env)
     assert "simulated" in done.stdout, done.stdout[-2000:] + done.stderr[-2000:]
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+
+
+# A Python with some of the requirements, and valgrind on every failed start -----------------------
+#: Machines whose Python has part of requirements.txt (numpy>=1.24, scipy>=1.10): the packages of
+#: its site-packages (``partial_site``: "real" is this Python's own, a version a stand-in of that
+#: version) and what the message must say.
+PARTIAL = {
+    "numpy without scipy": ({"numpy": "real", "scipy": None},
+                            ["cannot import scipy (ModuleNotFoundError"]),
+    "scipy too old": ({"numpy": "real", "scipy": "1.9.3"},
+                      ["scipy 1.9.3 (in ", "is too old: the FMU needs scipy>=1.10"]),
+    "numpy too old": ({"numpy": "1.23.5", "scipy": "1.11.4"},
+                      ["numpy 1.23.5 (in ", "is too old: the FMU needs numpy>=1.24"]),
+}
+
+
+@pytest.fixture(scope="module")
+def partial_fmus(fmu_dir, tmp_path_factory) -> dict[str, Path]:
+    """A copy of the FMU per machine of PARTIAL whose python.json records that machine's
+    site-packages folder (this Python's own site-packages are hidden when it runs)."""
+    copies = {}
+    for machine, (packages, _) in PARTIAL.items():
+        folder = tmp_path_factory.mktemp(re.sub(r"\W+", "_", machine))
+        site = partial_site(folder / "site-packages", **packages)
+        copy = folder / "IceImpact"
+        shutil.copytree(fmu_dir, copy)
+        config_file = copy / "resources" / "iceimpact_fmu" / "python.json"
+        config = json.loads(config_file.read_text())
+        config["site"] = [str(site)]
+        config_file.write_text(json.dumps(config, indent=2))
+        copies[machine] = copy
+    return copies
+
+
+@pytest.mark.parametrize("machine", PARTIAL)
+def test_a_python_with_part_of_the_requirements_names_what_is_missing(c_host, partial_fmus,
+                                                                      machine):
+    _, says = PARTIAL[machine]
+    for _ in range(3):  # the exit-time corruption was intermittent without valgrind
+        done = run(without_numpy([str(c_host), str(partial_fmus[machine]), "-n", "3", "-S"]))
+        assert done.returncode == 3, done.stderr[-3000:]
+        assert "IceImpact.fmu needs numpy>=1.24, scipy>=1.10 in the Python" in done.stderr
+        for text in says:
+            assert text in done.stderr, (text, done.stderr[-3000:])
+        assert "fmi2Instantiate of instance 'host' failed" in done.stderr
+    if PARTIAL[machine][0]["scipy"] is None:
+        # no Python has both: the loader says which it found and what their site-packages hold
+        site = partial_fmus[machine].parent / "site-packages"
+        assert ("looked for a Python 3.11, 3.12 or 3.13 whose site-packages hold numpy and "
+                "scipy, found none") in done.stderr
+        assert f"{site} (numpy)" in done.stderr, done.stderr[-3000:]
+
+
+VALGRIND = shutil.which("valgrind")
+VALGRIND_ABSENT = ("valgrind is not installed (scripts/system-deps.sh installs it: apt-get "
+                   "install valgrind)")
+#: The host's failed starts: the five machines, each wrapped as the tests above run it.
+FAILED_STARTS = ["no Python", "Python without numpy", *PARTIAL]
+
+
+@pytest.mark.skipif(VALGRIND is None, reason=VALGRIND_ABSENT)
+@pytest.mark.parametrize("machine", FAILED_STARTS)
+def test_a_failed_start_has_no_invalid_access_under_valgrind(c_host, fmu_dir, partial_fmus,
+                                                             machine):
+    """The C host that gets NULL from fmi2Instantiate and exits: under valgrind, no invalid
+    read, write or free, in the failed start or at exit, where PythonFMU's static destructor
+    freed the interpreter state that its library destructor then used (valgrind: "Invalid read
+    of size 4 in finalizePythonInterpreter", a block allocated in pythonfmu::createInstance and
+    freed by an exit handler), which corrupted the heap: "free(): corrupted unsorted chunks"."""
+    if machine in PARTIAL:
+        wrap, folder, says = without_numpy, str(partial_fmus[machine]), PARTIAL[machine][1]
+    else:
+        wrap, reason = MACHINES[machine]
+        folder, says = fmu_dir, [reason]
+    command = [VALGRIND, "--error-exitcode=99", "--trace-children=no",
+               f"--suppressions={C_HOST / 'valgrind.supp'}", str(c_host), folder, "-n", "3", "-S"]
+    done = run(wrap(command))
+    assert done.returncode == 3, done.stderr[-4000:]  # the host's status, not valgrind's 99
+    assert re.search(r"ERROR SUMMARY: 0 errors from 0 contexts", done.stderr), done.stderr[-4000:]
+    for kind in ("Invalid read", "Invalid write", "Invalid free", "Mismatched free"):
+        assert kind not in done.stderr, done.stderr[-4000:]
+    for text in says:
+        assert text in done.stderr, (text, done.stderr[-3000:])
