@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from extremes import CELLS, failures, run_cell
 from iceimpact import ParameterError, Scene, Simulator, SolverError
@@ -133,6 +135,110 @@ def test_unstable_euler_step_stops_the_run_with_a_clear_error():
     # the exact method runs the same scene
     exact = Simulator(Scene(**{**EULER_DIVERGES_AFTER_IMPACT, "solver_method": 1}))
     assert exact.advance(0.1).impact_count >= 1
+
+
+#: a 1 g floe at rest in contact with a 1e9 kg structure at rest 1e30 m from its equilibrium,
+#: no flow (the far-scale search's starts): the spring pulls the structure into the floe at
+#: 5.4e20 m/s by the first grid point (omega_n^2 x0 dt), and the plastic impact there gives the
+#: floe that speed: (B/M) h |w - u| = 1.35e22 over the 50 us to a communication point, where
+#: eq. 36 is stable up to 2
+FAR_STRUCK_FLOE = {
+    "structure_m": 1e9, "structure_k": 5.4e3, "structure_c": 0.0, "structure_x0": 1e30,
+    "structure_v0": 0.0, "ice_M": 1e-3, "ice_z0": 1e30, "ice_v0": 0.0, "impact_e": 0.0,
+    "drag_model": 2, "flow_u": 0.0, "solver_method": 2}
+
+
+def test_method_2_partial_euler_step_after_an_impact_is_held_to_the_stability_limit():
+    """Method 2 gives the state at a communication point between grid points by a partial Euler
+    step (eq. 36 over h < dt) from the last grid point, whose ice velocity may be an impact's:
+    eq. 36 was held to its stability limit only on the grid's own steps. Here the impact at
+    t = 1e-4 s gives the floe 5.4e20 m/s, the partial step to t = 1.5e-4 s multiplied it by
+    1.35e22, and the energy at u = 0 grew 9.8e18 times in one step (the next step was refused
+    by the grid's rule). The partial step is now refused as the grid's would be, naming
+    solver.dt, its value and the allowed range; a step to the grid point itself is computed,
+    and loses energy (a plastic impact)."""
+    from random_search import energy
+
+    scene = Scene(**FAR_STRUCK_FLOE)
+    sim = Simulator(scene)
+    e0 = energy(scene, sim.solver.state)
+    start = sim.report
+    with pytest.raises(SolverError) as err:
+        sim.advance(1.5e-4)
+    text = str(err.value)
+    assert ("solver.dt = 0.0001 s is too large for the explicit Euler step of the quadratic "
+            "drag (eq. 36) from the grid point at t = 0.0001 s to the communication point "
+            "5e-05 s later: (B/M) h |w - u| = 1.35e+22 > 2") in text
+    assert "use solver.dt < 7.41e-27 s, or solver.method = 1" in text
+    assert sim.t == 0.0 and sim.report == start  # refused: nothing changed
+    report = sim.advance(1e-4)  # to the grid point: the impact, no partial step
+    assert report.impacts == 1 and report.w == report.v < -5e20
+    assert energy(scene, sim.solver.state) <= e0 * (1.0 + 1e-15)  # (its rounding: 1 ulp)
+    # where the partial step is within the limit, it is computed (|w - u| does not grow) and
+    # the grid's next step is refused: a 0.1 m/s structure striking a 1 g floe, dt = 1e-4 s
+    scene = Scene(structure_m=1e3, structure_k=1.0, structure_c=0.0, structure_v0=-0.1,
+                  ice_M=1e-3, ice_z0=0.0, ice_v0=0.0, impact_e=0.0, drag_model=2, flow_u=0.0,
+                  solver_method=2)
+    sim = Simulator(scene)
+    report = sim.advance(1.1e-4)  # (B/M) h |w - u| = 0.5 over the last 1e-5 s
+    assert report.impacts == 1 and abs(report.w) < abs(report.v)
+    with pytest.raises(SolverError, match=r"at t = 0.0001 s: \(B/M\) dt \|w - u\| = 4.99 > 2"):
+        sim.advance(1e-4)
+
+
+@st.composite
+def _far_starts(draw):
+    """Method 2, quadratic drag, no flow: the structure and the ice anywhere up to what
+    validation accepts (positions and speeds log-uniform up to a finite energy, either sign;
+    the ice in contact or up to 1e308 m upstream, at the structure's speed, at rest or its
+    own), masses 1e-6 to 1e9 kg, omega_n up to 1e12 rad/s, any restitution."""
+    from random_search import FAR_MAX, energy_bound, far_values
+
+    m = 10 ** draw(st.floats(-6.0, 9.0))
+    M = 10 ** draw(st.floats(-6.0, 9.0))
+    k = 10 ** draw(st.floats(-200.0, math.log10(m) + 24.0))
+    zeta = draw(st.one_of(st.just(0.0), st.just(1.0), st.floats(0.0, 5.0)))
+    x0 = draw(st.one_of(st.just(0.0), far_values(energy_bound(k))))
+    v0 = draw(far_values(energy_bound(m)))
+    gap = draw(st.one_of(st.just(0.0), far_values(FAR_MAX, signed=False)))
+    w0 = draw(st.one_of(st.just(v0), st.just(0.0), far_values(energy_bound(M))))
+    e = draw(st.one_of(st.just(0.0), st.just(1.0), st.floats(0.0, 1.0)))
+    try:
+        return Scene(structure_m=m, structure_k=k, structure_c=2.0 * zeta * math.sqrt(k * m),
+                     structure_x0=x0, structure_v0=v0, ice_M=M, ice_z0=max(x0 - gap, -FAR_MAX),
+                     ice_v0=w0, impact_e=e, drag_model=2, flow_u=0.0, solver_method=2)
+    except ParameterError:
+        assume(False)
+
+
+@settings(max_examples=300, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(scene=_far_starts(), fraction=st.floats(0.1, 3.0))
+def test_method_2_creates_no_energy_at_zero_flow_from_far_starts(scene, fraction):
+    """Method 2 at u = 0 from far starts, in communication steps of 0.1 to 3 grid steps (most
+    end between grid points, where the state is a partial Euler step): at every step the energy
+    exceeds that of the last grid point before the step's start (``grid_energy``: a partial step
+    that overshoots the flow speed reports less) by at most the far-scale search's rounding
+    bound (1e-9 of the initial energy plus a few ulps of the states times their momenta,
+    tools/random_search.py), or the step is refused by eq. 36's stability rule, naming
+    solver.dt."""
+    from random_search import ENERGY_TOLERANCE, energy, energy_floor, grid_energy
+
+    sim = Simulator(scene)
+    last = sim.solver.state
+    e0 = e_last = energy(scene, last)
+    for _ in range(12):
+        try:
+            sim.advance(fraction * scene.solver_dt, 0.0)
+        except SolverError as exc:
+            assert "solver.dt = 0.0001 s is too large for the explicit Euler step" in str(exc)
+            return
+        s = sim.solver.state
+        e = energy(scene, s)
+        bound = (e_last + ENERGY_TOLERANCE[2] * e0 + energy_floor(scene, s, 0.0, 0.0)
+                 + energy_floor(scene, last, 0.0, 0.0))
+        assert e <= bound, (e_last, e)
+        e_last, last = grid_energy(scene, sim.solver, e, s)
 
 
 def test_method_3_energy_error_stays_within_the_bound_of_its_tolerance():

@@ -14,9 +14,12 @@ masses from 1e-6 to 1e9 kg, flows up to the drag-rate limit, steps down to 0.1 m
 drives the flow input with a random sequence: constant, reversing at every step, random signs,
 zero, reversed one step in four. ``--far`` draws from a wider box than validation's limits
 (stiffness down to 1e-200 N/m, fluid.rho 1e-200 to 1e30 kg/m^3, drag.v_lin up to 1e200 m/s,
-masses 1e-6 to 1e9 kg, impact.e 1e-12 to 1) and runs each scene FAR_STEPS = 300 communication
+masses 1e-6 to 1e9 kg, impact.e 1e-12 to 1; the initial displacements and speeds of both
+bodies near the contact scale or log-uniform from 1e-300 up to validation's bounds, either sign,
+the ice in contact or up to 1e308 m upstream) and runs each scene FAR_STEPS = 300 communication
 steps of 0.01 to 1 s under a flow constant, zero, reversing at every step or random in sign and
-size; the scenes validation refuses up front are counted by the rule that refused them; method 3
+size (``--steps``: another number of steps, the same scenes); the scenes validation refuses up
+front are counted by the rule that refused them; method 3
 integrates with ``solver.max_evaluations`` = FAR_EVALUATIONS per step (``--max-evaluations``), so
 that a scene whose integration needs more is refused at a step naming that limit. Scenes
 the model refuses (ParameterError, at the start or at a step, or a SolverError naming the
@@ -66,6 +69,7 @@ from iceimpact.limits import (
     TAYLOR_RATE_MAX,
     integrated_rate,
 )
+from iceimpact.solvers.base import State
 from iceimpact.solvers.contact_rules import chatter_time
 from iceimpact.solvers.ode import ATOL_SCALE, ODE_METHODS, PARTING_NOISE, STABLE_STEP
 
@@ -189,13 +193,38 @@ def _scene(draw, m, k, zeta, M, A, Cd, drag, u_max, x0, v0, method):
         solver_method=method)
 
 
+#: the far box's initial states: magnitudes log-uniform from FAR_MIN up to validation's bound
+#: (the largest finite double for a position of the ice, whose energy is all kinetic)
+FAR_MIN, FAR_MAX = 1e-300, sys.float_info.max
+
+
+def energy_bound(stiffness: float) -> float:
+    """The largest |q| whose energy stiffness q^2 / 2 validation accepts (finite): a position
+    of the structure (stiffness k, N/m) or a speed (a mass, kg); just inside it."""
+    return min(FAR_MAX, 0.999 * math.sqrt(2.0) * math.sqrt(FAR_MAX) / math.sqrt(stiffness))
+
+
+def far_values(bound: float, signed: bool = True) -> st.SearchStrategy[float]:
+    """Magnitudes log-uniform from FAR_MIN to ``bound`` over their whole range, either sign."""
+    top = math.log10(bound) - 1e-9  # 10 ** top rounds below the bound, never to inf
+    magnitude = st.floats(math.log10(FAR_MIN), top).map(lambda p: min(10 ** p, bound))
+    if not signed:
+        return magnitude
+    return st.tuples(st.booleans(), magnitude).map(lambda t: t[1] if t[0] else -t[1])
+
+
 @st.composite
 def far_scenes(draw, method: int):
     """Scenes from the far box (docs/robustness.md, "The far-scale search"): stiffness from
     1e-200 N/m to the method's omega_n limit, fluid density 1e-200 to 1e30 kg/m^3, drag.v_lin
     up to 1e200 m/s, masses 1e-6 to 1e9 kg, restitution 1e-12 to 1 (and 0, 1 exactly); flows
-    up to 1e4 m/s, or within 0.4 of the drag-rate limits. Scenes validation refuses up front
-    are counted by the caller (:class:`_Refusals`) and not run."""
+    up to 1e4 m/s, or within 0.4 of the drag-rate limits. The initial states: structure.x0 0,
+    in [-1, 1] m or anywhere a finite strain energy allows, structure.v0 in [-1, 1] m/s or up
+    to a finite kinetic energy, the ice in contact (ice.z0 = structure.x0), up to 0.1 m or up
+    to 1e308 m upstream, ice.v0 the structure's, 0, within half the flow bound or up to a
+    finite kinetic energy (:func:`far_values`: log-uniform magnitudes from 1e-300, either
+    sign). Scenes validation refuses up front are counted by the caller (:class:`_Refusals`)
+    and not run."""
     m = 10 ** draw(st.floats(-6.0, 9.0))
     M = 10 ** draw(st.floats(-6.0, 9.0))
     k_max = math.log10(m) + 2.0 * math.log10(OMEGA_MAX[method])
@@ -213,17 +242,20 @@ def far_scenes(draw, method: int):
     if method == 1 and B > 0.0:
         u_max = min(u_max, 0.4 * TAYLOR_RATE_MAX * (m + M) / (2.0 * B))
     u_max = draw(st.sampled_from([u_max, u_free]))
-    x0 = draw(st.one_of(st.just(0.0), st.floats(-1.0, 1.0)))
-    v0 = draw(st.floats(-1.0, 1.0))
+    # the initial states: near the contact scale, or anywhere up to validation's bounds
+    x0 = draw(st.one_of(st.just(0.0), st.floats(-1.0, 1.0),
+                        far_values(energy_bound(k))))
+    v0 = draw(st.one_of(st.floats(-1.0, 1.0), far_values(energy_bound(m))))
+    gap = draw(st.one_of(st.just(0.0), st.floats(0.0, 0.1), far_values(FAR_MAX, signed=False)))
+    w0 = draw(st.one_of(st.just(v0), st.just(0.0), st.floats(-u_max / 2, u_max / 2),
+                        far_values(energy_bound(M))))
     e = draw(st.one_of(st.just(0.0), st.just(1.0),
                        st.floats(-12.0, 0.0).map(lambda p: 10 ** p)))
     try:
         return Scene(
             structure_m=m, structure_k=k, structure_c=2.0 * zeta * math.sqrt(k * m),
             structure_x0=x0, structure_v0=v0, ice_M=M, ice_A=A, ice_Cd=Cd,
-            ice_z0=x0 - draw(st.one_of(st.just(0.0), st.floats(0.0, 0.1))),
-            ice_v0=draw(st.one_of(st.just(v0), st.just(0.0),
-                                  st.floats(-u_max / 2, u_max / 2))),
+            ice_z0=max(x0 - gap, -FAR_MAX), ice_v0=w0,
             fluid_rho=rho, impact_e=e, drag_model=drag, drag_v_lin=v_lin,
             flow_u=draw(st.one_of(st.just(0.0), st.floats(-u_max, u_max))),
             solver_method=method)
@@ -272,6 +304,22 @@ def energy(scene: Scene, s) -> float:
     ** raises OverflowError where x^2 alone overflows, k x^2 need not)."""
     return 0.5 * (scene.structure_m * s.v * s.v + scene.structure_k * s.x * s.x
                   + scene.ice_M * s.w * s.w)
+
+
+def grid_energy(scene: Scene, solver, e_now: float, s) -> tuple[float, State]:
+    """Method 2's reference for the next step's energy at u = 0 (J), with its state: the larger
+    of the energy at the solver's last grid point (after an impact there) and ``e_now``, that
+    of the state ``s`` at the communication point. Between grid points ``s`` is a partial Euler
+    step from the grid point (eq. 36 over h < dt), whose |w - u| shrinks over the step but
+    passes through 0 where the step overshoots the flow speed (1 < (B/M) dt |w - u| <= 2): a
+    communication point there reports less energy than its grid point, and the next one more,
+    without energy created. On the grid the energy never grows, and a communication point's
+    never exceeds its grid point's (docs/robustness.md, "Method 2's partial Euler step")."""
+    if solver.pinned:
+        return e_now, s
+    grid = State(s.t, *solver.grid)
+    e_grid = energy(scene, grid)
+    return (e_grid, grid) if e_grid > e_now else (e_now, s)
 
 
 def ode_energy_bound(scene: Scene, e: float, nfev: int) -> float:
@@ -439,6 +487,8 @@ def _run_case(scene: Scene, h: float, flow: str, signs: list[bool], time_limit: 
                 raise AssertionError(f"energy created at u = 0: {e_last} -> {e_now} J "
                                      f"at t = {r.t}")
             e_last, last = e_now, s
+            if method == 2:
+                e_last, last = grid_energy(scene, sim.solver, e_now, s)
     except _Stalled:
         cpu, t_reached, impacts, nfev = alarm.end or (time.process_time(), *_progress(sim))
         half_cpu, _, half_impacts, _ = alarm.checkpoint or (start, 0.0, 0, 0)
@@ -506,8 +556,12 @@ def main() -> None:
     parser.add_argument("--flows", action="store_true", help="random flow sequences")
     parser.add_argument("--far", action="store_true",
                         help=f"the far box: {FAR_STEPS} steps of 0.01-1 s, stiffness down to "
-                        "1e-200 N/m, fluid.rho 1e-200 to 1e30, drag.v_lin up to 1e200, flows "
+                        "1e-200 N/m, fluid.rho 1e-200 to 1e30, drag.v_lin up to 1e200, initial "
+                        "displacements and speeds up to validation's bounds, flows "
                         "constant, zero, reversing or random in sign and size")
+    parser.add_argument("--steps", type=int, metavar="N", default=FAR_STEPS,
+                        help=f"communication steps of each far-box scene (default {FAR_STEPS}): "
+                        "fewer for a cheaper, shorter search of the same scenes")
     parser.add_argument("--max-evaluations", type=int, metavar="N",
                         help="method 3: solver.max_evaluations of every scene (default: the "
                         f"scene's; {FAR_EVALUATIONS} with --far)")
@@ -532,7 +586,7 @@ def main() -> None:
                      else st.sampled_from(steps))
     flows = (st.sampled_from(FAR_FLOWS) if args.far else st.sampled_from(FLOWS) if args.flows
              else st.just("constant"))
-    n_steps = FAR_STEPS if args.far else None
+    n_steps = args.steps if args.far else None
     evaluations = args.max_evaluations or (FAR_EVALUATIONS if args.far else None)
     budget = ({"solver_max_evaluations": evaluations}
               if args.method == 3 and evaluations is not None else {})

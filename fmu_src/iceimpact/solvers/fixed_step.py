@@ -35,6 +35,11 @@ On a fixed grid of step dt = ``solver.dt`` (s), anchored at the last impact:
 The communication step need not be a multiple of dt: impacts are tested on grid points only, and
 the state at an off-grid time is the closed form there (a partial Euler step for the quadratic
 ice), which does not touch the grid. Results therefore do not depend on the communication step.
+Every Euler step, the partial one included, is held to eq. 36's stability limit,
+(B/M) step |w - u| <= 2 (beyond it |w - u| grows at each step): a step that needs more is
+refused, naming solver.dt. An impact at a grid point can give the ice a speed beyond it (a
+light floe struck by a fast structure); the march refuses the grid's next step from there, and
+a communication point before it is refused where its partial step is beyond the limit too.
 A new flow speed (zero-order hold) starts a new grid at the time of the change; a pinned state is
 then released and the scheme marches on from it.
 
@@ -181,15 +186,22 @@ class FixedStepSolver(Solver):
             ws.append(w)
         return np.array(zs), np.array(ws)
 
-    def _unstable(self, r: float, n: int) -> None:
+    def _unstable(self, r: float, n: int, h: float | None = None) -> None:
         """Eq. 36 maps r = w - u to r (1 - q |r|), q = (B/M) dt: beyond q |r| = 2 the relative
-        velocity grows at every step and overflows to NaN. Stop the run with a clear error."""
+        velocity grows at every step and overflows to NaN. Stop the run with a clear error.
+        ``h``: the length of a partial step from grid point n to a communication point
+        (:meth:`_state_at`), shorter than dt, whose q = (B/M) h is beyond the limit."""
         q = self.drag.beta * self.dt
         limit = EULER_STABILITY_LIMIT
+        t = self.t_a + n * self.dt
+        where = (f"at t = {t:.9g} s: (B/M) dt |w - u| = {q * abs(r):.3g} > {limit:g}"
+                 if h is None else
+                 f"from the grid point at t = {t:.9g} s to the communication point "
+                 f"{h:.3g} s later: (B/M) h |w - u| = {self.drag.beta * h * abs(r):.3g} > "
+                 f"{limit:g} (and (B/M) dt |w - u| = {q * abs(r):.3g} for the grid's next step)")
         raise SolverError(
             f"solver.dt = {self.dt!r} s is too large for the explicit Euler step of the quadratic "
-            f"drag (eq. 36) at t = {self.t_a + n * self.dt:.9g} s: (B/M) dt |w - u| = "
-            f"{q * abs(r):.3g} > {limit:g}, so the ice velocity would diverge; use "
+            f"drag (eq. 36) {where}, so the ice velocity would diverge; use "
             f"solver.dt < {limit / (self.drag.beta * abs(r)):.3g} s, or solver.method = 1")
 
     def _pinnable(self) -> bool:
@@ -324,6 +336,14 @@ class FixedStepSolver(Solver):
         x, v = self.osc.response(x_a, v_a, tau)
         if self.drag.quadratic:  # a partial Euler step from the last grid point
             _, _, z, w = self.grid
+            # held to eq. 36's stability limit as the grid's steps are: an impact at the grid
+            # point may have given the ice a speed whose full step the march would refuse, and
+            # beyond the limit the partial step multiplies |w - u| by (B/M) h |w - u| - 1 (a
+            # 1 g floe struck by a 1e9 kg structure at 5e20 m/s: 1.35e22, and the bodies'
+            # energy 1e19 times the scene's at u = 0)
+            r = w - self.u
+            if self.drag.beta * h * abs(r) > EULER_STABILITY_LIMIT:
+                self._unstable(r, self.n, h)
             z, w = z + w * h, w + self.drag.force(w, self.u) / self.M * h
         else:
             z, w = self.drag.motion(z_a, w_a, self.u, tau)
