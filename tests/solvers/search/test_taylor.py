@@ -331,3 +331,32 @@ def test_vectorised_states_equal_the_point_by_point_ones(name):
     # a piece is a difference of the drag impulse P and of M v: their rounding
     scale = np.max(np.abs(want[:, 2])) + scene.ice_M * np.max(np.abs(want[:, 1]))
     np.testing.assert_allclose(impulses, want_impulses, rtol=0, atol=1e-14 * scale)
+
+
+def test_the_compiled_kernels_give_the_pure_functions_floats():
+    """The Taylor recurrence and Horner's rule compiled by numba (taylor.KERNELS) against the
+    same functions run as Python, on random inputs: the same floats."""
+    from iceimpact.solvers.search import taylor
+    if taylor.KERNELS is None:
+        pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        x, v, u, drag, c, k = rng.normal(size=6).tolist()
+        order_over = (1.0 / rng.uniform(1.0, 1e4) / np.arange(1.0, ORDER + 1)).tolist()
+        reciprocals = (1.0 / np.arange(1.0, ORDER + 1)).tolist()
+        rs, fs = [0.0] * (ORDER + 1), [0.0] * ORDER
+        taylor.taylor_recurrence(x, v, u, drag, 1.5 * drag, c, k, order_over, reciprocals, rs, fs)
+        rs_c, fs_c = np.empty(ORDER + 1), np.empty(ORDER)
+        taylor.KERNELS.recurrence(x, v, u, drag, 1.5 * drag, c, k, np.array(order_over),
+                                  np.array(reciprocals), rs_c, fs_c)
+        assert rs_c.tolist() == rs and fs_c.tolist() == fs
+    tables = rng.normal(size=(ORDER + 1, 5, 3))
+    rows, theta = rng.integers(0, 5, 200), rng.uniform(0.0, 1.0, 200)
+    out = np.empty((200, 3))
+    taylor.KERNELS.horner_table_rows(tables, rows, theta, out)
+    want = [[horner(tables[:, r, j].tolist(), t) for j in range(3)]
+            for r, t in zip(rows.tolist(), theta.tolist(), strict=True)]
+    assert out.tolist() == want
+    table = np.ascontiguousarray(tables[:, 0, :])
+    assert list(taylor.KERNELS.horner_columns(table, 0.37)) == \
+        [horner(table[:, j].tolist(), 0.37) for j in range(3)]

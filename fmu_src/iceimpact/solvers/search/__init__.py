@@ -8,5 +8,8 @@
   (``Oscillator.under_constants``, the drags' ``flight_constants`` and ``law_constants``),
   compiled by numba where installed; the same steps to the bit.
 - :mod:`.taylor`: the quadratic-drag sticking phase's Taylor steps (no closed form), with the
-  bound on the rest of each step that lets the root search cross it.
+  bound on the rest of each step that lets the root search cross it; its recurrence and Horner's
+  rule compiled by numba where installed.
+- :mod:`.compiled`: whether the kernels are compiled (numba installed, ``ICEIMPACT_PURE`` unset)
+  and how (no fastmath: the pure functions' floats).
 """

@@ -29,14 +29,12 @@ results are the same either way.
 from __future__ import annotations
 
 import math
-import os
-import types
-import warnings
 from math import cos, exp, expm1, log1p, nextafter, sin, sqrt
 from typing import Any
 
 from ...limits import TIME_RESOLUTION
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
+from .compiled import entry_point, jit, not_compiled, numba_or_none
 from .rootfind import (
     _SUM_NEAR_1_LOW,
     BRACKET_STEPS,
@@ -351,43 +349,31 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
 
 
 def _compiled():
-    """:func:`flight_root` compiled by numba, or None (not installed, or ICEIMPACT_PURE set).
+    """:func:`flight_root` compiled by numba, or None (not installed, or ICEIMPACT_PURE set:
+    :mod:`.compiled`).
 
     Compiled at import for its one signature (floats, the two counters integers), so that no
     run pays for it; numba keeps the machine code in its cache (``__pycache__``), which later
     imports load."""
-    if os.environ.get("ICEIMPACT_PURE", "") not in ("", "0"):
-        return None
-    try:
-        import numba
-    except ImportError:
+    numba = numba_or_none()
+    if numba is None:
         return None
     f8, i8 = numba.float64, numba.int64
-
-    def jit(signature, function, **callees):
-        # a copy of the function whose callees are their compiled forms (the module's names
-        # keep the pure ones)
-        copy = types.FunctionType(function.__code__, {**function.__globals__, **callees},
-                                  function.__name__)
-        copy.__qualname__ = function.__qualname__
-        return numba.njit(signature, cache=True, fastmath=False, error_model="python")(copy)
     try:
-        motion = jit((f8,) * 10 + (i8,), _motion)
-        ice_accel = jit((f8, f8, f8, i8), _ice_accel)
-        accel_clearance = jit((f8, f8, f8, f8, i8, f8), _accel_clearance, _ice_accel=ice_accel)
-        clearance = jit((f8,) * 9 + (i8,), _clearance, _accel_clearance=accel_clearance)
-        bracketed = jit((f8,) * 5 + (numba.types.UniTuple(f8, 4),) + (f8,) * 10 + (i8,),
+        motion = jit(numba, (f8,) * 10 + (i8,), _motion)
+        ice_accel = jit(numba, (f8, f8, f8, i8), _ice_accel)
+        accel_clearance = jit(numba, (f8, f8, f8, f8, i8, f8), _accel_clearance,
+                              _ice_accel=ice_accel)
+        clearance = jit(numba, (f8,) * 9 + (i8,), _clearance, _accel_clearance=accel_clearance)
+        bracketed = jit(numba, (f8,) * 5 + (numba.types.UniTuple(f8, 4),) + (f8,) * 10 + (i8,),
                         _bracketed, _motion=motion)
-        compiled = jit((f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root, _motion=motion,
-                       _ice_accel=ice_accel, _clearance=clearance, _bracketed=bracketed)
-        # its compiled entry point, called without the dispatcher's matching of argument types
-        # (the arguments are the signature's, or converted as the dispatcher converts them)
-        compiled = compiled.overloads[compiled.signatures[0]].entry_point
+        compiled = jit(numba, (f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root,
+                       _motion=motion, _ice_accel=ice_accel, _clearance=clearance,
+                       _bracketed=bracketed)
+        return entry_point(compiled)
     except Exception as exc:  # (any failure of numba leaves the pure path)
-        warnings.warn(f"numba could not compile the flight search ({exc}); the pure path "
-                      "runs (the same results, slower)", RuntimeWarning, stacklevel=2)
+        not_compiled("the flight search", exc)
         return None
-    return compiled
 
 
 #: numba's compiled :func:`flight_root` where available (``fast`` extra), else None: the

@@ -46,6 +46,11 @@ evaluated by Horner's rule, one coefficient after the other (:func:`horner`, and
 the sample grid are products summed by numpy's ``add.reduce`` along a row (an order fixed by
 numpy's code, not by the CPU), never a matrix product (``@`` goes to BLAS, whose kernels sum
 and fuse in CPU-specific orders).
+
+The recurrence and Horner's rule are kernels (:func:`taylor_recurrence`,
+:func:`horner_table_rows`, :func:`horner_columns`): Python functions over plain floats, lists and
+arrays, compiled by numba where it is installed (:data:`KERNELS`, :mod:`.compiled`), the same
+floats either way.
 """
 
 from __future__ import annotations
@@ -56,6 +61,8 @@ from math import fsum as _fsum
 
 import numpy as np
 from scipy.optimize import brentq
+
+from .compiled import entry_point, jit, not_compiled, numba_or_none
 
 #: Order of the Taylor steps (degree of the position polynomial).
 ORDER = 36
@@ -141,13 +148,42 @@ def horner(coeffs: list[float], theta: float) -> float:
 def horner_rows(coeffs: np.ndarray, rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """:func:`horner` for many polynomials at once, operation for operation (the same floats):
     ``coeffs[n, i, j]`` the n-th coefficient of polynomial j of table i; the values, a row for
-    each time, of table ``rows[k]`` at ``theta[k]``."""
+    each time, of table ``rows[k]`` at ``theta[k]`` (compiled where numba is:
+    :func:`horner_table_rows`)."""
+    if KERNELS is not None:
+        out = np.empty((theta.size, coeffs.shape[2]))
+        KERNELS.horner_table_rows(coeffs, rows, theta, out)
+        return out
     acc = np.zeros((theta.size, coeffs.shape[2]))
     theta = theta[:, None]
     for n in range(coeffs.shape[0] - 1, -1, -1):
         acc *= theta
         acc += coeffs[n][rows]
     return acc
+
+
+def horner_table_rows(coeffs, rows, theta, out):
+    """:func:`horner_rows` as loops, for numba: ``out[k, j]`` the value of polynomial j of
+    table ``rows[k]`` at ``theta[k]``."""
+    top = coeffs.shape[0] - 1
+    for k in range(theta.size):
+        row, t = rows[k], theta[k]
+        for j in range(coeffs.shape[2]):
+            acc = 0.0
+            for n in range(top, -1, -1):
+                acc = acc * t + coeffs[n, row, j]
+            out[k, j] = acc
+
+
+def horner_columns(table, theta):
+    """:func:`horner` of the three columns of a step's table (order, column) at theta, for
+    numba: (x, v, P)."""
+    x = v = p = 0.0
+    for n in range(table.shape[0] - 1, -1, -1):
+        x = x * theta + table[n, 0]
+        v = v * theta + table[n, 1]
+        p = p * theta + table[n, 2]
+    return x, v, p
 
 
 def _grid_values(signals: np.ndarray) -> np.ndarray:
@@ -239,6 +275,8 @@ class TaylorStep:
 
     def evaluate(self, theta: float) -> list[float]:
         """[x, v, P] at the normalised time theta of the step (:func:`horner`)."""
+        if KERNELS is not None:
+            return list(KERNELS.horner_columns(self.table, theta))
         x, v, p = self.columns
         return [horner(x, theta), horner(v, theta), horner(p, theta)]
 
@@ -273,6 +311,62 @@ def states_of_steps(steps: list[TaylorStep], index: np.ndarray, tau: np.ndarray)
     return out
 
 
+def taylor_recurrence(x, v, u, drag_ice, drag_total, c, k, order_over, reciprocals, rs, fs):
+    """The recurrence of the sticking equation's Taylor coefficients from (x, v) (module
+    docstring): writes r_0..r_ORDER into ``rs`` and the ice's drag f_0..f_(ORDER-1) into ``fs``.
+    ``drag_ice`` is s B, ``drag_total`` s (B + B_s) (s B without drag on the structure),
+    ``order_over[n]`` 1 / ((m + M) (n + 1)), ``reciprocals[n]`` 1 / (n + 1). Lists in Python,
+    arrays where numba compiles it (:data:`KERNELS`): the same floats either way."""
+    rs[0] = u - v
+    for n in range(len(fs)):
+        # (r^2)_n = sum_i r_i r_{n-i}, the Cauchy product: each pair of terms once, doubled
+        # (exactly), then the middle term where n is even; the order this loop fixes
+        square = 0.0
+        j = n
+        for i in range((n + 1) >> 1):
+            square += rs[i] * rs[j]
+            j -= 1
+        square *= 2.0
+        if not n & 1:
+            middle = rs[n >> 1]
+            square += middle * middle
+        fs[n] = drag_ice * square  # the drag on the ice
+        v_next = (drag_total * square - c * v - k * x) * order_over[n]
+        x = v * reciprocals[n]
+        v = v_next
+        rs[n + 1] = -v_next
+
+
+class _Kernels:
+    """The module's kernels compiled by numba: the same floats as the pure functions."""
+
+    def __init__(self, numba):
+        f8, i8 = numba.float64, numba.int64
+        array, table = f8[::1], f8[:, ::1]
+        self.recurrence = entry_point(jit(numba, numba.void(*(f8,) * 7, *(array,) * 4),
+                                          taylor_recurrence))
+        self.horner_table_rows = entry_point(jit(
+            numba, numba.void(f8[:, :, ::1], i8[::1], array, table), horner_table_rows))
+        self.horner_columns = entry_point(jit(numba, numba.types.UniTuple(f8, 3)(table, f8),
+                                              horner_columns))
+
+
+def _compiled() -> _Kernels | None:
+    """The kernels compiled by numba, or None (:mod:`.compiled`)."""
+    numba = numba_or_none()
+    if numba is None:
+        return None
+    try:
+        return _Kernels(numba)
+    except Exception as exc:  # (any failure of numba leaves the pure path)
+        not_compiled("the Taylor steps", exc)
+        return None
+
+
+#: numba's compiled kernels where available (``fast`` extra), else None: the pure functions run
+KERNELS = _compiled()
+
+
 class StickingTaylor:
     """Taylor steps of the sticking equation for given coefficients: the bodies' total mass
     (kg), the structural damping c (N.s/m) and stiffness k (N/m), the quadratic drag constant B
@@ -288,46 +382,30 @@ class StickingTaylor:
         self.structure_B = structure_B  # quadratic Morison drag on the structure (0: off)
         self.max_step = max_step
         self._order_over = [1.0 / (total_mass * (n + 1)) for n in range(ORDER)]
+        self._order_over_array = np.array(self._order_over)
 
     def series(self, y: tuple[float, float, float], sign: float) -> np.ndarray:
         """Taylor coefficients at state y = (x, v, P) with drag sign s: rows x, v, P, s r and
         lam, orders 0..ORDER (lam to ORDER - 1, then 0)."""
-        c, k = self.c, self.k
         sB = sign * self.B
-        s_total = sign * (self.B + self.structure_B) if self.structure_B else None
+        # the drag driving the bodies: the ice's, with the structure's where it has one
+        s_total = sign * (self.B + self.structure_B) if self.structure_B else sB
         x, v, p0 = y
-        rs = [self.u - v]
-        fs = []
-        order_over = self._order_over
-        reciprocals = _RECIPROCAL_LIST
-        for n in range(ORDER):
-            # (r^2)_n = sum_i r_i r_{n-i}, the Cauchy product: each pair of terms once, doubled
-            # (exactly), then the middle term where n is even; the order this loop fixes
-            square = 0.0
-            j = n
-            for i in range((n + 1) >> 1):
-                square += rs[i] * rs[j]
-                j -= 1
-            square *= 2.0
-            if not n & 1:
-                middle = rs[n >> 1]
-                square += middle * middle
-            f = sB * square  # the drag on the ice
-            fs.append(f)
-            if s_total is not None:  # with the drag on the structure as well
-                v_next = (s_total * square - c * v - k * x) * order_over[n]
-            else:
-                v_next = (f - c * v - k * x) * order_over[n]
-            x = v * reciprocals[n]
-            v = v_next
-            rs.append(-v_next)
+        if KERNELS is not None:
+            rs, fs = np.empty(ORDER + 1), np.empty(ORDER)
+            KERNELS.recurrence(x, v, self.u, sB, s_total, self.c, self.k, self._order_over_array,
+                       _RECIPROCALS, rs, fs)
+            r, f = rs, fs
+        else:
+            rs, fs = [0.0] * (ORDER + 1), [0.0] * ORDER
+            taylor_recurrence(x, v, self.u, sB, s_total, self.c, self.k, self._order_over,
+                              _RECIPROCAL_LIST, rs, fs)
+            r, f = np.array(rs), np.array(fs)
         table = np.empty((5, ORDER + 1))
-        r = np.array(rs)
         table[1, 0] = y[1]
         table[1, 1:] = -r[1:]
         table[0, 0] = y[0]
         table[0, 1:] = table[1, :-1] * _RECIPROCALS
-        f = np.array(fs)
         table[2, 0] = p0
         table[2, 1:] = f * _RECIPROCALS
         table[3] = sign * r
@@ -403,7 +481,8 @@ class StickingTaylor:
                     theta_end, end = root, kind
         step.h, step.end = h, end
         step.table = np.ascontiguousarray(table[:3].T)
-        step.columns = table[:3].tolist()
+        if KERNELS is None:
+            step.columns = table[:3].tolist()
         if end is StepEnd.LENGTH:
             step.hi = until if theta_end < 1.0 else lo + h
         else:
