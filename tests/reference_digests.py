@@ -85,6 +85,31 @@ def _number(value) -> str:
     return float(value).hex()
 
 
+def stepped(scene: Scene, kind: str, t_end: float, h: float, flow) -> tuple[Simulator, list]:
+    """A "step" or "external" case stepped as the FMU steps it: the simulator and the report of
+    every communication step (the flow held from each change of ``flow`` on; the external
+    structure Figure 2's, stepped exactly under the force the ice gave it, Gauss-Seidel)."""
+    if kind == "external":
+        scene = scene.replace(structure_model=2)
+    sim = Simulator(scene)
+    plan = [(0.0, scene.flow_u), *flow]
+    structure = ExactSdof(1600.0, 200.0, 1.0e6) if kind == "external" else None
+    force = 0.0
+    reports = []
+    for k in range(round(t_end / h)):
+        t = k * h
+        u = [u for since, u in plan if since <= t + 1e-12][-1]
+        if structure is not None:
+            inputs = (structure.x, structure.v, structure.acceleration(force))
+            report = sim.advance(h, u, inputs)
+            force = report.impulse / h
+            structure.step(h, force)
+        else:
+            report = sim.advance(h, u)
+        reports.append(report)
+    return sim, reports
+
+
 def fingerprint(name: str, kind: str, changes: dict, t_end: float, h: float, flow) -> dict:
     """Per quantity, the digest of every number the case reports, and their count."""
     scene = Scene(**changes)
@@ -97,26 +122,8 @@ def fingerprint(name: str, kind: str, changes: dict, t_end: float, h: float, flo
         for key in _IMPACT:
             out[f"impact_{key}"] = [_number(value) for value in impacts[key]]
         return {key: _digest(values) for key, values in out.items()}
-    if kind == "external":
-        scene = scene.replace(structure_model=2)
-    sim = Simulator(scene)
-    plan = [(0.0, scene.flow_u), *flow]
-    out = {key: [] for key in _REPORTED}
-    # the external structure: Figure 2's, stepped exactly under the held force (Gauss-Seidel)
-    structure = ExactSdof(1600.0, 200.0, 1.0e6) if kind == "external" else None
-    force = 0.0
-    for k in range(round(t_end / h)):
-        t = k * h
-        u = [u for since, u in plan if since <= t + 1e-12][-1]
-        if structure is not None:
-            inputs = (structure.x, structure.v, structure.acceleration(force))
-            report = sim.advance(h, u, inputs)
-            force = report.impulse / h
-            structure.step(h, force)
-        else:
-            report = sim.advance(h, u)
-        for key in _REPORTED:
-            out[key].append(_number(getattr(report, key)))
+    sim, reports = stepped(scene, kind, t_end, h, flow)
+    out = {key: [_number(getattr(report, key)) for report in reports] for key in _REPORTED}
     for key in _IMPACT:
         out[f"impact_{key}"] = [_number(getattr(i, key)) for i in sim.impacts]
     return {key: _digest(values) for key, values in out.items()}

@@ -28,8 +28,7 @@ _WORKER = r"""
 import json, sys
 sys.path.insert(0, sys.argv[2])
 import reference_digests as rd
-from coupling_master import ExactSdof
-from iceimpact import Scene, Simulator, run
+from iceimpact import Scene, run
 
 def events(name, kind, changes, t_end, h, flow):
     scene = Scene(**changes)
@@ -37,24 +36,9 @@ def events(name, kind, changes, t_end, h, flow):
         result = run(scene, t_end, dt=h)
         return {"t": result.impacts["t"].tolist(), "impulse": result.impacts["impulse"].tolist(),
                 "sticking": [bool(s) for s in result.sticking]}
-    if kind == "external":
-        scene = scene.replace(structure_model=2)
-    sim = Simulator(scene)
-    plan = [(0.0, scene.flow_u), *flow]
-    structure = ExactSdof(1600.0, 200.0, 1.0e6) if kind == "external" else None
-    force, sticking = 0.0, []
-    for k in range(round(t_end / h)):
-        t = k * h
-        u = [u for since, u in plan if since <= t + 1e-12][-1]
-        if structure is not None:
-            report = sim.advance(h, u, (structure.x, structure.v, structure.acceleration(force)))
-            force = report.impulse / h
-            structure.step(h, force)
-        else:
-            report = sim.advance(h, u)
-        sticking.append(bool(report.sticking))
+    sim, reports = rd.stepped(scene, kind, t_end, h, flow)
     return {"t": [i.t for i in sim.impacts], "impulse": [i.impulse for i in sim.impacts],
-            "sticking": sticking}
+            "sticking": [bool(r.sticking) for r in reports]}
 
 names = json.loads(sys.argv[1])
 print(json.dumps({c[0]: events(*c) for c in rd.CASES if not names or c[0] in names}))

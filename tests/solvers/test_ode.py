@@ -16,37 +16,22 @@ from __future__ import annotations
 import pytest
 
 import reference_digests
-from iceimpact import Scene, Simulator
-from iceimpact.solvers.ode import ATOL_SCALE
-
-#: scipy's step control holds the RMS of the (at most 5) components' error / tolerance to 1
-NORM_FACTOR = 3.0
-#: right-hand-side evaluations a step of each explicit integrator takes (others: 1, an
-#: over-count of the steps)
-STAGES = {1: 6, 2: 12}
-
-
-def _stepped(changes: dict, t_end: float, h: float, flow) -> tuple[Simulator, float]:
-    """The case stepped as the FMU steps it; the largest |x|, |z| on the way (m)."""
-    scene = Scene(**changes)
-    sim = Simulator(scene)
-    plan = [(0.0, scene.flow_u), *flow]
-    largest = 0.0
-    for k in range(round(t_end / h)):
-        u = [u for since, u in plan if since <= k * h + 1e-12][-1]
-        report = sim.advance(h, u)
-        largest = max(largest, abs(report.x), abs(report.z))
-    return sim, largest
+from iceimpact import Scene
+from iceimpact.solvers.ode import ATOL_SCALE, ODE_METHODS
+from random_search import NORM_FACTOR, STAGES
 
 
 @pytest.mark.parametrize("case", reference_digests.METHOD_3_CASES, ids=lambda c: c[0])
 def test_method_3_finds_the_exact_impacts_within_its_error_bound(case):
     _, _, changes, t_end, h, flow = case
-    ode, largest = _stepped(changes, t_end, h, flow)
-    exact, _ = _stepped({**changes, "solver_method": 1}, t_end, h, flow)
+    ode, reports = reference_digests.stepped(Scene(**changes), "step", t_end, h, flow)
+    exact, _ = reference_digests.stepped(Scene(**{**changes, "solver_method": 1}), "step", t_end,
+                                         h, flow)
+    largest = max(max(abs(r.x), abs(r.z)) for r in reports)
     scene = ode.scene
     rtol = scene.solver_rtol
-    steps = ode.solver.nfev / STAGES.get(scene.solver_ode_method, 1)
+    # over-counts the steps for an implicit integrator (1 evaluation a step)
+    steps = ode.solver.nfev / STAGES.get(ODE_METHODS[scene.solver_ode_method], 1)
     gap_error = 2.0 * NORM_FACTOR * steps * (ATOL_SCALE * rtol + rtol * largest)
     assert exact.impacts, "a reference run with no impact compares nothing"
     assert len(ode.impacts) == len(exact.impacts)
