@@ -457,7 +457,8 @@ class StickingTaylor:
 
     def step(self, lo: float, y: tuple[float, float, float], until: float,
              look_for_separation: bool) -> TaylorStep:
-        """The step from lo (s) at state y = (x, v, P), ending at ``until`` at the latest."""
+        """The step from lo (s) at state y = (x, v, P), ending at ``until`` at the latest.
+        Raises ArithmeticError where it would end in a state that is not finite."""
         step = TaylorStep(lo, y)
         sign = self.drag_sign(y)
         table = self.series(y, sign)
@@ -491,4 +492,7 @@ class StickingTaylor:
         if end is StepEnd.FLIP:
             v_hi = self.u  # exactly: the next step starts from r = 0
         step.y_hi = (x_hi, v_hi, p_hi)
+        if not (math.isfinite(x_hi) and math.isfinite(v_hi) and math.isfinite(p_hi)
+                and step.hi >= lo):
+            raise ArithmeticError(f"state {step.y_hi!r} at {step.hi!r} s from the start")
         return step
