@@ -242,7 +242,7 @@ def cycle():
     inst.fmu.terminate()
     inst.free()
 
-for _ in range(50):
+for _ in range({warm}):
     cycle()
 before = rss_kb()
 for _ in range({cycles}):
@@ -252,12 +252,17 @@ print(rss_kb() - before)
 
 
 def test_instances_do_not_leak(fmu_dir):
-    script = LEAK_SCRIPT.format(tests=str(ROOT / "tests"), fmu_dir=str(fmu_dir), cycles=500)
+    """500 instances made, run and freed one after the other grow the process by at most 1 MB
+    (2 kB an instance). Measured after 300 cycles: the process grows by some 2.4 MB over its
+    first few hundred (allocator arenas and caches filling, once), then by about 0.7 kB a
+    cycle (340 kB over 500)."""
+    script = LEAK_SCRIPT.format(tests=str(ROOT / "tests"), fmu_dir=str(fmu_dir), warm=300,
+                                cycles=500)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 0, done.stderr
     growth_kb = int(done.stdout.split()[-1])
-    assert growth_kb <= 3 * 1024, f"RSS grew by {growth_kb} kB over 500 cycles"
+    assert growth_kb <= 1024, f"RSS grew by {growth_kb} kB over 500 cycles"
 
 
 DICT_SCRIPT = """
