@@ -8,6 +8,7 @@ import math
 import pytest
 
 from iceimpact import ParameterError, Scene, Simulator
+from iceimpact.contract import CHATTER_FRACTION
 from iceimpact.fmi.adapter import FmuModel
 from iceimpact.limits import (
     DRAG_RATE_MAX,
@@ -16,7 +17,6 @@ from iceimpact.limits import (
     TAYLOR_RATE_MAX,
     TIME_RESOLUTION,
 )
-from iceimpact.solvers.contact_rules import CHATTER_FRACTION
 
 # --- accepted scenes that hang: the limits ------------------------------------------------------
 

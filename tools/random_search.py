@@ -377,16 +377,17 @@ def busy_with_impacts(scene: Scene, t: float, impacts: int, cpu: float,
     """A run out of CPU time is busy with its impacts, not stalled, when its work went into
     impacts at the rate the contact rules allow: ``impacts`` by simulated time t at most one
     per chatter time (the chatter closure ends the bouncing of bodies pressed together once a
-    bounce would be shorter than CHATTER_FRACTION of the structure's period, docs/robustness.md
-    "Many real impacts at a stiff structure"), and at most IMPACT_WORK s of CPU each, over the
-    whole run (``cpu``) and over its second half (``late_impacts`` in ``late_cpu``: a run
+    bounce would be shorter than solver.chatter_fraction of the structure's period,
+    docs/robustness.md "Many real impacts at a stiff structure"), and at most IMPACT_WORK s of
+    CPU each, over the whole run (``cpu``) and over its second half (``late_impacts`` in ``late_cpu``: a run
     stalled after many quick impacts is not busy). Such a run is bounded: its CPU per
     simulated second is at most IMPACT_WORK / chatter_time; it is slow only because it resolves
     up to ~16 omega_n real impacts per simulated second."""
     if late_impacts <= 0 or t <= 0.0:
         return False
     omega_n = math.sqrt(scene.structure_k / scene.structure_m)
-    return (impacts <= t / chatter_time(omega_n) + 1.0 and cpu <= IMPACT_WORK * impacts
+    cap = t / chatter_time(omega_n, scene.solver_chatter_fraction) + 1.0
+    return (impacts <= cap and cpu <= IMPACT_WORK * impacts
             and late_cpu <= IMPACT_WORK * late_impacts)
 
 

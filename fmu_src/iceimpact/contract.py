@@ -64,6 +64,9 @@ MAX_IMPACTS = 100_000
 #: evaluation (its right-hand side and scipy's step around it)
 MAX_EVALUATIONS = 4_000_000
 INT32_MAX = 2**31 - 1
+#: Default of solver.chatter_fraction: a bounce shorter than this fraction of the structure's
+#: natural period ends an elastic chatter (docs/accuracy.md, "The chatter threshold").
+CHATTER_FRACTION = 1e-2
 
 
 @dataclass(frozen=True)
@@ -209,6 +212,19 @@ PARAMETERS: tuple[Variable, ...] = (
              "stays as before it); shorter steps go on. Methods 1 and 2 do not integrate",
              MAX_EVALUATIONS, allowed=f"1 <= max_evaluations <= {INT32_MAX}", minimum=1,
              maximum=INT32_MAX),
+    # chatter threshold of methods 1 and 3 (solvers/contact_rules.py). Above 0.5 a "chatter"
+    # bounce would last half a period, motion the structure resolves; below 1e-6 the chatter
+    # time of a stiff structure falls under the exact search's time resolution
+    # (limits.omega_limit scales with it) and an elastic chatter costs up to ~1e6 / omega_n
+    # impacts per second
+    _real("solver.chatter_fraction", "1", "chatter threshold of methods 1 and 3: with "
+          "impact.e = 1 a bounce of the ice pressed on the structure that would last less than "
+          "this fraction of the structure's natural period 2 pi / omega_n ends the bouncing "
+          "with one plastic impact (a smaller fraction resolves more of the chatter, at more "
+          "impacts); with impact.e < 1 it marks the bounces from which a Zeno sequence is "
+          "counted against its budget (docs/accuracy.md). Method 2 does not use it",
+          CHATTER_FRACTION, allowed="1e-6 <= chatter_fraction <= 0.5", minimum=1e-6,
+          maximum=0.5),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).

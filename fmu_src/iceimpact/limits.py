@@ -12,6 +12,7 @@ import math
 from typing import TYPE_CHECKING
 
 from .contract import (
+    CHATTER_FRACTION,
     FLOW_INPUT,
     LINEAR_DRAG,
     METHOD_EXACT,
@@ -56,11 +57,13 @@ def rate_limit(scene: Scene) -> float:
 
 def omega_limit(scene: Scene) -> float:
     """Largest omega_n (rad/s) the scene's method resolves in bounded work: OMEGA_MAX_EXACT
-    (method 1), OMEGA_MAX_ODE (method 3), and with Radau RADAU_OMEGA_MAX scaled by
-    (solver.rtol / RADAU_OMEGA_RTOL)^(1/4), its steps per period scaling as rtol^(-1/4), up to
-    OMEGA_MAX_ODE (docs/robustness.md)."""
+    times min(1, solver.chatter_fraction / 1e-2) (method 1), OMEGA_MAX_ODE (method 3), and
+    with Radau RADAU_OMEGA_MAX scaled by (solver.rtol / RADAU_OMEGA_RTOL)^(1/4), its steps per
+    period scaling as rtol^(-1/4), up to OMEGA_MAX_ODE (docs/robustness.md)."""
     if scene.solver_method == METHOD_EXACT:
-        return OMEGA_MAX_EXACT
+        # the chatter time scales with solver.chatter_fraction: a smaller one lowers the limit
+        # (a larger one keeps it: stiffer structures are untested)
+        return OMEGA_MAX_EXACT * min(1.0, scene.solver_chatter_fraction / CHATTER_FRACTION)
     if scene.solver_method == METHOD_ODE and scene.solver_ode_method == RADAU_ODE_METHOD:
         scale = (scene.solver_rtol / RADAU_OMEGA_RTOL) ** 0.25
         return min(OMEGA_MAX_ODE, RADAU_OMEGA_MAX * scale)
@@ -243,7 +246,8 @@ def check_work(scene: Scene) -> None:
                              f"ice.M = {s.ice_M:.6g} kg)")
     omega_max = omega_limit(s)
     if s.omega_n > omega_max:
-        why = ("the chatter time (1e-2 of the structure's period) must stay above the time "
+        why = ("the chatter time (solver.chatter_fraction = "
+               f"{s.solver_chatter_fraction:g} of the structure's period) must stay above the time "
                f"resolution of the exact method's root search ({TIME_RESOLUTION:g} s x t) "
                f"up to t = {RESOLVED_HORIZON:g} s") if s.solver_method == METHOD_EXACT else (
                f"Radau takes ~{RADAU_STEPS_PER_PERIOD:g} ({RADAU_OMEGA_RTOL:g} / solver.rtol)"
@@ -301,12 +305,13 @@ RESOLVED_HORIZON = 1e6
 #: (b / M = 3.5e37 1/s: no progress past 1e-9 s in 10 s of CPU; 1e27: 18 s for 300 s).
 EXACT_DRAG_RATE_MAX = 1.0 / TIME_RESOLUTION
 #: Largest omega_n (rad/s) of methods 1 and 3. Method 1 closes every bounce shorter than the
-#: chatter time (1e-2 of the structure's period, contact_rules.CHATTER_FRACTION) and resolves
+#: chatter time (1e-2 of the structure's period, contract.CHATTER_FRACTION) and resolves
 #: longer ones with its root search, whose time resolution is TIME_RESOLUTION * max(1, t). Above
 #: this omega_n the chatter time 2 pi 1e-2 / omega_n falls below that resolution before
 #: RESOLVED_HORIZON: bounces in between can be neither closed nor resolved and the search creeps
 #: at the resolution (omega_n = 1e15 rad/s: no progress in 20 s). Method 3 is held to its own,
-#: lower limit (OMEGA_MAX_ODE).
+#: lower limit (OMEGA_MAX_ODE). This is the limit at the default solver.chatter_fraction;
+#: omega_limit scales it with the scene's.
 OMEGA_MAX_EXACT = 2.0 * math.pi * 1e-2 / (TIME_RESOLUTION * RESOLVED_HORIZON)  # 7.06e7 rad/s
 #: Largest omega_n (rad/s) of method 3: its integrators take ~10-20 steps per period of the
 #: structure, so its work grows with omega_n x horizon; 1e4 rad/s costs ~2.5 s of wall time

@@ -98,6 +98,7 @@ class Scene:
     structure_A: float = _START["structure_A"]
     solver_max_impacts: int = _START["solver_max_impacts"]
     solver_max_evaluations: int = _START["solver_max_evaluations"]
+    solver_chatter_fraction: float = _START["solver_chatter_fraction"]
 
     def __post_init__(self) -> None:
         validate(self)

@@ -159,14 +159,15 @@ def test_ode_work_is_bounded_in_elastic_chatter():
 def test_an_elastic_chatter_at_a_stiff_structure_is_bounded_by_the_chatter_time():
     """Pressed by the drag, an elastic (e = 1) ice makes ever shorter bounces on the structure
     as the drag drains their energy: the exact method resolves each until a bounce would be
-    shorter than the chatter time (CHATTER_FRACTION of the structure's period), then the
+    shorter than the chatter time (solver.chatter_fraction of the structure's period), then the
     bodies stick. So the impacts of any window are at most its length over the chatter time
     (the rate reaches ~0.9 of it), the chatter ends, and its total is ~0.1 omega_n impacts
     (9,894 at 1e4 rad/s, 107,737 at 1e5): the work docs/robustness.md bounds."""
     from iceimpact.solvers.contact_rules import chatter_time
 
     scene = Scene(**ELASTIC_CHATTER)
-    cap = 0.01 / chatter_time(math.sqrt(scene.structure_k / scene.structure_m))
+    cap = 0.01 / chatter_time(math.sqrt(scene.structure_k / scene.structure_m),
+                              scene.solver_chatter_fraction)
     sim = Simulator(scene)
     rates = []
     while sim.t < 3.0 - 1e-12:

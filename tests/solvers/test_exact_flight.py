@@ -504,7 +504,8 @@ def test_the_search_tells_a_run_busy_with_impacts_from_a_stall():
 
     scene = Scene(**ELASTIC_CHATTER)
     t = 0.5
-    cap = 2 * int(t / chatter_time(1e4) / 2)  # even: the second half has cap / 2 of them
+    # even: the second half has cap / 2 of them
+    cap = 2 * int(t / chatter_time(1e4, scene.solver_chatter_fraction) / 2)
     work, half = IMPACT_WORK * cap, cap // 2
     assert busy_with_impacts(scene, t, cap, work, half, work / 2)
     assert not busy_with_impacts(scene, t, 2 * cap + 2, work, half, work / 2)  # too many

@@ -4,8 +4,8 @@ and when the flow changes.
 The pure laws live in :mod:`iceimpact.physics.contact` (the impact law of eq. 12-17, the contact
 force of free accelerations). This module adds what a solver needs around them:
 
-- the impact step (eq. 12-18) with the closure of chatter and Zeno sequences by one plastic
-  impact (:meth:`ContactRules.impact`);
+- the impact step (eq. 12-18) with the closure of an elastic chatter by one plastic impact, and
+  a Zeno sequence followed to its end, or closed at its estimated end (:meth:`ContactRules.impact`);
 - degenerate contacts, which keep re-forming with no closing speed (:class:`DegenerateContacts`);
 - the decision at zero gap: impact, stick or fly (:meth:`ContactRules.at_contact`);
 - the sticking phase that replaces the article's steady-state thresholds (eq. 27-29): the bodies
@@ -33,24 +33,28 @@ from typing import NamedTuple
 from ..physics.contact import Impact, contact_force, impact, impact_impulse
 from ..record import Record
 
-#: A Zeno sequence whose remaining impacts would all happen within this time (s) is closed by
-#: one plastic impact: the motion it skips is below ~ closing speed * ZENO_TIME (sub-nanometre).
+#: A Zeno sequence (e < 1) whose remaining bounces would all happen within this time (s) is
+#: closed by one plastic impact now: sticking then starts within ZENO_TIME of the end of the
+#: bounces, and the motion it skips is below ~ closing speed * ZENO_TIME (sub-nanometre).
 ZENO_TIME = 1e-9
 
-#: Chatter closure: a bounce that would last less than this fraction of the structure's natural
-#: period 2 pi / omega_n ends the bouncing with one plastic impact. With e = 1 the exact model never
-#: stops bouncing: pressed on the structure by the flow, the ice makes ever smaller and faster
-#: bounces (the impact rate doubles every ~25 s in the Figure 2 scene) whose mean force is the
-#: sticking contact force. Closing them bounds the work per simulated second; the motion it skips
-#: is a bounce of height (g'' T^2 / 8) below ~1e-9 m in the Figure 2 scene. The README gives
-#: its measured effect.
-CHATTER_FRACTION = 1e-2
+#: The budget of a Zeno sequence (e < 1), in bounces: it is followed bounce by bounce while the
+#: bounces it has left from the first one shorter than the chatter time down to ZENO_TIME number
+#: at most this many (~ ln(chatter time / ((1 - e) ZENO_TIME)) / ln(1 / e): 22 at e = 0.5 and
+#: 73 at e = 0.8 in the Figure 2 scene, ZENO_BUDGET from e ~ 0.85). A longer one (e close to 1)
+#: is closed at its estimated end (:meth:`ContactRules.impact`).
+ZENO_BUDGET = 100
+
+#: The exact method follows a bounce only while it lasts at least this many time resolutions of
+#: its root search at its time (limits.TIME_RESOLUTION max(1, t)); a shorter one (late in a
+#: very long run: 1e-9 s at t = 1e6 s) ends its sequence at its estimated end.
+ZENO_RESOLUTION = 64.0
 
 #: A closing speed below ROUNDING_SPEED * (|v| + |w| + |u| + wn |x|) is rounding, not an impact.
 ROUNDING_SPEED = 1e-12
 
-#: More than this many contacts with zero closing speed, each within CHATTER_FRACTION of a period
-#: of the previous one, mean a degenerate contact (gap and contact force both zero to rounding,
+#: More than this many contacts with zero closing speed, each within the chatter time of the
+#: previous one, mean a degenerate contact (gap and contact force both zero to rounding,
 #: as right after a separation): the bodies are then held together for DEGENERATE_HOLD (s),
 #: doubling at each further such contact up to the chatter time, so the work stays bounded.
 MAX_DEGENERATE_CONTACTS = 8
@@ -124,9 +128,17 @@ INTEGRATED_POLICY = ContactPolicy(merge_rounding_closing=False, stick_slow_parti
                                   plastic_entry=True)
 
 
-def chatter_time(omega_n: float) -> float:
-    """CHATTER_FRACTION of the structure's natural period 2 pi / omega_n, s."""
-    return CHATTER_FRACTION * 2.0 * math.pi / omega_n
+def chatter_time(omega_n: float, fraction: float) -> float:
+    """The chatter time: ``fraction`` (solver.chatter_fraction) of the structure's natural period
+    2 pi / omega_n, s.
+
+    With e = 1 the exact model never stops bouncing: pressed on the structure by the flow, the
+    ice makes ever smaller and faster bounces (the impact rate doubles every ~25 s in the Figure
+    2 scene) whose mean force is the sticking contact force. A bounce shorter than the chatter
+    time ends them with one plastic impact, which bounds the work per simulated second; the
+    motion it skips is a bounce of height g'' T^2 / 8 (below ~1e-9 m in the Figure 2 scene at
+    the default 1e-2). docs/accuracy.md ("The chatter threshold") measures its trade."""
+    return fraction * 2.0 * math.pi / omega_n
 
 
 class DegenerateContacts:
@@ -335,15 +347,41 @@ class ContactRules:
     """
 
     def __init__(self, m: float, M: float, omega_n: float, free_accels: FreeAccels,
-                 policy: ContactPolicy, parting_noise: tuple[float, float] = (0.0, 0.0)):
+                 policy: ContactPolicy, chatter_fraction: float,
+                 parting_noise: tuple[float, float] = (0.0, 0.0),
+                 time_resolution: float = 0.0, gap_noise: tuple[float, float] = (0.0, 0.0)):
         self.m, self.M = m, M
         self.mu = m * M / (m + M)   # reduced mass, kg
         self.omega_n = omega_n
-        self.chatter_time = chatter_time(omega_n)
+        self.chatter_time = chatter_time(omega_n, chatter_fraction)
         self.free_accels = free_accels
         self.policy = policy
         self.parting_noise = parting_noise
+        # the shortest bounce the method follows: time_resolution max(1, t) (s), and a height
+        # above gap_noise = (relative to |x|, absolute in m), the noise of its positions
+        self.time_resolution = time_resolution
+        self.gap_noise = gap_noise
         self.degenerate = DegenerateContacts(self.chatter_time)
+        # the estimated end of the Zeno sequence the latest impact closed before it (s), until
+        # the solver takes it (take_accumulation); None when it closed none, or at its end
+        self.accumulation: float | None = None
+        self._budget: tuple[float, float] = (math.nan, math.nan)  # (e, its budget_bounce)
+
+    def budget_bounce(self, e: float) -> float:
+        """The longest bounce (s) of a Zeno sequence of restitution 0 < e < 1 whose bounces left
+        down to ZENO_TIME are at most ZENO_BUDGET: ``(1 - e) ZENO_TIME / e^ZENO_BUDGET`` (a
+        bounce b leaves ``ln(b / ((1 - e) ZENO_TIME)) / ln(1 / e)`` of them, their durations a
+        geometric series of ratio e). Kept for the latest e (impact.e is tunable)."""
+        if self._budget[0] != e:
+            power = e ** ZENO_BUDGET  # (0 for e below ~1e-3: no sequence is that long)
+            self._budget = (e, (1.0 - e) * ZENO_TIME / power if power > 0.0 else math.inf)
+        return self._budget[1]
+
+    def take_accumulation(self) -> float | None:
+        """The estimated end (s) of the Zeno sequence the latest impact closed before it, once
+        (then None): the solver moves the bodies together to it, and sticking starts there."""
+        end, self.accumulation = self.accumulation, None
+        return end
 
     def free_contact_force(self, x: float, v: float, w: float, u: float) -> float:
         """Contact force needed to keep the bodies together at state (x, v, w), N: the
@@ -365,25 +403,53 @@ class ContactRules:
                u: float) -> Impact:
         """The impact step at time t (s), position x (m): eq. 16-17, positions unchanged (eq. 18).
 
-        Chatter and Zeno closure: if the ice stays pressed on the structure after the impact
-        (contact force lam > 0), the next bounce lasts ~ 2 s mu / lam (opening speed s) and a
-        Zeno sequence (e < 1) ends after ~ that / (1 - e); a bounce shorter than the chatter
-        time, or a sequence ending within ZENO_TIME, is replaced by one plastic impact (e = 0),
-        after which the bodies move together.
+        If the ice stays pressed on the structure after the impact (contact force lam > 0), its
+        next bounce lasts ``bounce = 2 s mu / lam`` (opening speed s, reduced mass mu: the gap
+        is a parabola of curvature -lam / mu) and each later one ~ e times the one before.
+
+        - e = 1 (chatter closure): a bounce shorter than the chatter time is replaced by one
+          plastic impact (e = 0) now, after which the bodies move together.
+        - 0 < e < 1 (a Zeno sequence): its bounces add up to ``bounce / (1 - e)``; the
+          sequence ends at that accumulation time. It is followed bounce by bounce, and closed
+          by one plastic impact now once its remaining bounces would all happen within
+          ZENO_TIME. Where following it would cost more than ZENO_BUDGET bounces (from the
+          chatter time on: e close to 1), or its next bounce is too short for the method to
+          resolve (``time_resolution``, ``gap_noise``), it is closed at its estimated end
+          instead: the plastic impact now keeps the momentum the remaining bounces keep, the
+          bodies move together (the mean motion of bounces short against the structure's
+          period), and sticking starts at ``t + bounce / (1 - e)``, which
+          :meth:`take_accumulation` hands to the solver.
         """
         m, M = self.m, self.M
         v_plus, w_plus = impact(v_minus, w_minus, m, M, e)
         if e > 0.0:
             lam = self.free_contact_force(x, v_plus, w_plus, u)
             if lam > 0.0:
-                bounce = 2.0 * (v_plus - w_plus) * self.mu / lam
-                if bounce < self.chatter_time or bounce < ZENO_TIME * (1.0 - e):
+                opening = v_plus - w_plus
+                bounce = 2.0 * opening * self.mu / lam
+                close = bounce < self.chatter_time
+                if e < 1.0:
+                    rest = bounce / (1.0 - e)  # the geometric series of the bounces
+                    close = rest < ZENO_TIME
+                    if not close and (self._unresolved(t, x, opening, bounce) or (
+                            bounce < self.chatter_time and bounce > self.budget_bounce(e))):
+                        close = True
+                        self.accumulation = t + rest
+                if close:
                     e = 0.0
                     v_plus, w_plus = impact(v_minus, w_minus, m, M, 0.0)
         if e == 0.0:
             w_plus = v_plus  # exactly together
         return _new(Impact, (t, x, v_minus, w_minus, v_plus, w_plus,
                              impact_impulse(v_minus, v_plus, m), e))
+
+    def _unresolved(self, t: float, x: float, opening: float, bounce: float) -> bool:
+        """A bounce of this duration (s) and opening speed (m/s) at time t, position x is too
+        short for the method to follow: below its time resolution, or of a height
+        ``opening bounce / 4`` within the noise of its positions."""
+        relative, absolute = self.gap_noise
+        return (bounce < self.time_resolution * (t if t > 1.0 else 1.0)
+                or opening * bounce < 4.0 * (relative * abs(x) + absolute))
 
     def impact_at_contact(self, t: float, x: float, v: float, w: float, e: float,
                           u: float) -> tuple[Impact | None, bool]:

@@ -19,10 +19,12 @@ Sticking follows the contact rules shared with the exact solver
 (:mod:`iceimpact.solvers.contact_rules`, with its :data:`INTEGRATED_POLICY`), in place of the
 article's steady-state thresholds (eq. 27-29):
 
-- after an impact that leaves the ice pressed on the structure (contact force lam > 0), a next
-  bounce shorter than ``CHATTER_FRACTION`` of the structure's period (or a Zeno sequence that
-  would end within ``ZENO_TIME``) is closed by one plastic impact; so is a contact that parts too
-  slowly for such a bounce (the rounding left of a separation);
+- after an impact that leaves the ice pressed on the structure (contact force lam > 0): with
+  e = 1 a next bounce shorter than the chatter time (``solver.chatter_fraction`` of the
+  structure's period) is closed by one plastic impact; with e < 1 the Zeno sequence is followed
+  to its end, or closed at its estimated end where it would exceed ``ZENO_BUDGET`` bounces or
+  its bounces are no higher than the positions' noise (10 atol + 10 rtol |x|); a contact that
+  parts too slowly for a resolvable bounce (the rounding left of a separation) sticks;
 - the bodies then move together, ``(m + M) x'' + c x' + k x = F_drag(x')``, integrated with the
   same method, the contact force ``lam = F_drag(x') - M x''`` being a terminal event (direction -1):
   they separate when it turns tensile. The drag impulse is integrated alongside, so the impulse of
@@ -54,7 +56,7 @@ from scipy.integrate import DOP853, solve_ivp
 from scipy.optimize import brentq
 
 from ..errors import SolverError, StateError
-from ..limits import integrated_rate
+from ..limits import TIME_RESOLUTION, integrated_rate
 from ..physics.ice import make_drag
 from ..physics.structure import Oscillator
 from ..record import Record
@@ -62,6 +64,7 @@ from ..scene import Scene
 from .base import State
 from .contact_rules import (
     INTEGRATED_POLICY,
+    ZENO_RESOLUTION,
     ContactRules,
     Outcome,
     Phase,
@@ -240,10 +243,16 @@ class OdeSolver(EventMarch):
         self.atol = self.rtol * ATOL_SCALE
         self.osc = Oscillator(self.m, self.c, self.k)
         self.drag = make_drag(scene)
-        # a parting within 10 times the velocities' tolerance is integration noise
+        # a parting within 10 times the velocities' tolerance is integration noise, and so is
+        # a bounce no higher than 10 times the positions' (a Zeno sequence is closed there)
         self.rules = ContactRules(self.m, self.M, scene.omega_n, self._free_accels,
-                                  INTEGRATED_POLICY, (PARTING_NOISE * self.rtol,
-                                                      PARTING_NOISE * self.atol))
+                                  INTEGRATED_POLICY, scene.solver_chatter_fraction,
+                                  (PARTING_NOISE * self.rtol, PARTING_NOISE * self.atol),
+                                  time_resolution=ZENO_RESOLUTION * TIME_RESOLUTION,
+                                  gap_noise=(PARTING_NOISE * self.rtol, PARTING_NOISE * self.atol))
+        #: the estimated end of the bounces of a Zeno sequence closed before it (s): the bodies
+        #: move together until then, not yet sticking; None otherwise (as the exact method's)
+        self.zeno_end: float | None = None
         self.period = 2.0 * math.pi / scene.omega_n
         self.u = scene.flow_u
         self._set_chunks(self.u)
@@ -495,11 +504,17 @@ class OdeSolver(EventMarch):
             self._segment(Phase.FLIGHT, t, [x, v, x, w])
 
     def _impact(self, t: float, x: float, v_minus: float, w_minus: float) -> None:
-        """The impact step (eq. 16-18, chatter and Zeno closure) at time t; what follows."""
+        """The impact step (eq. 16-18, chatter and Zeno closure) at time t; what follows: a
+        Zeno sequence closed before its end moves the bodies together to its estimated end,
+        where sticking starts (the exact method's rule, EventSolver._zeno_tail)."""
         impact = self.rules.impact(t, x, v_minus, w_minus, self.e, self.u)
         self._record(impact)
         self.pending_impulse += impact.impulse
         self._begin(t, x, impact.v_plus, x, impact.w_plus, after_impact=True)
+        end = self.rules.take_accumulation()
+        if end is not None and self.phase is Phase.STICK and end > t:
+            self._set_sticking(False, t)
+            self.zeno_end = end
 
     # marching (the loop is solvers/march.py's) --------------------------------------------------
     def reanchor(self, u: float, t_end: float) -> None:
@@ -512,12 +527,22 @@ class OdeSolver(EventMarch):
         self.u = u
         self._set_chunks(u)
         x, v, z, w = reanchor_on_flow_change(*(y[:2] * 2 if sticking else y), sticking)
+        end, self.zeno_end = self.zeno_end, None
         self._begin(t, x, v, z, w, reanchor=True)
+        if end is not None and self.phase is Phase.STICK:  # a Zeno tail goes on to its end
+            self._set_sticking(False, t)
+            self.zeno_end = end
         # the flow may change again at the next step: integrate ahead by this step only
         # (doubling from there), not a whole chunk
         self.first_span = min(self.first_chunk, t_end - t)
 
     def next_event(self, t_end: float) -> tuple[float, np.ndarray] | None:
+        end = self.zeno_end
+        if end is not None and end <= t_end:  # the end of a Zeno tail, unless parted before
+            while self.event is None and self.t_hi < end:
+                self._extend(end)
+            if self.event is None or self.event[0] > end:
+                return end, self._y(end)
         while self.event is None and self.t_hi < t_end:
             self._extend(t_end)
         if self.event is not None and self.event[0] <= t_end:
@@ -533,6 +558,13 @@ class OdeSolver(EventMarch):
         t_ev, y_ev = event
         if self.phase is Phase.STICK:
             x, v = float(y_ev[0]), float(y_ev[1])
+            if self.zeno_end == t_ev and event is not self.event:
+                # the end of a Zeno tail: the bodies, together already, start sticking
+                self.y_now = np.array(y_ev, dtype=float)
+                self.zeno_end = None
+                self._set_sticking(True, t_ev)
+                return
+            self.zeno_end = None
             if self.hold_until == t_ev:
                 self._begin(t_ev, x, v, x, v)
             else:  # contact force turns tensile: separate with equal velocities
@@ -557,13 +589,14 @@ class OdeSolver(EventMarch):
 
     # snapshots ----------------------------------------------------------------------------------
     _KEYS = ("u", "pending_impulse", "nfev", "events_here", "last_event_t", "degenerate",
-             "phase", "segment_start", "hold_until", "t_lo", "t_hi", "y_lo", "y_hi", "y_now",
-             "event", "first_span", "chunk_hi", "gap_slack")
+             "zeno_end", "phase", "segment_start", "hold_until", "t_lo", "t_hi", "y_lo",
+             "y_hi", "y_now", "event", "first_span", "chunk_hi", "gap_slack")
 
     def _snapshot(self) -> dict[str, Any]:
         return {"u": self.u, "pending_impulse": self.pending_impulse, "nfev": self.nfev,
                 "events_here": self._events_here, "last_event_t": self._last_event_t,
-                "degenerate": self.rules.degenerate.snapshot(), "phase": self.phase.value,
+                "degenerate": self.rules.degenerate.snapshot(), "zeno_end": self.zeno_end,
+                "phase": self.phase.value,
                 "segment_start": self.segment_start, "hold_until": self.hold_until,
                 "t_lo": self.t_lo, "t_hi": self.t_hi,
                 "y_lo": None if self.y_lo is None else _floats(self.y_lo),
@@ -580,10 +613,13 @@ class OdeSolver(EventMarch):
         events_here = rec.integer("events_here", low=0)
         last_event_t = rec.real("last_event_t", finite=False, high=t)
         degenerate = self.rules.degenerate.read(rec.record("degenerate"))
+        zeno_end = rec.real("zeno_end", low=t, allow_none=True)
+        if zeno_end is not None and rec.data["sticking"]:
+            raise StateError(rec.field("zeno_end"), zeno_end, "null while sticking is true")
         phase = Phase(rec.text("phase", [p.value for p in Phase]))
-        if (phase is Phase.STICK) != rec.data["sticking"]:
+        if (phase is Phase.STICK) != (rec.data["sticking"] or zeno_end is not None):
             raise StateError(rec.field("phase"), phase.value,
-                             "stick exactly when sticking is true")
+                             "stick exactly when sticking is true or zeno_end is a time")
         size = _SIZE[phase]
         start = rec.real("segment_start", low=0.0, high=t)
         hold_until = rec.real("hold_until", finite=False, high=math.inf)
@@ -611,6 +647,7 @@ class OdeSolver(EventMarch):
             self.pending_impulse, self.nfev = pending, nfev
             self._events_here, self._last_event_t = events_here, last_event_t
             self.rules.degenerate.set(degenerate)
+            self.zeno_end = zeno_end
             self.hold_until, self.t_lo, self.t_hi = hold_until, t_lo, t_hi
             self.first_span, self.chunk_hi = first_span, chunk_hi
             self.y_lo = None if y_lo is None else np.array(y_lo)

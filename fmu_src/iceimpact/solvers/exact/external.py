@@ -159,6 +159,9 @@ class ExternalSolver(EventSolver):
 
     name = "external"
     SAMPLES_AT_ONCE = False  # each step has its own structure inputs
+    #: a Zeno sequence closed before its end sticks at once: the structure's motion to that end
+    #: is the other FMU's, which each step restarts from
+    ACCUMULATION_TAIL = False
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)

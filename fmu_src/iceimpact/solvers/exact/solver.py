@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...errors import StateError
+from ...limits import TIME_RESOLUTION
 from ...physics.ice import make_drag
 from ...physics.structure import (
     DraggedStructure,
@@ -21,6 +22,7 @@ from ...scene import Scene
 from ..base import Samples, State
 from ..contact_rules import (
     EXACT_POLICY,
+    ZENO_RESOLUTION,
     ContactRules,
     Outcome,
     Phase,
@@ -34,7 +36,7 @@ from .sticking import LinearStick, QuadraticStick
 
 #: Enum members as module constants (an enum class's attribute is looked up through its
 #: metaclass, about 20 times the cost of a global; these are asked at every event).
-_FLIGHT = Phase.FLIGHT
+_FLIGHT, _STICK = Phase.FLIGHT, Phase.STICK
 _IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
 
 
@@ -43,6 +45,9 @@ class EventSolver(EventMarch):
 
     name = "exact"
     SAMPLES_AT_ONCE = True
+    #: A Zeno sequence closed before its end moves the bodies together to its estimated end,
+    #: where sticking starts (:meth:`ContactRules.impact`); False: sticking starts at once.
+    ACCUMULATION_TAIL = True
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
@@ -59,7 +64,12 @@ class EventSolver(EventMarch):
         self._osc_by_flow: tuple[float, Oscillator] | None = None
         free_accels = (self._free_accels if self.structure_b or self.dragged_structure
                        else self._free_accels_without_morison)
-        self.rules = ContactRules(self.m, self.M, scene.omega_n, free_accels, EXACT_POLICY)
+        self.rules = ContactRules(self.m, self.M, scene.omega_n, free_accels, EXACT_POLICY,
+                                  scene.solver_chatter_fraction,
+                                  time_resolution=ZENO_RESOLUTION * TIME_RESOLUTION)
+        #: the estimated end of the bounces of a Zeno sequence closed before it (s): the bodies
+        #: move together until then, not yet sticking; None otherwise
+        self.zeno_end: float | None = None
         self.u = scene.flow_u
         self.tau = 0.0  # position within the current segment
         self.pending_impulse = 0.0
@@ -171,6 +181,19 @@ class EventSolver(EventMarch):
         self._record(impact)
         self.pending_impulse += impact.impulse
         self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
+        self._zeno_tail(t)
+
+    def _zeno_tail(self, t: float) -> None:
+        """After an impact at time t that did not part the bodies: if it closed a Zeno sequence
+        before the sequence's end (:meth:`ContactRules.take_accumulation`), the bodies move
+        together to that estimated end and sticking starts there (a separation on the way
+        ends the tail: the bounces never accumulated)."""
+        end = self.rules.take_accumulation()
+        if end is None or not self.ACCUMULATION_TAIL:
+            return
+        if self.seg.phase is _STICK and end > t:
+            self._set_sticking(False, t)
+            self.zeno_end = end
 
     def _flight_end(self, t: float, x: float, v: float, w: float, u: float) -> None:
         """A flight's gap closing at time t, position x: :meth:`_begin` at zero gap, with the
@@ -190,11 +213,18 @@ class EventSolver(EventMarch):
             self.seg = self._flight_cls(self, t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
         else:
             self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
+            self._zeno_tail(t)
 
     # marching (the loop is solvers/march.py's) --------------------------------------------------
     def next_event(self, t_end: float) -> float | None:
         seg = self.seg
-        return seg.next_event(t_end - seg.t0)
+        event = seg.next_event(t_end - seg.t0)
+        end = self.zeno_end
+        if end is not None and end <= t_end:  # the end of a Zeno tail, unless parted before
+            tau_end = end - seg.t0
+            if event is None or event > tau_end:
+                return tau_end
+        return event
 
     def impulse_to(self, tau_event: float) -> float:
         seg = self.seg
@@ -207,7 +237,13 @@ class EventSolver(EventMarch):
         u = self.u
         if seg.phase is _FLIGHT:
             self._flight_end(t_event, x, v, w, u)  # impact, or a touch without speed
+        elif self.zeno_end is not None and tau_event == self.zeno_end - seg.t0:
+            # the end of a Zeno tail: the bodies, together already, start sticking
+            self.tau = tau_event
+            self.zeno_end = None
+            self._set_sticking(True, t_event)
         else:  # contact force turns tensile: separate with equal velocities
+            self.zeno_end = None
             self._fly_from_contact(t_event, x, v, v, u, self.rules.free_contact_force(x, v, v, u))
 
     def finish(self, t_end: float) -> float:
@@ -223,7 +259,12 @@ class EventSolver(EventMarch):
         """Zero-order hold: a new flow speed re-anchors the closed forms at the current time."""
         x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
                                              self.seg.phase is Phase.STICK)
-        self._begin(self.state.t, x, v, z, w, u, reanchor=True)
+        end, self.zeno_end = self.zeno_end, None
+        t = self.state.t
+        self._begin(t, x, v, z, w, u, reanchor=True)
+        if end is not None and self.seg.phase is _STICK:  # a Zeno tail goes on to its end
+            self._set_sticking(False, t)
+            self.zeno_end = end
 
     def sample(self, times: np.ndarray, u: float) -> Samples:
         """Advance to each of ``times`` (increasing, after the current time) in turn with flow
@@ -273,7 +314,8 @@ class EventSolver(EventMarch):
                 if kind is None:
                     kind = kinds[last_type] = _sampling_kind(seg)
                 grouped = isinstance(kind, _SampleGroup)
-            if kind is MARCHED:  # march to the sample
+            if kind is MARCHED or self.zeno_end is not None:  # march to the sample (a Zeno
+                # tail's end is an event of the solver, not of its segment)
                 if interval != i:
                     interval = i
                     self.begin_step(t_list[i - 1])
@@ -353,25 +395,25 @@ class EventSolver(EventMarch):
         degenerate = self.rules.degenerate
         return (self.state, self.e, self.impact_count, self.t_last, len(self.impacts),
                 self.sticking, self.sticking_since, self.u, self.tau, self.pending_impulse,
-                degenerate.run, degenerate.last, seg, search.checkpoint())
+                degenerate.run, degenerate.last, self.zeno_end, seg, search.checkpoint())
 
     def rollback(self, checkpoint: Any) -> None:
         if isinstance(checkpoint, dict):
             super().rollback(checkpoint)
             return
         (self.state, self.e, self.impact_count, self.t_last, n_impacts, self.sticking,
-         self.sticking_since, self.u, self.tau, self.pending_impulse, run, last, seg,
-         search) = checkpoint
+         self.sticking_since, self.u, self.tau, self.pending_impulse, run, last, self.zeno_end,
+         seg, search) = checkpoint
         del self.impacts[n_impacts:]
         self.rules.degenerate.set((run, last))
         seg.search.rollback(search)
         self.seg = seg
 
-    _KEYS = ("u", "tau", "pending_impulse", "degenerate", "segment")
+    _KEYS = ("u", "tau", "pending_impulse", "degenerate", "zeno_end", "segment")
 
     def _snapshot(self) -> dict[str, Any]:
         return {"u": self.u, "tau": self.tau, "pending_impulse": self.pending_impulse,
-                "degenerate": self.rules.degenerate.snapshot(),
+                "degenerate": self.rules.degenerate.snapshot(), "zeno_end": self.zeno_end,
                 "segment": self.seg.snapshot(self.tau)}
 
     def _read(self, rec: Record, t: float) -> Callable[[], None]:
@@ -379,10 +421,14 @@ class EventSolver(EventMarch):
         tau = rec.real("tau", low=0.0)
         pending = rec.real("pending_impulse")
         degenerate = self.rules.degenerate.read(rec.record("degenerate"))
+        zeno_end = rec.real("zeno_end", low=t, allow_none=True)
+        if zeno_end is not None and rec.data["sticking"]:
+            raise StateError(rec.field("zeno_end"), zeno_end, "null while sticking is true")
         seg_rec = rec.record("segment")
         phase = seg_rec.text("phase", [p.value for p in Phase])
-        if (phase == Phase.STICK.value) != rec.data["sticking"]:
-            raise StateError(seg_rec.field("phase"), phase, "stick exactly when sticking is true")
+        if (phase == Phase.STICK.value) != (rec.data["sticking"] or zeno_end is not None):
+            raise StateError(seg_rec.field("phase"), phase,
+                             "stick exactly when sticking is true or zeno_end is a time")
         if phase == Phase.FLIGHT.value:
             cls = self._flight_cls
         else:
@@ -392,5 +438,6 @@ class EventSolver(EventMarch):
         def apply() -> None:
             self.seg = make_segment()
             self.u, self.tau, self.pending_impulse = u, tau, pending
+            self.zeno_end = zeno_end
             self.rules.degenerate.set(degenerate)
         return apply
