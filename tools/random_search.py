@@ -379,10 +379,10 @@ def busy_with_impacts(scene: Scene, t: float, impacts: int, cpu: float,
     per chatter time (the chatter closure ends the bouncing of bodies pressed together once a
     bounce would be shorter than solver.chatter_fraction of the structure's period,
     docs/robustness.md "Many real impacts at a stiff structure"), and at most IMPACT_WORK s of
-    CPU each, over the whole run (``cpu``) and over its second half (``late_impacts`` in ``late_cpu``: a run
-    stalled after many quick impacts is not busy). Such a run is bounded: its CPU per
-    simulated second is at most IMPACT_WORK / chatter_time; it is slow only because it resolves
-    up to ~16 omega_n real impacts per simulated second."""
+    CPU each, over the whole run (``cpu``) and over its second half (``late_impacts`` in
+    ``late_cpu``: a run stalled after many quick impacts is not busy). Such a run is bounded:
+    its CPU per simulated second is at most IMPACT_WORK / chatter_time; it is slow only because
+    it resolves up to ~16 omega_n real impacts per simulated second."""
     if late_impacts <= 0 or t <= 0.0:
         return False
     omega_n = math.sqrt(scene.structure_k / scene.structure_m)
