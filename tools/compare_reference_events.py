@@ -6,8 +6,9 @@ moved.
 
 For each case: the impact counts before and after, the largest shift of an impact time and of an
 impulse (relative to the largest impulse of the run) over the impacts both runs have, the first
-impact whose time moved by more than 1e-9 s, and the communication steps whose sticking flag
-differs. Both sides run in fresh processes, each with its own tree's package on sys.path.
+impact whose time moved by more than 1e-9 s, the communication steps whose sticking flag
+differs, and how far each sticking start moved (stepped runs: the simulator's sticking_since).
+Both sides run in fresh processes, each with its own tree's package on sys.path.
 """
 
 from __future__ import annotations
@@ -36,9 +37,28 @@ def events(name, kind, changes, t_end, h, flow):
         result = run(scene, t_end, dt=h)
         return {"t": result.impacts["t"].tolist(), "impulse": result.impacts["impulse"].tolist(),
                 "sticking": [bool(s) for s in result.sticking]}
-    sim, reports = rd.stepped(scene, kind, t_end, h, flow)
+    sim, reports = stepped(scene, kind, t_end, h, flow)
     return {"t": [i.t for i in sim.impacts], "impulse": [i.impulse for i in sim.impacts],
-            "sticking": [bool(r.sticking) for r in reports]}
+            "sticking": [bool(r.sticking) for r in reports], "starts": list(STARTS)}
+
+STARTS = []
+
+def stepped(scene, kind, t_end, h, flow):
+    # rd.stepped, noting each sticking start (the simulator's sticking_since) on the way
+    STARTS.clear()
+    real_advance = rd.Simulator.advance
+
+    def advance(sim, *args):
+        report = real_advance(sim, *args)
+        since = sim.sticking_since
+        if since is not None and (not STARTS or STARTS[-1] != since):
+            STARTS.append(since)
+        return report
+    rd.Simulator.advance = advance
+    try:
+        return rd.stepped(scene, kind, t_end, h, flow)
+    finally:
+        rd.Simulator.advance = real_advance
 
 names = json.loads(sys.argv[1])
 print(json.dumps({c[0]: events(*c) for c in rd.CASES if not names or c[0] in names}))
@@ -71,10 +91,19 @@ def compare(before: dict, after: dict) -> dict:
                   or [0.0])
     moved = next((k for k, s in enumerate(shifts) if s > 1e-9), None)
     flags = sum(a != b for a, b in zip(before["sticking"], after["sticking"], strict=True))
+    starts_before, starts_after = before.get("starts", []), after.get("starts", [])
+    starts = [b - a for a, b in zip(starts_before, starts_after, strict=False)]
     return {"impacts_before": len(before["t"]), "impacts_after": len(after["t"]),
             "max_time_shift_s": max(shifts or [0.0]), "max_impulse_shift": impulse,
             "first_moved_impact": moved, "sticking_flags_differ": flags,
+            "sticking_starts": (len(starts_before), len(starts_after), starts),
             "identical": before == after}
+
+
+def _starts(starts: tuple[int, int, list[float]]) -> str:
+    before, after, shifts = starts
+    listed = ", ".join(f"{s:+.2e} s" for s in shifts[:4]) + (" ..." if len(shifts) > 4 else "")
+    return f"{before} / {after}" + (f": {listed}" if shifts and any(shifts) else "")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -90,14 +119,15 @@ def main(argv: list[str] | None = None) -> int:
              "runs (tests/reference_digests.py).", "",
              "| case | impacts before / after | identical | largest time shift | largest impulse "
              "shift (of the largest impulse) | first impact moved > 1e-9 s | sticking flags "
-             "differing |", "|---|---:|---|---:|---:|---:|---:|"]
+             "differing | sticking starts before / after: shifts (stepped runs) |",
+             "|---|---:|---|---:|---:|---:|---:|---|"]
     for name, events in after.items():
         row = compare(before[name], events)
         first = "-" if row["first_moved_impact"] is None else f"#{row['first_moved_impact'] + 1}"
         lines.append(f"| {name} | {row['impacts_before']} / {row['impacts_after']} | "
                      f"{'yes' if row['identical'] else 'no'} | {row['max_time_shift_s']:.1e} s | "
                      f"{row['max_impulse_shift']:.1e} | {first} | "
-                     f"{row['sticking_flags_differ']} |")
+                     f"{row['sticking_flags_differ']} | {_starts(row['sticking_starts'])} |")
     text = "\n".join(lines) + "\n"
     print(text)
     if args.out:

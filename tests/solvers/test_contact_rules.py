@@ -126,7 +126,8 @@ def test_impact_at_contact_decides_as_at_contact_then_impact(e):
 
 def test_ode_zeno_sequence_closes_and_sticks():
     """Figure 8 (e = 0.5): the bounces shrink, the sequence is closed by one plastic impact and
-    the bodies stick at the exact solver's time; sticking carries the contact force b u."""
+    the bodies stick at the exact solver's time (to 2.4e-8 s at rtol 1e-12); sticking carries
+    the contact force b u."""
     exact = make_solver(FIG8)
     exact.advance_to(12.0, FIG8.flow_u)
     solver = OdeSolver(ode(FIG8, 1e-12))
@@ -138,8 +139,9 @@ def test_ode_zeno_sequence_closes_and_sticks():
     exact.advance_to(100.0, FIG8.flow_u)
     assert solver.sticking
 
-    def real(impacts):  # closing faster than rounding
-        return [i.t for i in impacts if i.approach_speed > 1e-9]
+    def real(impacts):  # the bounces both resolve: method 3 closes a sequence once its
+        # bounces are no higher than its positions' noise (here closing at ~1e-8 m/s)
+        return [i.t for i in impacts if i.approach_speed > 1e-7]
 
     assert real(solver.impacts) == pytest.approx(real(exact.impacts), abs=1e-6)
     assert solver.state.x == pytest.approx(exact.state.x, rel=1e-5)

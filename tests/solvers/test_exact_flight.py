@@ -607,9 +607,12 @@ def test_method_3_sees_a_meeting_hidden_inside_one_integrator_step():
             sim.advance(case["h"], flow_at(case["flow"], k, 0.1, case["signs"]))
             k += 1
             lowest = min(lowest, sim.solver.state.gap)
-        runs[method] = ([i.t for i in sim.impacts], lowest)
+        # (the impacts both resolve: the exact method follows each Zeno sequence of this
+        # e = 0.024 a few bounces further, closing speeds 1e-5 to 1e-8 m/s, which method 3,
+        # whose bounces are no higher than its positions' noise, closes at their end)
+        runs[method] = ([i.t for i in sim.impacts if i.approach_speed > 1e-4], lowest)
     exact, ode = runs[1][0], runs[3][0]
-    assert len(ode) == len(exact) == 55
+    assert len(ode) == len(exact) == 57
     assert max(abs(a - b) for a, b in zip(exact, ode, strict=True)) < 1e-6
     assert 0.7903 < ode[-2] < 0.7904  # the meeting inside the step [0.790, 0.794]
     assert runs[3][1] >= -1e-10
