@@ -58,12 +58,13 @@ def measure(fields: dict, fraction: float, t_end: float, dt: float, rounds: int)
 
 
 def _change(value: float, reference: float) -> str:
-    return f"{100.0 * (value - reference) / reference:+.2f} %"
+    return f"{(value - reference) / reference:+.1e}"
 
 
 def markdown(rows: dict[str, list[dict]], t_end: float, dt: float) -> str:
     lines = [f"`run(scene, {t_end:g} s, dt={dt:g})`, method 1, e = 1; CPU time of the run. "
-             "Changes are from the smallest fraction's run (the most resolved chatter).", ""]
+             "In brackets: the relative change from the smallest fraction's run (the most resolved "
+             "chatter).", ""]
     dels = " | ".join(f"DEL m={m} (1 Hz)" for m in WOHLER_EXPONENTS)
     lines += [f"| scene | chatter_fraction | impacts | CPU | sticks from | RMS k x | "
               f"peak abs(k x) | {dels} |",

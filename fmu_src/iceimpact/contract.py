@@ -215,8 +215,8 @@ PARAMETERS: tuple[Variable, ...] = (
     # chatter threshold of methods 1 and 3 (solvers/contact_rules.py). Above 0.5 a "chatter"
     # bounce would last half a period, motion the structure resolves; below 1e-6 the chatter
     # time of a stiff structure falls under the exact search's time resolution
-    # (limits.omega_limit scales with it) and an elastic chatter costs up to ~1e6 / omega_n
-    # impacts per second
+    # (limits.omega_limit scales with it) and an elastic chatter costs up to
+    # omega_n / (2 pi fraction) impacts per simulated second (1.6e5 omega_n at 1e-6)
     _real("solver.chatter_fraction", "1", "chatter threshold of methods 1 and 3: with "
           "impact.e = 1 a bounce of the ice pressed on the structure that would last less than "
           "this fraction of the structure's natural period 2 pi / omega_n ends the bouncing "
