@@ -191,3 +191,48 @@ def test_a_sequence_beyond_the_budget_sticks_at_its_estimated_end():
     assert tail and all(r.gap == 0.0 and not r.sticking for r in tail)
     assert all(r.sticking for r in reports if r.t > starts[0])
     assert sim.solver.sticking_since == starts[0]
+
+
+@pytest.mark.parametrize("method", [1, 3])
+def test_a_state_saved_in_a_tail_continues_identically(method):
+    """A state saved while the bodies move together towards a Zeno sequence's estimated end
+    (e = 0.9: not yet sticking, ``zeno_end`` set) and restored into a new simulator, through
+    JSON, gives the same steps to the bit as the run that went on: the tail's end is state."""
+    import json
+
+    scene = Scene(impact_e=0.9, solver_method=method)
+    sim = Simulator(scene)
+    while sim.solver.zeno_end is None:
+        sim.advance(1e-3)
+    assert not sim.solver.sticking
+    saved = json.loads(json.dumps(sim.save()))
+    went_on = [sim.advance(1e-3) for _ in range(60)]
+    restored = Simulator.from_snapshot(saved)
+    assert restored.solver.zeno_end == saved["solver"]["zeno_end"]
+    again = [restored.advance(1e-3) for _ in range(60)]
+    assert again == went_on
+    assert not went_on[0].sticking and went_on[-1].sticking
+
+
+def test_a_tail_in_a_snapshot_is_checked():
+    """A snapshot whose tail contradicts its phase is refused, naming the field."""
+    from iceimpact import StateError
+
+    sim = Simulator(Scene(impact_e=0.9))
+    while sim.solver.zeno_end is None:
+        sim.advance(1e-3)
+    saved = sim.save()
+    bad = json_copy(saved)
+    bad["solver"]["sticking"], bad["solver"]["sticking_since"] = True, bad["solver"]["t"]
+    with pytest.raises(StateError, match="zeno_end"):
+        Simulator.from_snapshot(bad)
+    bad = json_copy(saved)
+    bad["solver"]["zeno_end"] = bad["solver"]["t"] - 1.0
+    with pytest.raises(StateError, match="zeno_end"):
+        Simulator.from_snapshot(bad)
+
+
+def json_copy(data):
+    import json
+
+    return json.loads(json.dumps(data))
