@@ -102,7 +102,7 @@ def test_the_rounding_closing_speed_rule_at_its_edges():
     from iceimpact.solvers.contact_rules import EXACT_POLICY, ROUNDING_SPEED, ContactRules
 
     omega_n = 3.0
-    rules = ContactRules(1.0, 2.0, omega_n, lambda *state: (0.0, 0.0), EXACT_POLICY)
+    rules = ContactRules(1.0, 2.0, omega_n, lambda *state: (0.0, 0.0), EXACT_POLICY, 1e-2)
     values = [0.0, -0.0, 2e-300, -2e-300, 0.5, -0.7, 3.0, math.inf, -math.inf, math.nan]
     checked = 0
     for x, v, w, u in product(values, repeat=4):

@@ -10,8 +10,9 @@ root-free and so never misses a grazing touch. Each impact applies eq. 16-17.
 The contact rules (impact step, chatter and Zeno closure, degenerate contacts, sticking entry,
 contact force, separation, re-anchoring on a flow change) are those of
 :mod:`iceimpact.solvers.contact_rules`, with its :data:`EXACT_POLICY`. A Zeno sequence (e < 1,
-bodies pressed together) is closed by one plastic impact once the rest of the sequence would take
-less than ``ZENO_TIME``; the bodies then stick: linear drag in closed
+bodies pressed together) is followed bounce by bounce and closed by one plastic impact once the
+rest of the sequence would take less than ``ZENO_TIME`` (or, beyond ``ZENO_BUDGET`` bounces, at
+its estimated end, the bodies moving together to it); the bodies then stick: linear drag in closed
 form (a damped oscillator of mass m + M, damping c + b, equilibrium b u / k, cf. eq. 27-29),
 quadratic drag by high-order Taylor steps (:mod:`iceimpact.solvers.search.taylor`: while the sign of
 u - x' holds the right-hand side is a polynomial, so the series follow by recurrence; each step
