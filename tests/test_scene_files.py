@@ -81,9 +81,18 @@ def test_scene_file_truncated_and_bit_flipped(tmp_path):
     ('"solver.method" = 99999999999999999999999', "solver.method"),
     ("[ice]\nM = { a = 1 }", "ice.M.a"),
     ('"ice.mass" = 1.0', "ice.mass"),
+    ("[solver]\nchatter_fraction = 0.7", "solver.chatter_fraction"),  # above 0.5
 ])
 def test_scene_file_bad_values(tmp_path, text, name):
     with pytest.raises(ParameterError) as info:
         _load_bytes(tmp_path, text.encode())
     assert info.value.name == name
     assert " is not allowed: " in str(info.value) and len(str(info.value)) < 2000
+
+
+def test_scene_file_sets_the_chatter_fraction(tmp_path):
+    """solver.chatter_fraction read from a scene file, in either spelling, as any parameter."""
+    assert _load_bytes(tmp_path, b"[solver]\nchatter_fraction = 1e-3\n").solver_chatter_fraction \
+        == 1e-3
+    assert _load_bytes(tmp_path, b'"solver.chatter_fraction" = 0.5\n').solver_chatter_fraction \
+        == 0.5
