@@ -19,7 +19,7 @@ import mpmath as mp
 import pytest
 
 import zeno_reference
-from iceimpact import Scene, Simulator
+from iceimpact import Scene, Simulator, run
 from iceimpact.simulator import make_solver
 from iceimpact.solvers.contact_rules import ZENO_BUDGET, ZENO_TIME, chatter_time
 
@@ -236,3 +236,20 @@ def json_copy(data):
     import json
 
     return json.loads(json.dumps(data))
+
+
+def test_run_samples_a_tail_as_the_steps_give_it():
+    """run()'s sampler marches through a Zeno tail (its end is an event of the solver, not of
+    the segment) and gives what a Simulator stepped to each sample gives: the same sticking
+    flags and impact count, states to 1e-14 m, impulses to 1e-10 N.s (measured 2.8e-15 m and
+    9e-12 N.s, the level of the runs without a tail: 2e-12 N.s at e = 0.5)."""
+    scene = Scene(impact_e=0.9)
+    result = run(scene, 40.0, dt=1e-2)
+    sim = Simulator(scene)
+    reports = [sim.advance(1e-2) for _ in range(4000)]
+    assert [r.sticking for r in reports] == result.sticking[1:].tolist()
+    assert max(abs(r.x - x) for r, x in zip(reports, result.x[1:], strict=True)) < 1e-14
+    assert max(abs(r.impulse - j) for r, j in zip(reports, result.impulse[1:],
+                                                  strict=True)) < 1e-10
+    assert len(result.impacts) == sim.impact_count
+    assert result.sticking_since == sim.sticking_since > 36.4
