@@ -23,7 +23,7 @@ from iceimpact import Scene, Simulator, run
 from iceimpact.simulator import make_solver
 from iceimpact.solvers.contact_rules import ZENO_BUDGET, ZENO_TIME, chatter_time
 
-#: The issue's tolerances: sticking starts and releases, impacts (s).
+#: The tolerances asked for: sticking starts and releases, impacts (s).
 PHASE_TOL, IMPACT_TOL = 1e-6, 1e-9
 
 
