@@ -1,6 +1,11 @@
-"""Build dist/IceImpact.fmu and dist/ModalStructure.fmu (FMI 2.0 Co-Simulation) with PythonFMU.
+"""Build dist/IceImpact.fmu and dist/ModalStructure.fmu (FMI 2.0 Co-Simulation) with PythonFMU,
+and dist/IceImpact3.fmu and dist/ModalStructure3.fmu, the same as FMI 3.0 Co-Simulation FMUs.
 
-    python build_fmu.py [--dest dist] [--fmu all|IceImpact|ModalStructure] [--standalone]
+    python build_fmu.py [--dest dist] [--fmu all|IceImpact|ModalStructure|IceImpact3|...]
+                        [--standalone]
+
+The FMI 3.0 FMUs are made from FMI 2.0 builds of the same slaves (:func:`build_fmi3`, section
+"FMI 3.0" below).
 
 ``--standalone`` also writes ``<dest>/standalone/<FMU>.fmu``: the same FMU with its own CPython
 runtime, numpy and scipy, for Linux x86_64 machines with no Python (:func:`make_standalone`).
@@ -53,6 +58,8 @@ SLAVE_NAME = "IceImpact"
 PACKAGE_NAME = "iceimpact"
 BOOT_MODULE = FMU_SRC / "iceimpact_fmu_boot.py"
 LOADER_SOURCE = ROOT / "fmu_native" / "loader.c"
+FMI3_SOURCE = ROOT / "fmu_native" / "fmi3.c"
+FMI3_HEADERS = ROOT / "fmu_native" / "fmi3"  # the FMI 3.0 standard's headers (2-Clause BSD)
 
 # SI base-unit exponents of the symbols that unit strings are written with ("N.s/m", "kg/m3").
 _SYMBOLS = {
@@ -366,13 +373,16 @@ def python_environment(requirement_lines: list[str], library: Path | None) -> di
 def compile_loader(dest: Path, library: Path | None, soname: str,
                    pythonfmu_library: str = PYTHONFMU_LIBRARY, *,
                    bundled_python: bool = False,
-                   versions: tuple[str, ...] | None = None) -> Path:
+                   versions: tuple[str, ...] | None = None,
+                   source: Path = LOADER_SOURCE,
+                   extra_defines: dict[str, int] | None = None) -> Path:
     """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython();
     ``pythonfmu_library`` is where it finds PythonFMU's library, relative to binaries/linux64.
     In a native host the loader also looks for ``libpython<version>.so.1.0`` of the other
     ``versions`` (default :func:`python_versions`). With ``bundled_python`` the loader starts
     the runtime of a standalone FMU (:func:`make_standalone`) in a process without Python; that
-    needs the build's Python.h."""
+    needs the build's Python.h. ``source`` is loader.c, or fmi3.c (the FMI 3.0 library, which
+    includes it), with ``extra_defines`` (name -> integer)."""
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     if compiler is None:
         raise NativeBuildError(
@@ -396,8 +406,10 @@ def compile_loader(dest: Path, library: Path | None, soname: str,
                 f"the Python headers (Debian/Ubuntu: apt-get install python{python_version()}-dev)")
         flags = ["-DBUNDLED_PYTHON", f"-I{include}"]
     command = [compiler, "-shared", "-fPIC", "-O2", "-std=c11", "-Wall", "-Wextra", "-Werror",
-               "-fvisibility=hidden", "-Wl,-z,nodelete", "-o", str(dest), str(LOADER_SOURCE),
-               *(f"-D{k}={json.dumps(v)}" for k, v in defines.items()), *flags, "-ldl",
+               "-fvisibility=hidden", "-Wl,-z,nodelete", "-o", str(dest), str(source),
+               f"-I{LOADER_SOURCE.parent}", f"-I{FMI3_HEADERS}",
+               *(f"-D{k}={json.dumps(v)}" for k, v in defines.items()),
+               *(f"-D{k}={int(v)}" for k, v in (extra_defines or {}).items()), *flags, "-ldl",
                "-lpthread"]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
@@ -579,6 +591,8 @@ PROBE_SCENES = {
     ],
     MODAL_SLAVE_NAME: [({}, [("force", 1000.0)]), ({"modes": 2}, [("force", 10.0)])],
 }
+PROBE_SCENES.update(IceImpact3=PROBE_SCENES[SLAVE_NAME],
+                    ModalStructure3=PROBE_SCENES[MODAL_SLAVE_NAME])
 
 
 def imported_modules(fmu_dir: Path, slave_name: str) -> list[str]:
@@ -777,8 +791,193 @@ def write_system(dest: str | Path) -> Path:
     return system.write_ssp(Path(dest), Path(dest) / SYSTEM_FILE)
 
 
-#: What ``python build_fmu.py --fmu NAME`` builds.
-BUILDERS = {SLAVE_NAME: build, MODAL_SLAVE_NAME: build_modal}
+# FMI 3.0 ------------------------------------------------------------------------------------------
+# dist/IceImpact3.fmu and dist/ModalStructure3.fmu: the same slaves (fmu_src/IceImpact3.py,
+# fmu_src/ModalStructure3.py, which differ from IceImpact.py and ModalStructure.py by
+# FMI_VERSION = 3 only) and the same contract tables, as FMI 3.0 Co-Simulation FMUs. Each is made
+# from the FMI 2.0 build of its slave (build_slave, then make_standalone for --standalone):
+#
+#   modelDescription.xml                      FMI 3.0, converted from the FMI 2.0 one
+#                                             (fmi3_model_description: the same variables,
+#                                             value references, units, ranges, start values,
+#                                             descriptions, dependencies, default experiment)
+#   binaries/x86_64-linux/<id>.so             fmu_native/fmi3.c, compiled here (it includes
+#                                             the FMI 2.0 loader, loader.c)
+#   binaries/x86_64-linux/pythonfmu/<id>.so   PythonFMU's FMI 2.0 library, as in the FMI 2.0 FMU
+#   binaries/x86_64-linux/python/             the standalone runtime (standalone FMUs only)
+#   resources/                                as in the FMI 2.0 FMU
+
+FMI3_PLATFORM = "x86_64-linux"
+#: What differs between the FMI 2.0 and FMI 3.0 builds of a model: the FMI 3.0 model identifier
+#: (the slave's name) and whether its steps may return early (at impacts).
+FMI3_MODELS = {SLAVE_NAME: ("IceImpact3", True), MODAL_SLAVE_NAME: ("ModalStructure3", False)}
+#: FMI 2.0 ModelStructure lists -> FMI 3.0 elements.
+_FMI3_STRUCTURE = {"Outputs": "Output", "Derivatives": "ContinuousStateDerivative",
+                   "InitialUnknowns": "InitialUnknown"}
+_FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
+
+
+def fmi3_model_description(xml: bytes, model_name: str, model_identifier: str,
+                           returns_early: bool, time_reference: int,
+                           standalone: bool = False) -> bytes:
+    """The FMI 3.0 modelDescription.xml of an FMI 2.0 one completed by
+    :func:`complete_model_description` (so: of the contract table): the same model and
+    variables, the FMI 3.0 types and attributes, dependencies by value reference, and the
+    independent variable FMI 3.0 asks for, ``time``, with value reference ``time_reference``
+    (the slave's REACHED_TIME: fmi3GetFloat64 of it gives the instance's time)."""
+    src = ET.fromstring(xml)
+    attrs = {key: src.get(key) for key in (
+        "description", "author", "version", "license", "generationTool",
+        "generationDateAndTime", "variableNamingConvention") if src.get(key) is not None}
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "3.0", "modelName": model_name,
+        "instantiationToken": "{" + src.get("guid").strip("{}") + "}", **attrs})
+    cs = src.find("CoSimulation")
+    ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": model_identifier,
+        "needsExecutionTool": "false" if standalone else cs.get("needsExecutionTool", "true"),
+        "canHandleVariableCommunicationStepSize": "true",
+        "canBeInstantiatedOnlyOncePerProcess": cs.get("canBeInstantiatedOnlyOncePerProcess",
+                                                      "false"),
+        "canGetAndSetFMUState": cs.get("canGetAndSetFMUstate", "false"),
+        "canSerializeFMUState": cs.get("canSerializeFMUstate", "false"),
+        "hasEventMode": "true",
+        "mightReturnEarlyFromDoStep": "true" if returns_early else "false",
+        "canReturnEarlyAfterIntermediateUpdate": "false",
+        "providesIntermediateUpdate": "false"})
+    for tag in ("UnitDefinitions", "LogCategories", "DefaultExperiment"):
+        node = src.find(tag)
+        if node is not None:
+            root.append(node)
+    units = root.find("UnitDefinitions")
+    if units is None:
+        units = ET.Element("UnitDefinitions")
+        root.insert(list(root).index(root.find("CoSimulation")) + 1, units)
+    if not any(unit.get("name") == "s" for unit in units):  # the unit of time
+        ET.SubElement(ET.SubElement(units, "Unit", name="s"), "BaseUnit", s="1")
+        units[:] = sorted(units, key=lambda unit: unit.get("name"))
+    for category in root.iterfind("LogCategories/Category"):
+        category.set("description", category.get("description", "").replace("fmi2", "fmi3"))
+    variables = ET.SubElement(root, "ModelVariables")
+    ET.SubElement(variables, "Float64", name="time", valueReference=str(time_reference),
+                  description="simulation time", causality="independent",
+                  variability="continuous", unit="s")
+    references = []
+    for scalar in src.find("ModelVariables").findall("ScalarVariable"):
+        typed = scalar[0]
+        node = ET.SubElement(variables, _FMI3_TYPES[typed.tag], {
+            key: scalar.get(key) for key in ("name", "valueReference", "description",
+                                             "causality", "variability", "initial")
+            if scalar.get(key) is not None})
+        references.append(scalar.get("valueReference"))
+        for key in ("unit", "min", "max", "nominal"):
+            if typed.get(key) is not None:
+                node.set(key, typed.get(key))
+        if typed.get("start") is not None:
+            if typed.tag == "String":
+                ET.SubElement(node, "Start", value=typed.get("start"))
+            else:
+                node.set("start", typed.get("start"))
+    structure = ET.SubElement(root, "ModelStructure")
+    for tag in ("Outputs", "Derivatives", "InitialUnknowns"):
+        for unknown in src.find("ModelStructure").iterfind(f"{tag}/Unknown"):
+            item = ET.SubElement(structure, _FMI3_STRUCTURE[tag], valueReference=references[
+                int(unknown.get("index")) - 1])
+            if unknown.get("dependencies") is not None:
+                item.set("dependencies", " ".join(
+                    references[int(i) - 1] for i in unknown.get("dependencies").split()))
+                item.set("dependenciesKind", unknown.get("dependenciesKind", ""))
+    text = ET.tostring(root, encoding="unicode")
+    pretty = minidom.parseString(text).toprettyxml(indent="  ", encoding="UTF-8")
+    return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
+
+
+def fmi3_from_fmi2(fmu: Path, target: Path, slave_name: str, model_name: str,
+                   returns_early: bool, bundled_python: bool = False) -> Path:
+    """Write ``target``, the FMI 3.0 FMU made of ``fmu``, an FMI 2.0 build of the slave
+    ``slave_name`` (:func:`build_slave`, or :func:`make_standalone` with ``bundled_python``)."""
+    from iceimpact.fmi.slave_base import FMI3_CHANNEL
+    from iceimpact.fmi.lifecycle import EARLY_RETURN, REACHED_TIME
+
+    old, new = f"binaries/{NATIVE_PLATFORM}/", f"binaries/{FMI3_PLATFORM}/"
+    with zipfile.ZipFile(fmu) as src:
+        entries = {info.filename: src.read(info) for info in src.infolist()}
+    out: dict[str, bytes] = {}
+    for name, data in entries.items():
+        if name.startswith("binaries/") and not name.startswith(old):
+            continue  # (PythonFMU's Windows library: FMI 2.0 only)
+        if name == f"{old}{slave_name}.so":
+            continue  # the FMI 2.0 loader: compiled into the FMI 3.0 library below
+        if name == "modelDescription.xml":
+            data = fmi3_model_description(data, model_name, slave_name, returns_early,
+                                          FMI3_CHANNEL[REACHED_TIME][0],
+                                          standalone=bundled_python)
+        elif name == "resources/iceimpact_fmu/python.json":
+            data = data.replace(old.encode(), new.encode())
+        out[new + name[len(old):] if name.startswith(old) else name] = data
+    config = json.loads(out["resources/iceimpact_fmu/python.json"])
+    with tempfile.TemporaryDirectory(prefix="iceimpact_fmi3_") as tmp:
+        library = Path(tmp) / f"{slave_name}.so"
+        defines = {"EARLY_RETURN_VR": FMI3_CHANNEL[EARLY_RETURN][0],
+                   "REACHED_TIME_VR": FMI3_CHANNEL[REACHED_TIME][0]}
+        if bundled_python:
+            compile_loader(library, None, config["standalone"]["libpython"],
+                           f"pythonfmu/{slave_name}.so", bundled_python=True,
+                           source=FMI3_SOURCE, extra_defines=defines)
+        else:
+            path, soname = libpython()
+            compile_loader(library, path, soname, f"pythonfmu/{slave_name}.so",
+                           source=FMI3_SOURCE, extra_defines=defines)
+        out[f"{new}{slave_name}.so"] = library.read_bytes()
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp_fmu = target.with_suffix(".fmu.tmp")
+    with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED,
+                         compresslevel=9 if bundled_python else None) as dst:
+        for name in sorted(out):
+            dst.writestr(name, out[name])
+    tmp_fmu.replace(target)
+    return target
+
+
+def build_fmi3(model: str = SLAVE_NAME, dest: str | Path = ROOT / "dist",
+               source_dir: str | Path = FMU_SRC,
+               standalone_dest: str | Path | None = None) -> Path:
+    """Build ``<dest>/<model>3.fmu`` (FMI 3.0; ``model`` is IceImpact or ModalStructure), and
+    with ``standalone_dest`` also its standalone variant there."""
+    slave_name, returns_early = FMI3_MODELS[model]
+    contract = "iceimpact.contract" if model == SLAVE_NAME else "iceimpact.modal.contract"
+    if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
+        raise NativeBuildError("the FMI 3.0 FMUs are built on Linux x86_64 only")
+    dest = Path(dest).resolve()
+    with tempfile.TemporaryDirectory(prefix="iceimpact_fmi2_of_3_") as tmp:
+        fmu2 = build_slave(slave_name, contract, tmp, source_dir)
+        target = fmi3_from_fmi2(fmu2, dest / f"{slave_name}.fmu", slave_name, model,
+                                returns_early)
+        if standalone_dest is not None:
+            standalone2 = make_standalone(fmu2, Path(tmp) / STANDALONE_DIR, slave_name)
+            fmi3_from_fmi2(standalone2, Path(standalone_dest).resolve() / f"{slave_name}.fmu",
+                           slave_name, model, returns_early, bundled_python=True)
+    return target
+
+
+def _with_standalone(builder, name: str):
+    """A builder of BUILDERS: ``(dest, standalone_dest=None) -> FMU``."""
+    def build_it(dest: str | Path, standalone_dest: str | Path | None = None) -> Path:
+        fmu = builder(dest)
+        if standalone_dest is not None:
+            make_standalone(fmu, Path(standalone_dest), name)
+        return fmu
+    return build_it
+
+
+#: What ``python build_fmu.py --fmu NAME`` builds: NAME -> ``(dest, standalone_dest) -> FMU``.
+BUILDERS = {
+    SLAVE_NAME: _with_standalone(build, SLAVE_NAME),
+    MODAL_SLAVE_NAME: _with_standalone(build_modal, MODAL_SLAVE_NAME),
+    **{slave: (lambda dest, standalone_dest=None, model=model:
+               build_fmi3(model, dest, standalone_dest=standalone_dest))
+       for model, (slave, _) in FMI3_MODELS.items()},
+}
 
 
 def variables_table(fmu: str | Path) -> str:
@@ -800,8 +999,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dest", default=str(ROOT / "dist"),
                         help="output folder (default: dist)")
     parser.add_argument("--fmu", choices=["all", *BUILDERS], default="all",
-                        help="which FMU to build (default: all, i.e. IceImpact.fmu and "
-                             "ModalStructure.fmu)")
+                        help="which FMU to build (default: all, i.e. IceImpact.fmu, "
+                             "ModalStructure.fmu, IceImpact3.fmu and ModalStructure3.fmu)")
     parser.add_argument("--standalone", action="store_true",
                         help="also write <dest>/standalone/<FMU>.fmu, each with its own CPython "
                              "runtime, numpy and scipy, for Linux x86_64 machines without Python")
@@ -815,7 +1014,8 @@ def main(argv: list[str] | None = None) -> int:
     for name, builder in BUILDERS.items():
         if args.fmu not in ("all", name):
             continue
-        fmu = builder(args.dest)
+        standalone_dest = Path(args.dest) / STANDALONE_DIR if args.standalone else None
+        fmu = builder(args.dest, standalone_dest)
         if args.variables_table and name == SLAVE_NAME:
             print(variables_table(fmu))
         problems = validate_fmu(str(fmu))
@@ -824,8 +1024,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"built {fmu}" + ("" if not problems else f" ({len(problems)} validation "
                                                        "problems)"))
         failed += bool(problems)
-        if args.standalone:
-            standalone = make_standalone(fmu, Path(args.dest) / STANDALONE_DIR, name)
+        if standalone_dest is not None:
+            standalone = standalone_dest / fmu.name
             print(f"built {standalone} ({standalone.stat().st_size / 1e6:.0f} MB, with its own "
                   f"Python {python_version()}, numpy and scipy)")
     if args.fmu == "all":

@@ -101,7 +101,9 @@ extern int __cxa_atexit(void (*function)(void *), void *argument, void *dso_hand
 #define BUNDLED_HOME "python" /* relative to binaries/linux64 */
 #endif
 
+#ifndef EXPORT /* fmi3.c compiles this file with its fmi2 entry points internal */
 #define EXPORT __attribute__((visibility("default")))
+#endif
 
 /* Log category with which the slave fails the current call with fmi2Error (see 3. above). */
 #define FAIL_CATEGORY "fmi2Error"

@@ -48,7 +48,7 @@ from pythonfmu.enums import Fmi2Status
 
 from ..contract import CONTINUOUS, DISCRETE, FIXED, INPUT, OUTPUT, PARAMETER, TUNABLE, Variable
 from ..errors import ParameterError
-from .lifecycle import FmuLifecycle
+from .lifecycle import EARLY_RETURN, REACHED_TIME, FmuLifecycle
 from .pythonfmu_fixes import guard_native_exit
 
 #: A message logged with this category fails the current FMI call with fmi2Error: the FMU's loader
@@ -69,6 +69,11 @@ def fail_call(slave: Fmi2Slave, message: str) -> None:
     """
     slave.log(message, Fmi2Status.error, FAIL_CATEGORY)
 
+
+#: The value references through which the FMI 3.0 layer (fmu_native/fmi3.c, compiled with these
+#: numbers) sets and reads EARLY_RETURN (a Boolean) and REACHED_TIME (a Real) of an FMI 3.0
+#: slave; no model description lists them, and an FMI 2.0 slave refuses them as any unknown one.
+FMI3_CHANNEL = {EARLY_RETURN: (0x7FFFFF00, bool), REACHED_TIME: (0x7FFFFF01, float)}
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 #: The FMI types, by the contract's kind, as the FMI functions name them (fmi2GetReal).
@@ -125,6 +130,8 @@ class FmuSlave(Fmi2Slave):
 
     CONTRACT: ClassVar[ModuleType]
     MODEL: ClassVar[type[FmuLifecycle]]
+    #: The FMI version of the FMU the slave is built into: 3 adds :data:`FMI3_CHANNEL`.
+    FMI_VERSION: ClassVar[int] = 2
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -153,8 +160,17 @@ class FmuSlave(Fmi2Slave):
                                 if v.kind is kind and v.causality != OUTPUT}
                          for kind in _TYPE_NAMES}
         #: by FMI type: the value references fmi2Get reads
-        cls._readable = {kind: frozenset(vr for vr, v in enumerate(variables) if v.kind is kind)
-                         for kind in _TYPE_NAMES}
+        readable = {kind: {vr for vr, v in enumerate(variables) if v.kind is kind}
+                    for kind in _TYPE_NAMES}
+        #: value reference -> name, of every variable fmi2Get may read
+        cls._names = {vr: v.name for vr, v in enumerate(variables)}
+        if cls.FMI_VERSION == 3:
+            vr, kind = FMI3_CHANNEL[EARLY_RETURN]
+            cls._settable[kind][vr] = EARLY_RETURN
+            vr, kind = FMI3_CHANNEL[REACHED_TIME]
+            readable[kind].add(vr)
+            cls._names[vr] = REACHED_TIME
+        cls._readable = {kind: frozenset(vrs) for kind, vrs in readable.items()}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
@@ -188,8 +204,8 @@ class FmuSlave(Fmi2Slave):
         if not self._all_of(vrs, kind, "Get"):
             return [_UNDEFINED[kind]] * len(vrs)
         get = self._model.get
-        variables = self._variables
-        return [kind(get(variables[vr].name)) for vr in vrs]
+        names = self._names
+        return [kind(get(names[vr])) for vr in vrs]
 
     def _all_of(self, vrs: list[int], kind: type, verb: str) -> bool:
         """True if every value reference is a variable of type ``kind`` (fmi2Set: not an

@@ -524,6 +524,9 @@ class OdeSolver(EventMarch):
             return self.event
         return None
 
+    def event_time(self, event: tuple[float, np.ndarray]) -> float:
+        return event[0]
+
     def impulse_to(self, event: tuple[float, np.ndarray]) -> float:
         if self.phase is Phase.STICK:
             return self.rhs.impulse(self.y_now, event[1])

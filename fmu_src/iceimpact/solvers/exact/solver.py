@@ -196,6 +196,9 @@ class EventSolver(EventMarch):
         seg = self.seg
         return seg.next_event(t_end - seg.t0)
 
+    def event_time(self, tau_event: float) -> float:
+        return self.seg.t0 + tau_event
+
     def impulse_to(self, tau_event: float) -> float:
         seg = self.seg
         return seg.impulse(self.tau, tau_event) if seg.PUSHES else 0.0
