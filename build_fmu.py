@@ -896,8 +896,8 @@ def fmi3_from_fmi2(fmu: Path, target: Path, slave_name: str, model_name: str,
                    returns_early: bool, bundled_python: bool = False) -> Path:
     """Write ``target``, the FMI 3.0 FMU made of ``fmu``, an FMI 2.0 build of the slave
     ``slave_name`` (:func:`build_slave`, or :func:`make_standalone` with ``bundled_python``)."""
-    from iceimpact.fmi.slave_base import FMI3_CHANNEL
     from iceimpact.fmi.lifecycle import EARLY_RETURN, REACHED_TIME
+    from iceimpact.fmi.slave_base import FMI3_CHANNEL
 
     old, new = f"binaries/{NATIVE_PLATFORM}/", f"binaries/{FMI3_PLATFORM}/"
     with zipfile.ZipFile(fmu) as src:

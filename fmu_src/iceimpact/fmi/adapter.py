@@ -130,7 +130,7 @@ class FmuModel(FmuLifecycle):
                 # to the master's point itself, so that the steps after an early return end
                 # on the master's grid (sim.t + step_size may differ from it by rounding)
                 end = current_time + step_size - self.start_time
-                report = sim.advance_to(end, self.flow_u, structure, stop_at_impact=True)
+                report = sim.advance_to(end, self.flow_u, structure, stop_at_event=True)
                 if report.t != end:
                     self.returned_at = report.t + self.start_time
             else:

@@ -83,9 +83,10 @@ class Solver:
     1. ``advance_to(t_end, u)`` marches from ``state.t`` to ``t_end`` (> t) with the flow speed
        u held, leaves ``state`` at ``t_end`` and returns the contact impulse on the structure
        over the interval (N.s), impacts included. The event-driven methods do it through the
-       one loop of :class:`~iceimpact.solvers.march.EventMarch`. With ``stop_at_impact`` an
-       event-driven method (1 or 3) ends the march at the first impact before ``t_end``
-       instead (``state`` just after it); method 2 marches to ``t_end`` regardless.
+       one loop of :class:`~iceimpact.solvers.march.EventMarch`. With ``stop_at_event`` an
+       event-driven method (1 or 3) ends the march at the first contact event (an impact, a
+       separation) before ``t_end`` instead (``state`` just after it); method 2 marches to
+       ``t_end`` regardless.
     2. Every impact goes through :meth:`_record` (the count, the list, the step's impact
        budget: one beyond it raises :class:`SolverError`); sticking is entered and left through
        :meth:`_set_sticking`.
@@ -150,9 +151,9 @@ class Solver:
         """Change e for impacts from now on (``impact.e`` is tunable)."""
         self.e = e
 
-    def advance_to(self, t_end: float, u: float, stop_at_impact: bool = False) -> float:
-        """March to ``t_end`` (or, with ``stop_at_impact``, to the first impact before it) with
-        flow speed u; return the impulse on the structure (N.s)."""
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
+        """March to ``t_end`` (or, with ``stop_at_event``, to the first contact event before
+        it) with flow speed u; return the impulse on the structure (N.s)."""
         raise NotImplementedError
 
     def begin_step(self, start: float | None = None) -> None:

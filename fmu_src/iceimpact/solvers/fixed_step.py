@@ -349,8 +349,8 @@ class FixedStepSolver(Solver):
             z, w = self.drag.motion(z_a, w_a, self.u, tau)
         return State(t, x, v, z, w)
 
-    def advance_to(self, t_end: float, u: float, stop_at_impact: bool = False) -> float:
-        # (stop_at_impact is not taken: the scheme finds impacts at its grid points only, and a
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
+        # (stop_at_event is not taken: the scheme finds impacts at its grid points only, and a
         # step that ended at one would move the grid of the steps after it)
         t_now = self.state.t
         if u != self.u:  # zero-order hold: a new grid starts at the change

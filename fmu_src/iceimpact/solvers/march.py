@@ -35,10 +35,11 @@ class EventMarch(Solver):
        to be taken, a hint for how far to compute ahead).
     6. ``event_time(event)``: the time (s) of an event ``next_event`` returned.
 
-    With ``stop_at_impact``, :meth:`march` ends at the first impact before ``t_end``: ``state``
-    is then the state just after it (its impulse included in the returned one), and the next
-    march goes on from there exactly as the uninterrupted march would have (an FMI 3.0 early
-    return, docs/fmu.md).
+    With ``stop_at_event``, :meth:`march` ends at the first contact event before ``t_end``: an
+    event that brings an impact or starts or ends the bodies' sticking together (a touch without
+    speed that leaves them in flight is not one). ``state`` is then the state just after it
+    (an impact's impulse included in the returned one), and the next march goes on from there
+    exactly as the uninterrupted march would have (an FMI 3.0 early return, docs/fmu.md).
 
     ``u`` is the flow speed of the current segment; ``pending_impulse`` holds the impulse of
     impacts at the current time not yet reported (an impact at t = 0 goes to the first step).
@@ -47,19 +48,19 @@ class EventMarch(Solver):
     u: float
     pending_impulse: float
 
-    def advance_to(self, t_end: float, u: float, stop_at_impact: bool = False) -> float:
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
         if u != self.u:  # (set_flow, inline: this runs at every communication step)
             self.reanchor(u, t_end)
-        return self.march(t_end, stop_at_impact)
+        return self.march(t_end, stop_at_event)
 
     def set_flow(self, u: float, t_end: float) -> None:
         """Re-anchor the segment if the flow speed changes (rule 5), once for every path in."""
         if u != self.u:
             self.reanchor(u, t_end)
 
-    def march(self, t_end: float, stop_at_impact: bool = False) -> float:
-        """Run the segments from the current one to ``t_end`` (with ``stop_at_impact``: to the
-        first impact before it, see above); the impulse on the structure (the sum in event
+    def march(self, t_end: float, stop_at_event: bool = False) -> float:
+        """Run the segments from the current one to ``t_end`` (with ``stop_at_event``: to the
+        first contact event before it, see above); the impulse on the structure (the sum in event
         order, so that every path that marches adds the same numbers in the same order)."""
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
@@ -69,11 +70,11 @@ class EventMarch(Solver):
                 impulse += self.finish(t_end)
                 return impulse
             impulse += self.impulse_to(event)
-            if stop_at_impact:
-                count = self.impact_count
+            if stop_at_event:
+                count, sticking = self.impact_count, self.sticking
                 t_event = self.event_time(event)
                 impulse += self.take_event(event)
-                if self.impact_count != count and t_event < t_end:
+                if (self.impact_count != count or self.sticking != sticking) and t_event < t_end:
                     impulse += self.finish(t_event)  # the new segment at its start: no impulse
                     return impulse
             else:

@@ -254,13 +254,13 @@ class ExternalSolver(EventSolver):
         self.seg = ExternalStick(self, t, x, v, u, start=hold)
         self._set_sticking(True, t)
 
-    def advance_to(self, t_end: float, u: float, stop_at_impact: bool = False) -> float:
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
         x_in, v_in, a_in = self.inputs
         t = self.state.t
         h = t_end - t
         # a Jacobi master holds the last step's force on the structure over the whole step it
         # planned (unfelt_impulse): such a step is not cut at an impact
-        stop_at_impact = stop_at_impact and not self.jacobi
+        stop_at_event = stop_at_event and not self.jacobi
         raw, ref = self.measure_other_force(t, v_in, a_in)
         self.other_force, self.other_force_rate = self.estimate_other_force(raw, ref, t)
         self.step_start = t
@@ -285,7 +285,7 @@ class ExternalSolver(EventSolver):
         else:
             # the structure lags its extrapolation: no penetration, the ice goes back to it
             self._begin(t, x_in, v_s, min(z, x_in), w, u, reanchor=True)
-        impulse = self.march(t_end, stop_at_impact)
+        impulse = self.march(t_end, stop_at_event)
         h = self.state.t - t  # (shorter if the step returned at an impact)
         returned = (self.jacobi_force(impulse, h, started_riding) if self.jacobi
                     else impulse / h)
