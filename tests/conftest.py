@@ -1,4 +1,5 @@
-"""Session fixtures: IceImpact.fmu built once into a temporary folder, extracted, described."""
+"""Session fixtures: IceImpact.fmu (and IceImpact3.fmu, FMI 3.0) built once into a temporary
+folder, extracted, described."""
 
 from __future__ import annotations
 
@@ -58,3 +59,39 @@ def fmus(fmu, tmp_path_factory) -> Path:
     shutil.copy(fmu, folder / "IceImpact.fmu")
     build_module().build_modal(folder)
     return folder
+
+
+@pytest.fixture(scope="session")
+def fmu3(tmp_path_factory) -> Path:
+    """IceImpact3.fmu (FMI 3.0), built once into a temporary folder."""
+    return build_module().build_fmi3("IceImpact", tmp_path_factory.mktemp("dist3"))
+
+
+@pytest.fixture(scope="session")
+def fmu3_dir(fmu3, tmp_path_factory) -> str:
+    return extract(str(fmu3), unzipdir=str(tmp_path_factory.mktemp("IceImpact3")))
+
+
+@pytest.fixture(scope="session")
+def fmus3(fmu3, tmp_path_factory) -> Path:
+    """A folder with IceImpact3.fmu (the session's build) and ModalStructure3.fmu."""
+    import shutil
+
+    folder = tmp_path_factory.mktemp("system_fmus3")
+    shutil.copy(fmu3, folder / "IceImpact3.fmu")
+    build_module().build_fmi3("ModalStructure", folder)
+    return folder
+
+
+@pytest.fixture(scope="session")
+def standalone_fmu3(tmp_path_factory) -> Path:
+    """IceImpact3.fmu made standalone (build_fmu.py --standalone): its own CPython runtime."""
+    folder = tmp_path_factory.mktemp("standalone3")
+    build_module().build_fmi3("IceImpact", tmp_path_factory.mktemp("dist3s"),
+                              standalone_dest=folder)
+    return folder / "IceImpact3.fmu"
+
+
+@pytest.fixture(scope="session")
+def standalone3_dir(standalone_fmu3, tmp_path_factory) -> str:
+    return extract(str(standalone_fmu3), unzipdir=str(tmp_path_factory.mktemp("standalone3_x")))
