@@ -375,14 +375,16 @@ def compile_loader(dest: Path, library: Path | None, soname: str,
                    bundled_python: bool = False,
                    versions: tuple[str, ...] | None = None,
                    source: Path = LOADER_SOURCE,
-                   extra_defines: dict[str, int] | None = None) -> Path:
+                   extra_defines: dict[str, int] | None = None,
+                   model_identifier: str | None = None) -> Path:
     """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython();
     ``pythonfmu_library`` is where it finds PythonFMU's library, relative to binaries/linux64.
     In a native host the loader also looks for ``libpython<version>.so.1.0`` of the other
     ``versions`` (default :func:`python_versions`). With ``bundled_python`` the loader starts
     the runtime of a standalone FMU (:func:`make_standalone`) in a process without Python; that
     needs the build's Python.h. ``source`` is loader.c, or fmi3.c (the FMI 3.0 library, which
-    includes it), with ``extra_defines`` (name -> integer)."""
+    includes it), with ``extra_defines`` (name -> integer); ``model_identifier`` names the FMU
+    in the library's messages (default: PythonFMU's library's name)."""
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     if compiler is None:
         raise NativeBuildError(
@@ -395,7 +397,7 @@ def compile_loader(dest: Path, library: Path | None, soname: str,
         "PYTHON_VERSION": python_version(),
         "PYTHON_VERSIONS": " ".join(python_versions() if versions is None else versions),
         "PYTHONFMU_LIBRARY": pythonfmu_library,
-        "MODEL_IDENTIFIER": Path(pythonfmu_library).stem,
+        "MODEL_IDENTIFIER": model_identifier or Path(pythonfmu_library).stem,
     }
     flags = []
     if bundled_python:
@@ -591,8 +593,6 @@ PROBE_SCENES = {
     ],
     MODAL_SLAVE_NAME: [({}, [("force", 1000.0)]), ({"modes": 2}, [("force", 10.0)])],
 }
-PROBE_SCENES.update(IceImpact3=PROBE_SCENES[SLAVE_NAME],
-                    ModalStructure3=PROBE_SCENES[MODAL_SLAVE_NAME])
 
 
 def imported_modules(fmu_dir: Path, slave_name: str) -> list[str]:
@@ -792,24 +792,23 @@ def write_system(dest: str | Path) -> Path:
 
 
 # FMI 3.0 ------------------------------------------------------------------------------------------
-# dist/IceImpact3.fmu and dist/ModalStructure3.fmu: the same slaves (fmu_src/IceImpact3.py,
-# fmu_src/ModalStructure3.py, which differ from IceImpact.py and ModalStructure.py by
-# FMI_VERSION = 3 only) and the same contract tables, as FMI 3.0 Co-Simulation FMUs. Each is made
-# from the FMI 2.0 build of its slave (build_slave, then make_standalone for --standalone):
+# dist/IceImpact3.fmu and dist/ModalStructure3.fmu: IceImpact.fmu and ModalStructure.fmu as FMI 3.0
+# Co-Simulation FMUs. Each is made from the FMI 2.0 FMU itself (fmi3_from_fmi2: the same slave,
+# model core and resources, byte for byte), and a standalone one from the standalone FMI 2.0 FMU:
 #
 #   modelDescription.xml                      FMI 3.0, converted from the FMI 2.0 one
 #                                             (fmi3_model_description: the same variables,
 #                                             value references, units, ranges, start values,
 #                                             descriptions, dependencies, default experiment)
-#   binaries/x86_64-linux/<id>.so             fmu_native/fmi3.c, compiled here (it includes
+#   binaries/x86_64-linux/<id>3.so            fmu_native/fmi3.c, compiled here (it includes
 #                                             the FMI 2.0 loader, loader.c)
 #   binaries/x86_64-linux/pythonfmu/<id>.so   PythonFMU's FMI 2.0 library, as in the FMI 2.0 FMU
 #   binaries/x86_64-linux/python/             the standalone runtime (standalone FMUs only)
 #   resources/                                as in the FMI 2.0 FMU
 
 FMI3_PLATFORM = "x86_64-linux"
-#: What differs between the FMI 2.0 and FMI 3.0 builds of a model: the FMI 3.0 model identifier
-#: (the slave's name) and whether its steps may return early (at impacts).
+#: The FMI 3.0 FMUs: the FMI 2.0 model identifier -> (the FMI 3.0 one, whether its steps may
+#: return early, at contact events).
 FMI3_MODELS = {SLAVE_NAME: ("IceImpact3", True), MODAL_SLAVE_NAME: ("ModalStructure3", False)}
 #: FMI 2.0 ModelStructure lists -> FMI 3.0 elements.
 _FMI3_STRUCTURE = {"Outputs": "Output", "Derivatives": "ContinuousStateDerivative",
@@ -892,43 +891,46 @@ def fmi3_model_description(xml: bytes, model_name: str, model_identifier: str,
     return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
 
 
-def fmi3_from_fmi2(fmu: Path, target: Path, slave_name: str, model_name: str,
-                   returns_early: bool, bundled_python: bool = False) -> Path:
-    """Write ``target``, the FMI 3.0 FMU made of ``fmu``, an FMI 2.0 build of the slave
-    ``slave_name`` (:func:`build_slave`, or :func:`make_standalone` with ``bundled_python``)."""
+def fmi3_from_fmi2(fmu: Path, dest: str | Path, bundled_python: bool = False) -> Path:
+    """Write ``<dest>/<id>3.fmu``, the FMI 3.0 FMU made of ``fmu``, the FMI 2.0 FMU ``<id>.fmu``
+    (a build of :func:`build_slave`, or with ``bundled_python`` of :func:`make_standalone`)."""
     from iceimpact.fmi.lifecycle import EARLY_RETURN, REACHED_TIME
     from iceimpact.fmi.slave_base import FMI3_CHANNEL
 
-    old, new = f"binaries/{NATIVE_PLATFORM}/", f"binaries/{FMI3_PLATFORM}/"
     with zipfile.ZipFile(fmu) as src:
         entries = {info.filename: src.read(info) for info in src.infolist()}
+    model = ET.fromstring(entries["modelDescription.xml"]).find("CoSimulation").get(
+        "modelIdentifier")
+    identifier, returns_early = FMI3_MODELS[model]
+    old, new = f"binaries/{NATIVE_PLATFORM}/", f"binaries/{FMI3_PLATFORM}/"
     out: dict[str, bytes] = {}
     for name, data in entries.items():
         if name.startswith("binaries/") and not name.startswith(old):
             continue  # (PythonFMU's Windows library: FMI 2.0 only)
-        if name == f"{old}{slave_name}.so":
+        if name == f"{old}{model}.so":
             continue  # the FMI 2.0 loader: compiled into the FMI 3.0 library below
         if name == "modelDescription.xml":
-            data = fmi3_model_description(data, model_name, slave_name, returns_early,
+            data = fmi3_model_description(data, model, identifier, returns_early,
                                           FMI3_CHANNEL[REACHED_TIME][0],
                                           standalone=bundled_python)
         elif name == "resources/iceimpact_fmu/python.json":
-            data = data.replace(old.encode(), new.encode())
+            config = json.loads(data.replace(old.encode(), new.encode()))
+            config["model_identifier"] = identifier  # (the boot module's messages name it)
+            data = (json.dumps(config, indent=2) + "\n").encode()
         out[new + name[len(old):] if name.startswith(old) else name] = data
-    config = json.loads(out["resources/iceimpact_fmu/python.json"])
     with tempfile.TemporaryDirectory(prefix="iceimpact_fmi3_") as tmp:
-        library = Path(tmp) / f"{slave_name}.so"
-        defines = {"EARLY_RETURN_VR": FMI3_CHANNEL[EARLY_RETURN][0],
-                   "REACHED_TIME_VR": FMI3_CHANNEL[REACHED_TIME][0]}
+        library = Path(tmp) / f"{identifier}.so"
+        options = dict(source=FMI3_SOURCE, model_identifier=identifier,
+                       extra_defines={"EARLY_RETURN_VR": FMI3_CHANNEL[EARLY_RETURN][0],
+                                      "REACHED_TIME_VR": FMI3_CHANNEL[REACHED_TIME][0]})
         if bundled_python:
             compile_loader(library, None, config["standalone"]["libpython"],
-                           f"pythonfmu/{slave_name}.so", bundled_python=True,
-                           source=FMI3_SOURCE, extra_defines=defines)
+                           f"pythonfmu/{model}.so", bundled_python=True, **options)
         else:
             path, soname = libpython()
-            compile_loader(library, path, soname, f"pythonfmu/{slave_name}.so",
-                           source=FMI3_SOURCE, extra_defines=defines)
-        out[f"{new}{slave_name}.so"] = library.read_bytes()
+            compile_loader(library, path, soname, f"pythonfmu/{model}.so", **options)
+        out[f"{new}{identifier}.so"] = library.read_bytes()
+    target = Path(dest).resolve() / f"{identifier}.fmu"
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp_fmu = target.with_suffix(".fmu.tmp")
     with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED,
@@ -940,23 +942,21 @@ def fmi3_from_fmi2(fmu: Path, target: Path, slave_name: str, model_name: str,
 
 
 def build_fmi3(model: str = SLAVE_NAME, dest: str | Path = ROOT / "dist",
-               source_dir: str | Path = FMU_SRC,
-               standalone_dest: str | Path | None = None) -> Path:
-    """Build ``<dest>/<model>3.fmu`` (FMI 3.0; ``model`` is IceImpact or ModalStructure), and
-    with ``standalone_dest`` also its standalone variant there."""
-    slave_name, returns_early = FMI3_MODELS[model]
-    contract = "iceimpact.contract" if model == SLAVE_NAME else "iceimpact.modal.contract"
+               standalone_dest: str | Path | None = None, fmu: Path | None = None,
+               standalone: Path | None = None) -> Path:
+    """Build ``<dest>/<model>3.fmu`` (FMI 3.0; ``model``: IceImpact or ModalStructure) from the
+    FMI 2.0 FMU ``fmu`` (default: built here), and with ``standalone_dest`` its standalone
+    variant there, from the standalone FMI 2.0 FMU ``standalone`` (default: made here)."""
     if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
         raise NativeBuildError("the FMI 3.0 FMUs are built on Linux x86_64 only")
-    dest = Path(dest).resolve()
     with tempfile.TemporaryDirectory(prefix="iceimpact_fmi2_of_3_") as tmp:
-        fmu2 = build_slave(slave_name, contract, tmp, source_dir)
-        target = fmi3_from_fmi2(fmu2, dest / f"{slave_name}.fmu", slave_name, model,
-                                returns_early)
+        if fmu is None:
+            fmu = (build if model == SLAVE_NAME else build_modal)(tmp)
+        target = fmi3_from_fmi2(fmu, dest)
         if standalone_dest is not None:
-            standalone2 = make_standalone(fmu2, Path(tmp) / STANDALONE_DIR, slave_name)
-            fmi3_from_fmi2(standalone2, Path(standalone_dest).resolve() / f"{slave_name}.fmu",
-                           slave_name, model, returns_early, bundled_python=True)
+            if standalone is None:
+                standalone = make_standalone(fmu, Path(tmp) / STANDALONE_DIR, model)
+            fmi3_from_fmi2(standalone, standalone_dest, bundled_python=True)
     return target
 
 
@@ -970,13 +970,24 @@ def _with_standalone(builder, name: str):
     return build_it
 
 
-#: What ``python build_fmu.py --fmu NAME`` builds: NAME -> ``(dest, standalone_dest) -> FMU``.
+def _fmi3_builder(model: str):
+    """A builder of BUILDERS for ``<model>3.fmu``: from ``<model>.fmu`` (and its standalone
+    variant) in the same folders if there, else from an FMI 2.0 build of its own."""
+    def build_it(dest: str | Path, standalone_dest: str | Path | None = None) -> Path:
+        fmu = Path(dest) / f"{model}.fmu"
+        standalone = None if standalone_dest is None else Path(standalone_dest) / fmu.name
+        if not fmu.exists() or (standalone is not None and not standalone.exists()):
+            fmu = standalone = None
+        return build_fmi3(model, dest, standalone_dest, fmu=fmu, standalone=standalone)
+    return build_it
+
+
+#: What ``python build_fmu.py --fmu NAME`` builds: NAME -> ``(dest, standalone_dest) -> FMU``,
+#: in this order (the FMI 3.0 FMUs from the FMI 2.0 ones built just before).
 BUILDERS = {
     SLAVE_NAME: _with_standalone(build, SLAVE_NAME),
     MODAL_SLAVE_NAME: _with_standalone(build_modal, MODAL_SLAVE_NAME),
-    **{slave: (lambda dest, standalone_dest=None, model=model:
-               build_fmi3(model, dest, standalone_dest=standalone_dest))
-       for model, (slave, _) in FMI3_MODELS.items()},
+    **{identifier: _fmi3_builder(model) for model, (identifier, _) in FMI3_MODELS.items()},
 }
 
 

@@ -39,6 +39,16 @@ def c_host(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def c_host3(tmp_path_factory) -> Path:
+    """The FMI 3.0 C master of tests/c_host/host3.c, compiled once (with the FMI 3.0 headers
+    of fmu_native/fmi3)."""
+    from native_host import C_HOST, ROOT, compile_c
+
+    return compile_c(C_HOST / "host3.c", tmp_path_factory.mktemp("host3") / "host3",
+                     f"-I{ROOT / 'fmu_native' / 'fmi3'}", "-ldl")
+
+
+@pytest.fixture(scope="session")
 def standalone_fmu(fmu, tmp_path_factory) -> Path:
     """The session's IceImpact.fmu made standalone (build_fmu.py --standalone)."""
     return build_module().make_standalone(fmu, tmp_path_factory.mktemp("standalone"))
@@ -62,9 +72,9 @@ def fmus(fmu, tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def fmu3(tmp_path_factory) -> Path:
-    """IceImpact3.fmu (FMI 3.0), built once into a temporary folder."""
-    return build_module().build_fmi3("IceImpact", tmp_path_factory.mktemp("dist3"))
+def fmu3(fmu, tmp_path_factory) -> Path:
+    """IceImpact3.fmu (FMI 3.0), made of the session's IceImpact.fmu."""
+    return build_module().fmi3_from_fmi2(fmu, tmp_path_factory.mktemp("dist3"))
 
 
 @pytest.fixture(scope="session")
@@ -84,12 +94,11 @@ def fmus3(fmu3, tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def standalone_fmu3(tmp_path_factory) -> Path:
-    """IceImpact3.fmu made standalone (build_fmu.py --standalone): its own CPython runtime."""
-    folder = tmp_path_factory.mktemp("standalone3")
-    build_module().build_fmi3("IceImpact", tmp_path_factory.mktemp("dist3s"),
-                              standalone_dest=folder)
-    return folder / "IceImpact3.fmu"
+def standalone_fmu3(standalone_fmu, tmp_path_factory) -> Path:
+    """IceImpact3.fmu made standalone (build_fmu.py --standalone): made of the session's
+    standalone IceImpact.fmu."""
+    return build_module().fmi3_from_fmi2(standalone_fmu, tmp_path_factory.mktemp("standalone3"),
+                                         bundled_python=True)
 
 
 @pytest.fixture(scope="session")

@@ -70,9 +70,10 @@ def fail_call(slave: Fmi2Slave, message: str) -> None:
     slave.log(message, Fmi2Status.error, FAIL_CATEGORY)
 
 
-#: The value references through which the FMI 3.0 layer (fmu_native/fmi3.c, compiled with these
-#: numbers) sets and reads EARLY_RETURN (a Boolean) and REACHED_TIME (a Real) of an FMI 3.0
-#: slave; no model description lists them, and an FMI 2.0 slave refuses them as any unknown one.
+#: The value references through which the FMI 3.0 layer of IceImpact3.fmu (fmu_native/fmi3.c,
+#: compiled with these numbers) sets EARLY_RETURN (a Boolean) and reads REACHED_TIME (a Real, the
+#: FMI 3.0 description's independent variable ``time``): the same slave serves both FMI
+#: versions; no FMI 2.0 description lists them.
 FMI3_CHANNEL = {EARLY_RETURN: (0x7FFFFF00, bool), REACHED_TIME: (0x7FFFFF01, float)}
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
@@ -130,8 +131,6 @@ class FmuSlave(Fmi2Slave):
 
     CONTRACT: ClassVar[ModuleType]
     MODEL: ClassVar[type[FmuLifecycle]]
-    #: The FMI version of the FMU the slave is built into: 3 adds :data:`FMI3_CHANNEL`.
-    FMI_VERSION: ClassVar[int] = 2
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -164,12 +163,11 @@ class FmuSlave(Fmi2Slave):
                     for kind in _TYPE_NAMES}
         #: value reference -> name, of every variable fmi2Get may read
         cls._names = {vr: v.name for vr, v in enumerate(variables)}
-        if cls.FMI_VERSION == 3:
-            vr, kind = FMI3_CHANNEL[EARLY_RETURN]
-            cls._settable[kind][vr] = EARLY_RETURN
-            vr, kind = FMI3_CHANNEL[REACHED_TIME]
-            readable[kind].add(vr)
-            cls._names[vr] = REACHED_TIME
+        vr, kind = FMI3_CHANNEL[EARLY_RETURN]
+        cls._settable[kind][vr] = EARLY_RETURN
+        vr, kind = FMI3_CHANNEL[REACHED_TIME]
+        readable[kind].add(vr)
+        cls._names[vr] = REACHED_TIME
         cls._readable = {kind: frozenset(vrs) for kind, vrs in readable.items()}
 
     def __init__(self, **kwargs: Any) -> None:
