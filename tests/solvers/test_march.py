@@ -67,6 +67,28 @@ def test_a_step_adds_the_pending_impulse_the_spans_and_each_events_impacts_in_or
     assert toy.log == [("next", 2.0), ("finish", 2.0)]
 
 
+class ToyImpacts(Toy):
+    """Toy whose events are impacts (counted)."""
+
+    def event_time(self, event):
+        return event
+
+    def at_event(self, event):
+        super().at_event(event)
+        self.impact_count += 1
+
+
+def test_a_step_stopping_at_events_stops_after_its_start_and_before_its_end_only():
+    toy = ToyImpacts([0.0, 0.5, 1.0])
+    impulse = toy.advance_to(1.0, 0.0, stop_at_event=True)
+    # the impact at the start (t = 0) is taken, not stopped at; the one at 0.5 is the stop
+    assert toy.state.t == 0.5 and toy.impact_count == 2
+    assert impulse == (0.25 + 0.0) + 10.0 + 0.5 + 10.0
+    # the one at the end of the step is the step's end, not an early return
+    assert toy.advance_to(1.0, 0.0, stop_at_event=True) == 0.5 + 10.0
+    assert toy.state.t == 1.0 and toy.impact_count == 3
+
+
 def test_the_flow_reanchors_the_segment_once_and_only_when_it_changes():
     toy = Toy([])
     toy.advance_to(1.0, 0.0)

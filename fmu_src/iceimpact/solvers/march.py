@@ -35,9 +35,10 @@ class EventMarch(Solver):
        to be taken, a hint for how far to compute ahead).
     6. ``event_time(event)``: the time (s) of an event ``next_event`` returned.
 
-    With ``stop_at_event``, :meth:`march` ends at the first contact event before ``t_end``: an
-    event that brings an impact or starts or ends the bodies' sticking together (a touch without
-    speed that leaves them in flight is not one). ``state`` is then the state just after it
+    With ``stop_at_event``, :meth:`march` ends at the first contact event after its start and
+    before ``t_end``: an event that brings an impact or starts or ends the bodies' sticking
+    together (a touch without speed that leaves them in flight is not one; nor an event at the
+    start, so that a step always advances the time). ``state`` is then the state just after it
     (an impact's impulse included in the returned one), and the next march goes on from there
     exactly as the uninterrupted march would have (an FMI 3.0 early return, docs/fmu.md).
 
@@ -64,6 +65,7 @@ class EventMarch(Solver):
         order, so that every path that marches adds the same numbers in the same order)."""
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
+        t_start = self.state.t
         while True:
             event = self.next_event(t_end)
             if event is None:
@@ -74,7 +76,9 @@ class EventMarch(Solver):
                 count, sticking = self.impact_count, self.sticking
                 t_event = self.event_time(event)
                 impulse += self.take_event(event)
-                if (self.impact_count != count or self.sticking != sticking) and t_event < t_end:
+                # (never at the start: a step must advance the time)
+                if ((self.impact_count != count or self.sticking != sticking)
+                        and t_start < t_event < t_end):
                     impulse += self.finish(t_event)  # the new segment at its start: no impulse
                     return impulse
             else:
