@@ -184,12 +184,6 @@ FMI3_Export fmi3Instance fmi3InstantiateCoSimulation(
         free(inst);
         return NULL;
     }
-    /* loader.c's exit guard (6.) once more, now that the slave imported numpy and scipy: the
-       guard registered at load runs after their extension modules' static destructors, and
-       Python's finalization then frees through them (a crash at exit of every other native
-       run); the FMI 2.0 FMU's slave registers it here itself, for binaries/linux64/ only. */
-    static int guarded = 0;
-    if (!guarded && pythonfmu_finalize) guarded = !__cxa_atexit(finalize_pythonfmu, NULL, NULL);
     if (earlyReturnAllowed) {
         const fmi2ValueReference vr = EARLY_RETURN_VR;
         const fmi2Boolean on = 1;
