@@ -533,6 +533,13 @@ RESULT_SOURCES: dict[str, tuple[str, str]] = {
     "reference_events": ("Reference runs' events against an earlier tree",
                          "python tools/compare_reference_events.py"),
     "work_precision": ("Work-precision study", "python benchmarks/work_precision.py"),
+    "work_precision_log": ("Work-precision study: log of its runs",
+                           "python benchmarks/work_precision.py"),
+    "extremes_matrix": ("The extremes matrix", "python tests/extremes.py"),
+    "ode_rate_cost": ("Method 3's explicit integrators: cost against the rate",
+                      "python tools/ode_rate_cost.py"),
+    "taylor_rate_cost": ("Method 1's Taylor sticking steps: cost against the rate",
+                         "python tools/taylor_rate_cost.py"),
     "random_search_runs": ("Random search runs", "python tools/random_search.py"),
     "far_scale_search_runs": ("Far-scale search runs", "python tools/random_search.py --far"),
     "speed_log": ("Speed measurements over the rounds of faster impacts",
@@ -563,6 +570,11 @@ def result_source(stem: str) -> tuple[str, str]:
     return (f"{title}: {detail}" if detail else title), command
 
 
+def _first_heading(text: str) -> str | None:
+    first = text.lstrip().splitlines()[0] if text.strip() else ""
+    return first[2:].strip() if first.startswith("# ") else None
+
+
 def measurement_pages() -> dict[str, str | bytes]:
     """measurements/<stem>.md for each benchmarks/results/*.md, the JSON files as they are, and
     measurements/index.md listing both."""
@@ -575,10 +587,12 @@ def measurement_pages() -> dict[str, str | bytes]:
         md, js = RESULTS / f"{stem}.md", RESULTS / f"{stem}.json"
         files = []
         if md.exists():
+            text = md.read_text()
+            title = _first_heading(text) or title
             pages[f"measurements/{stem}.md"] = (
-                f"# {title}\n\nThis page is the table `benchmarks/results/{stem}.md` as its "
-                f"script wrote it. `{command}` writes it again (the explanation pages say what "
-                f"it shows).\n\n" + _without_title(md.read_text()))
+                f"# {title}\n\nThis page is `benchmarks/results/{stem}.md` of the repository, "
+                f"as `{command}` and its runs recorded it. The explanation pages say what it "
+                f"shows.\n\n" + _without_title(text))
             files.append(f"[table]({stem}.md)")
         if js.exists():
             pages[f"measurements/{stem}.json"] = js.read_bytes()
