@@ -1,7 +1,8 @@
 """The article's lock-in case (Figure 13, Section 5) through IceImpact.fmu, analysed for lock-in.
 
     python build_fmu.py && python examples/lockin.py [--fmu dist/IceImpact.fmu]
-        [--stop-time 200] [--out out] [--core] [--window 10] [--write-doc docs/explanation/lockin.md]
+        [--stop-time 200] [--out out] [--core] [--window 10]
+        [--write-doc docs/explanation/lockin.md]
 
 Scene: quadratic drag (``drag.model = 2``), ice drag area ``ice.A = 2`` m^2, flow ``flow.u = 0.1``
 m/s, every other parameter at the Figure 2 default (omega_n = sqrt(k/m) = 25 rad/s, e = 1). The

@@ -249,8 +249,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--overwrite", action="store_true",
                         help="replace a regime_map.csv from different settings")
     parser.add_argument("--write-doc", type=Path, metavar="MD",
-                        help="rewrite the generated account of MD (docs/explanation/regime-map.md; the default "
-                             "map only)")
+                        help="rewrite the generated account of MD "
+                             "(docs/explanation/regime-map.md; the default map only)")
     args = parser.parse_args(argv)
 
     label, coarse, fine, _ = AXES[args.axis]

@@ -65,7 +65,8 @@ QUICK_STOP = 8.0
 #: Resolution of the plots written to ``--out``, dots per inch.
 PLOT_DPI = 90
 #: Resolution and palette size of the copies written to ``--img-dir`` (the figures embedded in
-#: docs/explanation/reproduction.md): 80 dpi, 64 colours (lines on white lose nothing visible), 40-150 kB.
+#: docs/explanation/reproduction.md): 80 dpi, 64 colours (lines on white lose nothing visible),
+#: 40-150 kB.
 IMG_DPI = 80
 IMG_COLORS = 64
 

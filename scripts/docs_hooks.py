@@ -107,7 +107,8 @@ def _option_rows(parser: argparse.ArgumentParser) -> list[str]:
     for action in parser._actions:
         if isinstance(action, (argparse._HelpAction, argparse._SubParsersAction)):
             continue
-        name = ", ".join(f"`{s}`" for s in action.option_strings) or f"`{action.metavar or action.dest}`"
+        name = (", ".join(f"`{s}`" for s in action.option_strings)
+                or f"`{action.metavar or action.dest}`")
         if action.option_strings and action.nargs == 0:
             value = ""
         elif action.choices is not None:
@@ -527,7 +528,8 @@ RESULT_SOURCES: dict[str, tuple[str, str]] = {
                          "python benchmarks/count_divergence.py"),
     "coupling": ("Coupling accuracy against the communication step",
                  "python benchmarks/coupling.py"),
-    "implicit_cost": ("Method 3's implicit integrators: cost", "python benchmarks/implicit_cost.py"),
+    "implicit_cost": ("Method 3's implicit integrators: cost",
+                      "python benchmarks/implicit_cost.py"),
     "pure_opcodes": ("Pure Python path: instructions per impact",
                      "python benchmarks/pure_opcodes.py"),
     "reference_events": ("Reference runs' events against an earlier tree",
