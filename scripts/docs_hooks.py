@@ -85,8 +85,10 @@ every output its dependencies in `ModelStructure` ([IceImpact.fmu](fmu.md)).
 FMI 2.0 Co-Simulation, model identifier `{modal.MODEL_IDENTIFIER}`: a linear structure of up to
 five modes seen at one contact point ([how it is coupled](../explanation/coupling.md)). FMI 2.0
 has no arrays: modes 1 to 5 have six parameters each, and `modes` says how many are used (the
-others are ignored and not validated). Modes 2 to 5 default to mode 1's values with `phi = 0`,
-so switching one on without setting it does not move the contact point.
+others are ignored and not validated). The defaults are one mode equal to IceImpact's built-in
+structure (m = 1600 kg, c = 200 N·s/m, k = 1e6 N/m: `f = 3.9789 Hz`, `ζ = 0.0025`); modes 2 to 5
+default to the same values with `phi = 0`, so switching one on without setting it does not move
+the contact point.
 
 {modal.markdown_table()}
 Initial conditions are per mode (`q0`, `v0`): with several modes a displacement of the contact
