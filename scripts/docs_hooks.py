@@ -446,11 +446,13 @@ def errors_page() -> str:
         "`NAME = VALUE is not allowed: ALLOWED`. In Python it is an exception: "
         "`ParameterError` (a value or a combination), `SolverError` (a step a method cannot "
         "take), `StateError` (a saved state), `SweepError` and `SeasonError` (a sweep or a "
-        "load-case table); all are `ValueError` or `RuntimeError` subclasses exported by the "
-        "package. A refused step changes nothing: the simulator, and the FMU, stay as they were "
-        "before it, and a valid step can follow. How the FMU reports each refusal (which "
-        "status, when) is in [IceImpact.fmu](fmu.md#errors); how each host shows it, in "
-        "[Run it in each host](../how-to/run-in-hosts.md#how-a-host-shows-a-refusal).", "",
+        "load-case table). `ParameterError`, `SolverError` and `StateError` are exported by "
+        "`iceimpact`, `SweepError` by `iceimpact.sweep`, `SeasonError` by "
+        "`iceimpact.studies.seasons`. A refused step changes nothing: the simulator, and the "
+        "FMU, stay as they were before it, and a valid step can follow. How the FMU reports "
+        "each refusal (which status, when) is in [IceImpact.fmu](fmu.md#errors); how each "
+        "host shows it, in [Run it in each host]"
+        "(../how-to/run-in-hosts.md#how-a-host-shows-a-refusal).", "",
         "## A value outside its range", "",
         "Each parameter and input of the [contract](fmu-variables.md) has a range. A value "
         "outside it (in Python, a scene file, `--set`, or an FMU setter) gives:", "",
