@@ -11,8 +11,9 @@ The FMI 3.0 FMUs are made from FMI 2.0 builds of the same slaves (:func:`build_f
 runtime, numpy and scipy, for Linux x86_64 machines with no Python (:func:`make_standalone`).
 
 ModalStructure.fmu, a linear structure given by its modes to couple IceImpact.fmu with (see
-docs/coupling.md), is built by :func:`build_modal` the same way, from ``fmu_src/ModalStructure.py``
-and its contract table ``iceimpact.modal.contract``. The rest of this text is about IceImpact.fmu.
+docs/explanation/coupling.md), is built by :func:`build_modal` the same way, from
+``fmu_src/ModalStructure.py`` and its contract table ``iceimpact.modal.contract``. The rest of this
+text is about IceImpact.fmu.
 
 The FMU carries the slave (fmu_src/IceImpact.py), the model core (the ``iceimpact`` package) and
 a requirements.txt (numpy, scipy) under ``resources/``; it runs wherever a Python with numpy and
@@ -27,7 +28,7 @@ For hosts that are not Python processes (a C master, the ECOS command line, libc
 then repackaged (:func:`package_for_native_hosts`): a small loader compiled here from
 ``fmu_native/loader.c`` becomes ``binaries/linux64/IceImpact.so`` in front of PythonFMU's library,
 and the Python environment of the build is recorded under ``resources/iceimpact_fmu/``. See
-docs/fmu.md, "What a host needs".
+docs/how-to/hand-over-the-fmu.md and docs/explanation/fmu-loader.md.
 """
 
 from __future__ import annotations
@@ -474,9 +475,10 @@ def package_for_native_hosts(fmu: Path, slave_name: str = SLAVE_NAME) -> None:
 
 
 # ModalStructure.fmu ------------------------------------------------------------------------------
-# The structure FMU of docs/coupling.md: a linear structure given by its modes (iceimpact.modal),
-# its variables in the contract table iceimpact.modal.contract. Built like IceImpact.fmu (the same
-# bundle, requirements and native-host packaging), from fmu_src/ModalStructure.py.
+# The structure FMU of docs/explanation/coupling.md: a linear structure given by its modes
+# (iceimpact.modal), its variables in the contract table iceimpact.modal.contract. Built like
+# IceImpact.fmu (the same bundle, requirements and native-host packaging), from
+# fmu_src/ModalStructure.py.
 
 MODAL_SLAVE_NAME = "ModalStructure"
 
@@ -778,7 +780,7 @@ def make_standalone(fmu: Path, dest: Path, slave_name: str = SLAVE_NAME) -> Path
 # The system file --------------------------------------------------------------------------------
 #: The coupled system of examples/system/ (IceImpact.fmu on ModalStructure.fmu), written beside the
 #: FMUs when both are built: one file that FMPy, ECOS, libcosim and OMSimulator load as it is
-#: (docs/coupling.md, "The system file in five masters").
+#: (docs/how-to/couple-to-a-structure.md, "The system file in five masters").
 SYSTEM_FILE = "IceOnStructure.ssp"
 SYSTEM_SCRIPT = ROOT / "examples" / "system" / "system.py"
 
@@ -992,7 +994,8 @@ BUILDERS = {
 
 
 def variables_table(fmu: str | Path) -> str:
-    """The variables of a built FMU as the Markdown table of docs/fmu.md (the contract's)."""
+    """The variables of a built FMU as the contract's Markdown table (the documentation's page
+    of FMU variables, docs/reference/fmu-variables.md, is made from the same table)."""
     from fmpy import read_model_description
 
     from iceimpact.contract import markdown_table
@@ -1017,7 +1020,7 @@ def main(argv: list[str] | None = None) -> int:
                              "runtime, numpy and scipy, for Linux x86_64 machines without Python")
     parser.add_argument("--variables-table", action="store_true",
                         help="also print the variables of IceImpact.fmu as a Markdown table "
-                             "(docs/fmu.md)")
+                             "(the contract's table, as the documentation shows it)")
     args = parser.parse_args(argv)
     from fmpy.validation import validate_fmu
 

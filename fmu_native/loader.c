@@ -43,7 +43,7 @@
  *     lib-dynload and site-packages). In a process without Python the loader starts that runtime
  *     itself, isolated: its home and module path are set here from the FMU's own location, the
  *     host's environment (PYTHONHOME, PYTHONPATH, ...) is ignored, no signal handler is
- *     installed. A process that already runs Python keeps its interpreter (docs/fmu.md).
+ *     installed. A process that already runs Python keeps its interpreter (docs/explanation/fmu-loader.md).
  *  6. PythonFMU 0.7.0 frees its interpreter state twice at exit: the C++ static destructor of its
  *     `pyState` (an exit handler) frees the block, then its ELF destructor (onLibraryUnload, run
  *     by _dl_fini) assigns to the destroyed pointer and decrements a count inside the freed block,
@@ -640,7 +640,7 @@ static void *open_python(const fmi2CallbackFunctions *f, fmi2String name, const 
                "process has not loaded and which was not found: %s. Install one of them as a "
                "shared library, with numpy and scipy (Debian/Ubuntu: apt-get install "
                "libpython3.X python3-numpy python3-scipy, 3.X the version of python3), or use "
-               "the standalone FMU, which carries its own Python (docs/fmu.md).",
+               "the standalone FMU, which carries its own Python (docs/how-to/hand-over-the-fmu.md).",
                wanted.text, missing.text);
         return NULL;
     }

@@ -3,7 +3,7 @@
 Native hosts (a plain C master, the ECOS command line, libcosim's C API) run with ``env={}``:
 no LD_PRELOAD, PYTHONPATH or PYTHONHOME. The FMU's loader (fmu_native/loader.c) brings in the
 libpython it was built with and the boot module (fmu_src/iceimpact_fmu_boot.py) the Python
-environment recorded in resources/ (see docs/fmu.md, "What a host needs"). Also here: the FMU
+environment recorded in resources/ (see docs/how-to/hand-over-the-fmu.md). Also here: the FMU
 runs its own core whatever the host imported, errors reach a default host call, instances do not
 leak, and several FMUs share a process; with Python 3.12 and 3.13 (FMPy under each, and a C host
 on a machine whose only Python is one of them) the results equal Python 3.11's to the last bit.

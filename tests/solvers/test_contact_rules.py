@@ -162,7 +162,8 @@ def test_an_elastic_chatter_at_a_stiff_structure_is_bounded_by_the_chatter_time(
     shorter than the chatter time (CHATTER_FRACTION of the structure's period), then the
     bodies stick. So the impacts of any window are at most its length over the chatter time
     (the rate reaches ~0.9 of it), the chatter ends, and its total is ~0.1 omega_n impacts
-    (9,894 at 1e4 rad/s, 107,737 at 1e5): the work docs/robustness.md bounds."""
+    (9,894 at 1e4 rad/s, 107,737 at 1e5): the work docs/explanation/robustness/stiff-structures.md
+    bounds."""
     from iceimpact.solvers.contact_rules import chatter_time
 
     scene = Scene(**ELASTIC_CHATTER)
@@ -183,7 +184,8 @@ def test_an_elastic_chatter_at_a_stiff_structure_is_bounded_by_the_chatter_time(
 
 @pytest.mark.parametrize("method", [1, 3])
 def test_the_contact_after_an_impact_is_not_a_degenerate_contact(monkeypatch, method):
-    """Fix 30's light floe (0.34 mg on a 1.8 g structure, e = 0.7, the flow reversed one 1 ms
+    """The light floe bouncing near the explicit rate limit (0.34 mg on a 1.8 g structure, e = 0.7,
+    the flow reversed one 1 ms
     step in four): every 4 ms the returning floe's impact is closed plastically (chatter
     closure), and the contact right after it, at equal velocities, was counted as a contact
     re-forming with no speed. From the ninth within the chatter time (0.39 s) the bodies were

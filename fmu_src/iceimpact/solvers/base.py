@@ -122,7 +122,7 @@ class Solver:
     def __init__(self, scene: Scene, record_impacts: bool = True):
         self.scene = scene
         # the mass moving with the structure: m + m_a with the Morison added mass (eq. 8 and the
-        # impact law, docs/morison.md), exactly m without it
+        # impact law, docs/explanation/morison.md), exactly m without it
         self.m = scene.structure_mass
         #: Morison drag of the flow on the structure (same law as the ice's), None when off
         self.structure_drag = make_structure_drag(scene)
@@ -171,7 +171,8 @@ class Solver:
         """Count an impact (and list it, if impacts are recorded). One impact beyond the step's
         budget (:meth:`begin_step`) raises :class:`SolverError`: the simulator rolls the step
         back, so a scene whose impacts would take a step minutes or hours (a stick-part cycle
-        at a stiff structure, docs/robustness.md) is refused with the way out, never a hang."""
+        at a stiff structure, docs/explanation/robustness/budgets.md) is refused with the way out,
+        never a hang."""
         if self.impact_count >= self.impact_limit:
             raise SolverError(self._over_budget(impact.t))
         self.impact_count += 1

@@ -42,8 +42,8 @@ ZENO_TIME = 1e-9
 #: stops bouncing: pressed on the structure by the flow, the ice makes ever smaller and faster
 #: bounces (the impact rate doubles every ~25 s in the Figure 2 scene) whose mean force is the
 #: sticking contact force. Closing them bounds the work per simulated second; the motion it skips
-#: is a bounce of height (g'' T^2 / 8) below ~1e-9 m in the Figure 2 scene. The README gives
-#: its measured effect.
+#: is a bounce of height (g'' T^2 / 8) below ~1e-9 m in the Figure 2 scene. docs/explanation/
+#: decisions.md gives its measured effect.
 CHATTER_FRACTION = 1e-2
 
 #: A closing speed below ROUNDING_SPEED * (|v| + |w| + |u| + wn |x|) is rounding, not an impact.
@@ -259,7 +259,8 @@ class Together:
 
 
 class TogetherWithStructureDrag(Together):
-    """Bodies moving together with the Morison drag on the structure as well (docs/morison.md):
+    """Bodies moving together with the Morison drag on the structure as well
+    (docs/explanation/morison.md):
     ``(m + m_a + M) x'' + c x' + k x = F_drag(x') + F_s(x')``, ``m`` being m + m_a. The contact
     force stays the drag on the ice minus the ice's inertia, and the integrated impulse ``P`` the
     ice's drag impulse: the structure's drag acts on the structure, not through the contact."""
@@ -442,7 +443,7 @@ class ContactRules:
         the bodies' state, :func:`reanchor_on_flow_change`), or an impact (the velocities after
         it, equal after a plastic one: the closing speed the impact resolved was real). Counted,
         repeated real impacts would hold the bodies with no look for a separation
-        (docs/robustness.md#contact-after-impact).
+        (docs/explanation/robustness/contact.md#contact-after-impact).
         """
         policy = self.policy
         closing = w - v

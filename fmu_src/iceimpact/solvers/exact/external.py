@@ -9,7 +9,7 @@ impulse the ice delivered during the step, which the master applies to the struc
 first (``coupling.scheme = 1``), the next one with a Jacobi master (``coupling.scheme = 2``, the
 fixed-step algorithms of ECOS and libcosim).
 
-Within a step (docs/coupling.md, "External-structure mode"):
+Within a step (docs/explanation/coupling.md, "External-structure mode"):
 
 - **The structure's own forces.** ``F_o`` (spring, damping, anything but the contact) is measured
   from the structure's acceleration and the contact force it felt: ``F_o = m a_in - F_felt`` at

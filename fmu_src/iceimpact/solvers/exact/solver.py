@@ -48,7 +48,8 @@ class EventSolver(EventMarch):
         super().__init__(scene, record_impacts)
         self.osc = self._structure()
         self.drag = make_drag(scene)
-        # Morison drag on the structure (docs/morison.md): linearised, a damping b_s and an offset
+        # Morison drag on the structure (docs/explanation/morison.md): linearised, a damping b_s
+        # and an offset
         # b_s u / k of the closed form (structure_osc); quadratic, an integrated flight
         # (DraggedFlight). Off: b_s = 0 and the flight is today's closed form.
         drag_s = self._structure_drag()
