@@ -1,12 +1,13 @@
 # IceImpact: two commands for a fresh machine.
 #   make demo   set up .venv, build dist/IceImpact.fmu, simulate the reference scene through FMPy
 #   make test   set up .venv and run the test suite
+#   make docs   the documentation site into site/ (mkdocs build --strict)
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-all fmu standalone bench reproduce regime-map lint clean
+.PHONY: setup demo test test-all fmu standalone bench reproduce regime-map docs lint clean
 
 setup: $(STAMP)
 
@@ -37,19 +38,23 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/core_speed.py
 
-# the article's figures and its lock-in case through the FMU, each number docs/reproduction.md
+# the article's figures and its lock-in case through the FMU, each number docs/explanation/reproduction.md
 # quotes checked against the runs (exit status 3 on a difference); the regime map (~15 s)
 reproduce: $(STAMP)
 	$(PY) build_fmu.py
-	$(PY) examples/reproduce_linear.py --img-dir docs/img --check-doc docs/reproduction.md
-	$(PY) examples/reproduce_quadratic.py --img-dir docs/img --check-doc docs/reproduction.md
+	$(PY) examples/reproduce_linear.py --img-dir docs/img --check-doc docs/explanation/reproduction.md
+	$(PY) examples/reproduce_quadratic.py --img-dir docs/img --check-doc docs/explanation/reproduction.md
 	$(PY) examples/lockin.py
 
 regime-map: $(STAMP)
 	$(PY) examples/regime_map.py
 
+# the documentation site into site/ (any broken link, anchor or reference fails the build)
+docs: $(STAMP)
+	$(VENV)/bin/mkdocs build --strict --site-dir site
+
 lint: $(STAMP)
-	$(PY) -m ruff check fmu_src tests tools benchmarks examples build_fmu.py
+	$(PY) -m ruff check fmu_src tests tools benchmarks examples scripts build_fmu.py
 
 clean:
-	rm -rf dist out build .pytest_cache
+	rm -rf dist out build site .pytest_cache

@@ -1,13 +1,19 @@
-"""Build dist/IceImpact.fmu and dist/ModalStructure.fmu (FMI 2.0 Co-Simulation) with PythonFMU.
+"""Build dist/IceImpact.fmu and dist/ModalStructure.fmu (FMI 2.0 Co-Simulation) with PythonFMU,
+and dist/IceImpact3.fmu and dist/ModalStructure3.fmu, the same as FMI 3.0 Co-Simulation FMUs.
 
-    python build_fmu.py [--dest dist] [--fmu all|IceImpact|ModalStructure] [--standalone]
+    python build_fmu.py [--dest dist] [--fmu all|IceImpact|ModalStructure|IceImpact3|...]
+                        [--standalone]
+
+The FMI 3.0 FMUs are made from FMI 2.0 builds of the same slaves (:func:`build_fmi3`, section
+"FMI 3.0" below).
 
 ``--standalone`` also writes ``<dest>/standalone/<FMU>.fmu``: the same FMU with its own CPython
 runtime, numpy and scipy, for Linux x86_64 machines with no Python (:func:`make_standalone`).
 
 ModalStructure.fmu, a linear structure given by its modes to couple IceImpact.fmu with (see
-docs/coupling.md), is built by :func:`build_modal` the same way, from ``fmu_src/ModalStructure.py``
-and its contract table ``iceimpact.modal.contract``. The rest of this text is about IceImpact.fmu.
+docs/explanation/coupling.md), is built by :func:`build_modal` the same way, from
+``fmu_src/ModalStructure.py`` and its contract table ``iceimpact.modal.contract``. The rest of this
+text is about IceImpact.fmu.
 
 The FMU carries the slave (fmu_src/IceImpact.py), the model core (the ``iceimpact`` package) and
 a requirements.txt (numpy, scipy) under ``resources/``; it runs wherever a Python with numpy and
@@ -22,7 +28,7 @@ For hosts that are not Python processes (a C master, the ECOS command line, libc
 then repackaged (:func:`package_for_native_hosts`): a small loader compiled here from
 ``fmu_native/loader.c`` becomes ``binaries/linux64/IceImpact.so`` in front of PythonFMU's library,
 and the Python environment of the build is recorded under ``resources/iceimpact_fmu/``. See
-docs/fmu.md, "What a host needs".
+docs/how-to/hand-over-the-fmu.md and docs/explanation/fmu-loader.md.
 """
 
 from __future__ import annotations
@@ -53,6 +59,8 @@ SLAVE_NAME = "IceImpact"
 PACKAGE_NAME = "iceimpact"
 BOOT_MODULE = FMU_SRC / "iceimpact_fmu_boot.py"
 LOADER_SOURCE = ROOT / "fmu_native" / "loader.c"
+FMI3_SOURCE = ROOT / "fmu_native" / "fmi3.c"
+FMI3_HEADERS = ROOT / "fmu_native" / "fmi3"  # the FMI 3.0 standard's headers (2-Clause BSD)
 
 # SI base-unit exponents of the symbols that unit strings are written with ("N.s/m", "kg/m3").
 _SYMBOLS = {
@@ -366,13 +374,18 @@ def python_environment(requirement_lines: list[str], library: Path | None) -> di
 def compile_loader(dest: Path, library: Path | None, soname: str,
                    pythonfmu_library: str = PYTHONFMU_LIBRARY, *,
                    bundled_python: bool = False,
-                   versions: tuple[str, ...] | None = None) -> Path:
+                   versions: tuple[str, ...] | None = None,
+                   source: Path = LOADER_SOURCE,
+                   extra_defines: dict[str, int] | None = None,
+                   model_identifier: str | None = None) -> Path:
     """Compile fmu_native/loader.c into ``dest`` (a .so) for the libpython found by libpython();
     ``pythonfmu_library`` is where it finds PythonFMU's library, relative to binaries/linux64.
     In a native host the loader also looks for ``libpython<version>.so.1.0`` of the other
     ``versions`` (default :func:`python_versions`). With ``bundled_python`` the loader starts
     the runtime of a standalone FMU (:func:`make_standalone`) in a process without Python; that
-    needs the build's Python.h."""
+    needs the build's Python.h. ``source`` is loader.c, or fmi3.c (the FMI 3.0 library, which
+    includes it), with ``extra_defines`` (name -> integer); ``model_identifier`` names the FMU
+    in the library's messages (default: PythonFMU's library's name)."""
     compiler = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     if compiler is None:
         raise NativeBuildError(
@@ -385,7 +398,7 @@ def compile_loader(dest: Path, library: Path | None, soname: str,
         "PYTHON_VERSION": python_version(),
         "PYTHON_VERSIONS": " ".join(python_versions() if versions is None else versions),
         "PYTHONFMU_LIBRARY": pythonfmu_library,
-        "MODEL_IDENTIFIER": Path(pythonfmu_library).stem,
+        "MODEL_IDENTIFIER": model_identifier or Path(pythonfmu_library).stem,
     }
     flags = []
     if bundled_python:
@@ -396,8 +409,10 @@ def compile_loader(dest: Path, library: Path | None, soname: str,
                 f"the Python headers (Debian/Ubuntu: apt-get install python{python_version()}-dev)")
         flags = ["-DBUNDLED_PYTHON", f"-I{include}"]
     command = [compiler, "-shared", "-fPIC", "-O2", "-std=c11", "-Wall", "-Wextra", "-Werror",
-               "-fvisibility=hidden", "-Wl,-z,nodelete", "-o", str(dest), str(LOADER_SOURCE),
-               *(f"-D{k}={json.dumps(v)}" for k, v in defines.items()), *flags, "-ldl",
+               "-fvisibility=hidden", "-Wl,-z,nodelete", "-o", str(dest), str(source),
+               f"-I{LOADER_SOURCE.parent}", f"-I{FMI3_HEADERS}",
+               *(f"-D{k}={json.dumps(v)}" for k, v in defines.items()),
+               *(f"-D{k}={int(v)}" for k, v in (extra_defines or {}).items()), *flags, "-ldl",
                "-lpthread"]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
@@ -460,9 +475,10 @@ def package_for_native_hosts(fmu: Path, slave_name: str = SLAVE_NAME) -> None:
 
 
 # ModalStructure.fmu ------------------------------------------------------------------------------
-# The structure FMU of docs/coupling.md: a linear structure given by its modes (iceimpact.modal),
-# its variables in the contract table iceimpact.modal.contract. Built like IceImpact.fmu (the same
-# bundle, requirements and native-host packaging), from fmu_src/ModalStructure.py.
+# The structure FMU of docs/explanation/coupling.md: a linear structure given by its modes
+# (iceimpact.modal), its variables in the contract table iceimpact.modal.contract. Built like
+# IceImpact.fmu (the same bundle, requirements and native-host packaging), from
+# fmu_src/ModalStructure.py.
 
 MODAL_SLAVE_NAME = "ModalStructure"
 
@@ -764,7 +780,7 @@ def make_standalone(fmu: Path, dest: Path, slave_name: str = SLAVE_NAME) -> Path
 # The system file --------------------------------------------------------------------------------
 #: The coupled system of examples/system/ (IceImpact.fmu on ModalStructure.fmu), written beside the
 #: FMUs when both are built: one file that FMPy, ECOS, libcosim and OMSimulator load as it is
-#: (docs/coupling.md, "The system file in five masters").
+#: (docs/how-to/couple-to-a-structure.md, "The system file in five masters").
 SYSTEM_FILE = "IceOnStructure.ssp"
 SYSTEM_SCRIPT = ROOT / "examples" / "system" / "system.py"
 
@@ -777,12 +793,209 @@ def write_system(dest: str | Path) -> Path:
     return system.write_ssp(Path(dest), Path(dest) / SYSTEM_FILE)
 
 
-#: What ``python build_fmu.py --fmu NAME`` builds.
-BUILDERS = {SLAVE_NAME: build, MODAL_SLAVE_NAME: build_modal}
+# FMI 3.0 ------------------------------------------------------------------------------------------
+# dist/IceImpact3.fmu and dist/ModalStructure3.fmu: IceImpact.fmu and ModalStructure.fmu as FMI 3.0
+# Co-Simulation FMUs. Each is made from the FMI 2.0 FMU itself (fmi3_from_fmi2: the same slave,
+# model core and resources, byte for byte), and a standalone one from the standalone FMI 2.0 FMU:
+#
+#   modelDescription.xml                      FMI 3.0, converted from the FMI 2.0 one
+#                                             (fmi3_model_description: the same variables,
+#                                             value references, units, ranges, start values,
+#                                             descriptions, dependencies, default experiment)
+#   binaries/x86_64-linux/<id>3.so            fmu_native/fmi3.c, compiled here (it includes
+#                                             the FMI 2.0 loader, loader.c)
+#   binaries/x86_64-linux/pythonfmu/<id>.so   PythonFMU's FMI 2.0 library, as in the FMI 2.0 FMU
+#   binaries/x86_64-linux/python/             the standalone runtime (standalone FMUs only)
+#   resources/                                as in the FMI 2.0 FMU
+
+FMI3_PLATFORM = "x86_64-linux"
+#: The FMI 3.0 FMUs: the FMI 2.0 model identifier -> (the FMI 3.0 one, whether its steps may
+#: return early, at contact events).
+FMI3_MODELS = {SLAVE_NAME: ("IceImpact3", True), MODAL_SLAVE_NAME: ("ModalStructure3", False)}
+#: FMI 2.0 ModelStructure lists -> FMI 3.0 elements.
+_FMI3_STRUCTURE = {"Outputs": "Output", "Derivatives": "ContinuousStateDerivative",
+                   "InitialUnknowns": "InitialUnknown"}
+_FMI3_TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
+
+
+def fmi3_model_description(xml: bytes, model_name: str, model_identifier: str,
+                           returns_early: bool, time_reference: int,
+                           standalone: bool = False) -> bytes:
+    """The FMI 3.0 modelDescription.xml of an FMI 2.0 one completed by
+    :func:`complete_model_description` (so: of the contract table): the same model and
+    variables, the FMI 3.0 types and attributes, dependencies by value reference, and the
+    independent variable FMI 3.0 asks for, ``time``, with value reference ``time_reference``
+    (the slave's REACHED_TIME: fmi3GetFloat64 of it gives the instance's time)."""
+    src = ET.fromstring(xml)
+    attrs = {key: src.get(key) for key in (
+        "description", "author", "version", "license", "generationTool",
+        "generationDateAndTime", "variableNamingConvention") if src.get(key) is not None}
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "3.0", "modelName": model_name,
+        "instantiationToken": "{" + src.get("guid").strip("{}") + "}", **attrs})
+    cs = src.find("CoSimulation")
+    ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": model_identifier,
+        "needsExecutionTool": "false" if standalone else cs.get("needsExecutionTool", "true"),
+        "canHandleVariableCommunicationStepSize": "true",
+        "canBeInstantiatedOnlyOncePerProcess": cs.get("canBeInstantiatedOnlyOncePerProcess",
+                                                      "false"),
+        "canGetAndSetFMUState": cs.get("canGetAndSetFMUstate", "false"),
+        "canSerializeFMUState": cs.get("canSerializeFMUstate", "false"),
+        "hasEventMode": "true",
+        "mightReturnEarlyFromDoStep": "true" if returns_early else "false",
+        "canReturnEarlyAfterIntermediateUpdate": "false",
+        "providesIntermediateUpdate": "false"})
+    for tag in ("UnitDefinitions", "LogCategories", "DefaultExperiment"):
+        node = src.find(tag)
+        if node is not None:
+            root.append(node)
+    units = root.find("UnitDefinitions")
+    if units is None:
+        units = ET.Element("UnitDefinitions")
+        root.insert(list(root).index(root.find("CoSimulation")) + 1, units)
+    if not any(unit.get("name") == "s" for unit in units):  # the unit of time
+        ET.SubElement(ET.SubElement(units, "Unit", name="s"), "BaseUnit", s="1")
+        units[:] = sorted(units, key=lambda unit: unit.get("name"))
+    for category in root.iterfind("LogCategories/Category"):
+        category.set("description", category.get("description", "").replace("fmi2", "fmi3"))
+    variables = ET.SubElement(root, "ModelVariables")
+    ET.SubElement(variables, "Float64", name="time", valueReference=str(time_reference),
+                  description="simulation time", causality="independent",
+                  variability="continuous", unit="s")
+    references = []
+    for scalar in src.find("ModelVariables").findall("ScalarVariable"):
+        typed = scalar[0]
+        node = ET.SubElement(variables, _FMI3_TYPES[typed.tag], {
+            key: scalar.get(key) for key in ("name", "valueReference", "description",
+                                             "causality", "variability", "initial")
+            if scalar.get(key) is not None})
+        references.append(scalar.get("valueReference"))
+        for key in ("unit", "min", "max", "nominal"):
+            if typed.get(key) is not None:
+                node.set(key, typed.get(key))
+        if typed.get("start") is not None:
+            if typed.tag == "String":
+                ET.SubElement(node, "Start", value=typed.get("start"))
+            else:
+                node.set("start", typed.get("start"))
+    structure = ET.SubElement(root, "ModelStructure")
+    for tag in ("Outputs", "Derivatives", "InitialUnknowns"):
+        for unknown in src.find("ModelStructure").iterfind(f"{tag}/Unknown"):
+            item = ET.SubElement(structure, _FMI3_STRUCTURE[tag], valueReference=references[
+                int(unknown.get("index")) - 1])
+            if unknown.get("dependencies") is not None:
+                item.set("dependencies", " ".join(
+                    references[int(i) - 1] for i in unknown.get("dependencies").split()))
+                item.set("dependenciesKind", unknown.get("dependenciesKind", ""))
+    text = ET.tostring(root, encoding="unicode")
+    pretty = minidom.parseString(text).toprettyxml(indent="  ", encoding="UTF-8")
+    return b"\n".join(line for line in pretty.splitlines() if line.strip()) + b"\n"
+
+
+def fmi3_from_fmi2(fmu: Path, dest: str | Path, bundled_python: bool = False) -> Path:
+    """Write ``<dest>/<id>3.fmu``, the FMI 3.0 FMU made of ``fmu``, the FMI 2.0 FMU ``<id>.fmu``
+    (a build of :func:`build_slave`, or with ``bundled_python`` of :func:`make_standalone`)."""
+    from iceimpact.fmi.lifecycle import EARLY_RETURN, REACHED_TIME
+    from iceimpact.fmi.slave_base import FMI3_CHANNEL
+
+    with zipfile.ZipFile(fmu) as src:
+        entries = {info.filename: src.read(info) for info in src.infolist()}
+    model = ET.fromstring(entries["modelDescription.xml"]).find("CoSimulation").get(
+        "modelIdentifier")
+    identifier, returns_early = FMI3_MODELS[model]
+    old, new = f"binaries/{NATIVE_PLATFORM}/", f"binaries/{FMI3_PLATFORM}/"
+    out: dict[str, bytes] = {}
+    for name, data in entries.items():
+        if name.startswith("binaries/") and not name.startswith(old):
+            continue  # (PythonFMU's Windows library: FMI 2.0 only)
+        if name == f"{old}{model}.so":
+            continue  # the FMI 2.0 loader: compiled into the FMI 3.0 library below
+        if name == "modelDescription.xml":
+            data = fmi3_model_description(data, model, identifier, returns_early,
+                                          FMI3_CHANNEL[REACHED_TIME][0],
+                                          standalone=bundled_python)
+        elif name == "resources/iceimpact_fmu/python.json":
+            config = json.loads(data.replace(old.encode(), new.encode()))
+            config["model_identifier"] = identifier  # (the boot module's messages name it)
+            data = (json.dumps(config, indent=2) + "\n").encode()
+        out[new + name[len(old):] if name.startswith(old) else name] = data
+    with tempfile.TemporaryDirectory(prefix="iceimpact_fmi3_") as tmp:
+        library = Path(tmp) / f"{identifier}.so"
+        options = dict(source=FMI3_SOURCE, model_identifier=identifier,
+                       extra_defines={"EARLY_RETURN_VR": FMI3_CHANNEL[EARLY_RETURN][0],
+                                      "REACHED_TIME_VR": FMI3_CHANNEL[REACHED_TIME][0]})
+        if bundled_python:
+            compile_loader(library, None, config["standalone"]["libpython"],
+                           f"pythonfmu/{model}.so", bundled_python=True, **options)
+        else:
+            path, soname = libpython()
+            compile_loader(library, path, soname, f"pythonfmu/{model}.so", **options)
+        out[f"{new}{identifier}.so"] = library.read_bytes()
+    target = Path(dest).resolve() / f"{identifier}.fmu"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp_fmu = target.with_suffix(".fmu.tmp")
+    with zipfile.ZipFile(tmp_fmu, "w", zipfile.ZIP_DEFLATED,
+                         compresslevel=9 if bundled_python else None) as dst:
+        for name in sorted(out):
+            dst.writestr(name, out[name])
+    tmp_fmu.replace(target)
+    return target
+
+
+def build_fmi3(model: str = SLAVE_NAME, dest: str | Path = ROOT / "dist",
+               standalone_dest: str | Path | None = None, fmu: Path | None = None,
+               standalone: Path | None = None) -> Path:
+    """Build ``<dest>/<model>3.fmu`` (FMI 3.0; ``model``: IceImpact or ModalStructure) from the
+    FMI 2.0 FMU ``fmu`` (default: built here), and with ``standalone_dest`` its standalone
+    variant there, from the standalone FMI 2.0 FMU ``standalone`` (default: made here)."""
+    if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
+        raise NativeBuildError("the FMI 3.0 FMUs are built on Linux x86_64 only")
+    with tempfile.TemporaryDirectory(prefix="iceimpact_fmi2_of_3_") as tmp:
+        if fmu is None:
+            fmu = (build if model == SLAVE_NAME else build_modal)(tmp)
+        target = fmi3_from_fmi2(fmu, dest)
+        if standalone_dest is not None:
+            if standalone is None:
+                standalone = make_standalone(fmu, Path(tmp) / STANDALONE_DIR, model)
+            fmi3_from_fmi2(standalone, standalone_dest, bundled_python=True)
+    return target
+
+
+def _with_standalone(builder, name: str):
+    """A builder of BUILDERS: ``(dest, standalone_dest=None) -> FMU``."""
+    def build_it(dest: str | Path, standalone_dest: str | Path | None = None) -> Path:
+        fmu = builder(dest)
+        if standalone_dest is not None:
+            make_standalone(fmu, Path(standalone_dest), name)
+        return fmu
+    return build_it
+
+
+def _fmi3_builder(model: str):
+    """A builder of BUILDERS for ``<model>3.fmu``: from ``<model>.fmu`` (and its standalone
+    variant) in the same folders if there, else from an FMI 2.0 build of its own."""
+    def build_it(dest: str | Path, standalone_dest: str | Path | None = None) -> Path:
+        fmu = Path(dest) / f"{model}.fmu"
+        standalone = None if standalone_dest is None else Path(standalone_dest) / fmu.name
+        if not fmu.exists() or (standalone is not None and not standalone.exists()):
+            fmu = standalone = None
+        return build_fmi3(model, dest, standalone_dest, fmu=fmu, standalone=standalone)
+    return build_it
+
+
+#: What ``python build_fmu.py --fmu NAME`` builds: NAME -> ``(dest, standalone_dest) -> FMU``,
+#: in this order (the FMI 3.0 FMUs from the FMI 2.0 ones built just before).
+BUILDERS = {
+    SLAVE_NAME: _with_standalone(build, SLAVE_NAME),
+    MODAL_SLAVE_NAME: _with_standalone(build_modal, MODAL_SLAVE_NAME),
+    **{identifier: _fmi3_builder(model) for model, (identifier, _) in FMI3_MODELS.items()},
+}
 
 
 def variables_table(fmu: str | Path) -> str:
-    """The variables of a built FMU as the Markdown table of docs/fmu.md (the contract's)."""
+    """The variables of a built FMU as the contract's Markdown table (the documentation's page
+    of FMU variables, docs/reference/fmu-variables.md, is made from the same table)."""
     from fmpy import read_model_description
 
     from iceimpact.contract import markdown_table
@@ -800,14 +1013,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--dest", default=str(ROOT / "dist"),
                         help="output folder (default: dist)")
     parser.add_argument("--fmu", choices=["all", *BUILDERS], default="all",
-                        help="which FMU to build (default: all, i.e. IceImpact.fmu and "
-                             "ModalStructure.fmu)")
+                        help="which FMU to build (default: all, i.e. IceImpact.fmu, "
+                             "ModalStructure.fmu, IceImpact3.fmu and ModalStructure3.fmu)")
     parser.add_argument("--standalone", action="store_true",
                         help="also write <dest>/standalone/<FMU>.fmu, each with its own CPython "
                              "runtime, numpy and scipy, for Linux x86_64 machines without Python")
     parser.add_argument("--variables-table", action="store_true",
                         help="also print the variables of IceImpact.fmu as a Markdown table "
-                             "(docs/fmu.md)")
+                             "(the contract's table, as the documentation shows it)")
     args = parser.parse_args(argv)
     from fmpy.validation import validate_fmu
 
@@ -815,7 +1028,8 @@ def main(argv: list[str] | None = None) -> int:
     for name, builder in BUILDERS.items():
         if args.fmu not in ("all", name):
             continue
-        fmu = builder(args.dest)
+        standalone_dest = Path(args.dest) / STANDALONE_DIR if args.standalone else None
+        fmu = builder(args.dest, standalone_dest)
         if args.variables_table and name == SLAVE_NAME:
             print(variables_table(fmu))
         problems = validate_fmu(str(fmu))
@@ -824,8 +1038,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"built {fmu}" + ("" if not problems else f" ({len(problems)} validation "
                                                        "problems)"))
         failed += bool(problems)
-        if args.standalone:
-            standalone = make_standalone(fmu, Path(args.dest) / STANDALONE_DIR, name)
+        if standalone_dest is not None:
+            standalone = standalone_dest / fmu.name
             print(f"built {standalone} ({standalone.stat().st_size / 1e6:.0f} MB, with its own "
                   f"Python {python_version()}, numpy and scipy)")
     if args.fmu == "all":

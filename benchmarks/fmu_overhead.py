@@ -1,4 +1,5 @@
-"""Cost of one doStep of IceImpact.fmu against a PythonFMU slave that does no work.
+"""Cost of one doStep of IceImpact.fmu (and IceImpact3.fmu, FMI 3.0) against a PythonFMU slave
+that does no work.
 
     python benchmarks/fmu_overhead.py [--quick] [--repeat N] [--base COMMIT]
 
@@ -19,10 +20,12 @@ batch calls (``iceimpact.fmi.slave_base``). The yardstick is a do-nothing slave 
 makes it, so the benchmark checks that the trivial slave overrides none of those methods.
 
 A second table splits a step into its FMI calls: each FMU is instantiated with FMPy's
-``FMU2Slave`` and stepped by hand over the first ``CALL_STEPS`` communication points (doStep
-timed alone), then one getReal, getInteger and getBoolean of all its outputs is timed over as
-many calls (what FMPy's recorder asks at every step); best of ``--repeat`` interleaved rounds,
-each round continuing from where the last one stopped.
+``FMU2Slave`` (``FMU3Slave`` for IceImpact3.fmu) and stepped by hand over the first
+``CALL_STEPS`` communication points (doStep timed alone), then one getReal, getInteger and
+getBoolean (getFloat64, getInt32, getBoolean) of all its outputs is timed over as many calls (what
+FMPy's recorder asks at every step); best of ``--repeat`` interleaved rounds, each round
+continuing from where the last one stopped. IceImpact3.fmu runs the same slave behind the FMI 3.0
+layer (fmu_native/fmi3.c), without early return: its row is the cost of that layer.
 """
 
 from __future__ import annotations
@@ -52,6 +55,14 @@ def _build_iceimpact(dest: Path, root: Path = ROOT) -> Path:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module.build(dest)
+
+
+def _build_iceimpact3(dest: Path) -> Path:
+    """IceImpact3.fmu (FMI 3.0) built by this tree's build_fmu.py."""
+    spec = importlib.util.spec_from_file_location("build_fmu_fmi3", ROOT / "build_fmu.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.build_fmi3("IceImpact", dest)
 
 
 def _extract_commit(commit: str, dest: Path) -> Path:
@@ -106,32 +117,82 @@ def run_fmu(fmu: Path, stop_time: float) -> tuple[float, float, object]:
 class CallTimer:
     """One FMU instance stepped by hand: CPU time per doStep and per round of the three gets."""
 
-    def __init__(self, fmu: Path, name: str):
+    def __init__(self, fmu: Path, name: str, guards_null: bool = True):
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
+        from fmpy.fmi3 import FMU3Slave
 
         md = read_model_description(str(fmu))
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu)),
-                               modelIdentifier=md.coSimulation.modelIdentifier,
-                               instanceName=name)
+        self.fmi3 = md.fmiVersion == "3.0"
+        self.slave = (FMU3Slave if self.fmi3 else FMU2Slave)(
+            guid=md.guid, unzipDirectory=extract(str(fmu)),
+            modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
         self.slave.instantiate()
-        self.slave.setupExperiment(startTime=0.0)
-        self.slave.enterInitializationMode()
+        if self.fmi3:
+            self.slave.enterInitializationMode(startTime=0.0)
+        else:
+            self.slave.setupExperiment(startTime=0.0)
+            self.slave.enterInitializationMode()
         self.slave.exitInitializationMode()
         outputs = [v for v in md.modelVariables if v.causality == "output"]
-        self.vrs = {kind: [v.valueReference for v in outputs if v.type == kind]
+        kinds = {"Float64": "Real", "Int32": "Integer"}
+        self.vrs = {kind: [v.valueReference for v in outputs if kinds.get(v.type, v.type) == kind]
                     for kind in ("Real", "Integer", "Boolean")}
         self.k = 0  # communication points k * STEP, as simulate_fmu steps
+        self.guards_null = guards_null  # the library refuses a NULL instance (IceImpact's)
 
-    def round(self, n: int) -> tuple[float, float]:
-        """us per doStep over the next n steps, us per getReal + getInteger + getBoolean."""
+    def raw_do_step(self, component=None):
+        """fmi2DoStep / fmi3DoStep as a bare ctypes function of the library, its arguments
+        made once (FMPy's doStep builds FMI 3.0's four result arguments at every call), on
+        ``component`` (None: this instance). Called with a NULL instance, the function returns
+        at once: that call's cost is ctypes' alone (8 arguments for FMI 3.0, 4 for FMI 2.0)."""
+        import ctypes
+
+        common = (ctypes.c_void_p, ctypes.c_double, ctypes.c_double)
+        component = self.slave.component if component is None else component
+        if not self.fmi3:
+            do_step = ctypes.CFUNCTYPE(ctypes.c_int, *common, ctypes.c_int)(
+                ("fmi2DoStep", self.slave.dll))
+            return lambda t, h: do_step(component, t, h, 1)
+        flags = [ctypes.c_bool() for _ in range(3)]
+        last = ctypes.c_double()
+        do_step = ctypes.CFUNCTYPE(ctypes.c_int, *common, ctypes.c_bool,
+                                   *(ctypes.POINTER(ctypes.c_bool),) * 3,
+                                   ctypes.POINTER(ctypes.c_double))(
+            ("fmi3DoStep", self.slave.dll))
+        pointers = (*map(ctypes.pointer, flags), ctypes.pointer(last))
+        return lambda t, h: do_step(component, t, h, True, *pointers)
+
+    def round(self, n: int) -> tuple[float, float, float | None, float]:
+        """us per doStep (FMPy's) over the next n steps; us per doStep as a bare C call over the
+        n after; us per call of it on a NULL instance (ctypes' part; None for a library that
+        does not refuse a NULL instance: PythonFMU's own, the trivial slave's); us per getReal +
+        getInteger + getBoolean."""
         slave, k0 = self.slave, self.k
         cpu = time.process_time()
         for k in range(k0, k0 + n):
             slave.doStep(k * STEP, (k + 1) * STEP - k * STEP)
         step = time.process_time() - cpu
-        self.k = k0 + n
-        get_real, get_integer, get_boolean = slave.getReal, slave.getInteger, slave.getBoolean
+        raw = self.raw_do_step()
+        cpu = time.process_time()
+        for k in range(k0 + n, k0 + 2 * n):
+            if raw(k * STEP, (k + 1) * STEP - k * STEP) > 1:
+                raise RuntimeError("doStep failed")
+        raw_step = time.process_time() - cpu
+        self.k = k0 + 2 * n
+        null_call = None
+        if self.guards_null:  # (a NULL instance: refused, said once on stderr)
+            null = self.raw_do_step(component=0)
+            cpu = time.process_time()
+            for k in range(n):
+                null(k * STEP, STEP)
+            null_call = 1e6 * (time.process_time() - cpu) / n
+        if self.fmi3:
+            get_real, get_integer, get_boolean = (slave.getFloat64, slave.getInt32,
+                                                  slave.getBoolean)
+        else:
+            get_real, get_integer, get_boolean = (slave.getReal, slave.getInteger,
+                                                  slave.getBoolean)
         reals, integers, booleans = self.vrs["Real"], self.vrs["Integer"], self.vrs["Boolean"]
         cpu = time.process_time()
         for _ in range(n):
@@ -139,7 +200,7 @@ class CallTimer:
             get_integer(integers)
             get_boolean(booleans)
         gets = time.process_time() - cpu
-        return 1e6 * step / n, 1e6 * gets / n
+        return 1e6 * step / n, 1e6 * raw_step / n, null_call, 1e6 * gets / n
 
     def free(self) -> None:
         self.slave.terminate()
@@ -177,12 +238,14 @@ def main(argv: list[str] | None = None) -> int:
     stop_time = args.stop_time or (40.0 if args.quick else 400.0)
 
     _check_trivial_interface()
-    cases = ("IceImpact.fmu", "TrivialSlave.fmu", "Simulator.advance (core, no FMI)")
+    cases = ("IceImpact.fmu", "TrivialSlave.fmu", "Simulator.advance (core, no FMI)",
+             "IceImpact3.fmu (FMI 3.0)")
     base_case = f"IceImpact.fmu at {args.base}" if args.base else None
     times: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
     with tempfile.TemporaryDirectory(prefix="fmu_overhead_") as tmp:
         fmus = {cases[0]: _build_iceimpact(Path(tmp) / "ice"),
-                cases[1]: _build_trivial(Path(tmp) / "trivial")}
+                cases[1]: _build_trivial(Path(tmp) / "trivial"),
+                cases[3]: _build_iceimpact3(Path(tmp) / "ice3")}
         if base_case:
             cases += (base_case,)
             times[base_case] = []
@@ -202,7 +265,8 @@ def main(argv: list[str] | None = None) -> int:
             times[cases[2]].append((wall, cpu))
         call_steps = CALL_STEPS // 5 if args.quick else CALL_STEPS
         fmu_cases = (cases[1], cases[0], *cases[3:])
-        timers = {case: CallTimer(fmus[case], f"calls{i}") for i, case in enumerate(fmu_cases)}
+        timers = {case: CallTimer(fmus[case], f"calls{i}", guards_null=case != cases[1])
+                  for i, case in enumerate(fmu_cases)}
         calls: dict[str, list[tuple[float, float]]] = {case: [] for case in fmu_cases}
         for _ in range(args.repeat):
             for case in fmu_cases:
@@ -226,20 +290,33 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nIceImpact.fmu / TrivialSlave.fmu = {ratio:.2f}x (CPU time); the model adds "
           f"{us_cpu[cases[0]] - us_cpu[cases[1]]:.1f} us/step through FMI "
           f"(core alone {us_cpu[cases[2]]:.1f} us/step)")
+    fmi3_ratio = us_cpu[cases[3]] / us_cpu[cases[0]]
+    print(f"IceImpact3.fmu / IceImpact.fmu = {fmi3_ratio:.3f}x (CPU time): the FMI 3.0 layer")
     if base_case:
         print(f"at {args.base}: {us_cpu[base_case] / us_cpu[cases[1]]:.2f}x the trivial slave, "
               f"{us_cpu[base_case] - us_cpu[cases[0]]:.1f} us/step more than this tree")
     print(f"impacts in {stop_time:g} s (this tree's IceImpact.fmu): {impacts}")
 
+    # ctypes' part of a bare call, by FMI version (the trivial slave's: IceImpact.fmu's)
+    null_call = {case: min(c[2] for c in calls[case if case != cases[1] else cases[0]])
+                 for case in fmu_cases}
     us_calls = {case: {"doStep": min(c[0] for c in calls[case]),
-                       "getReal+getInteger+getBoolean": min(c[1] for c in calls[case])}
+                       "doStep (in the library)": min(c[1] for c in calls[case])
+                       - null_call[case],
+                       "getReal+getInteger+getBoolean": min(c[3] for c in calls[case])}
                 for case in fmu_cases}
-    print(f"\nper FMI call, FMU2Slave stepped by hand over {call_steps} steps per round (CPU us, "
+    print(f"\nper FMI call, FMU2Slave (FMU3Slave) stepped by hand over {call_steps} steps per round (CPU us, "
           f"best of {args.repeat})")
-    print(f"{'case':{width}s}  {'doStep':>8s}  {'3 gets':>8s}")
+    print(f"{'case':{width}s}  {'doStep':>8s}  {'in the library':>14s}  {'3 gets':>8s}")
     for case in fmu_cases:
         print(f"{case:{width}s}  {us_calls[case]['doStep']:8.2f}  "
+              f"{us_calls[case]['doStep (in the library)']:14.2f}  "
               f"{us_calls[case]['getReal+getInteger+getBoolean']:8.2f}")
+    print("doStep: FMPy's FMU2Slave/FMU3Slave.doStep; in the library: the library's doStep "
+          "called through a bare ctypes prototype, less the same call on a NULL instance")
+    in_library = {case: us_calls[case]["doStep (in the library)"] for case in fmu_cases}
+    print(f"IceImpact3.fmu / IceImpact.fmu, doStep in the library: "
+          f"{in_library[cases[3]] / in_library[cases[0]]:.3f}x")
 
     report = {
         "benchmark": "fmu_overhead",
@@ -258,6 +335,10 @@ def main(argv: list[str] | None = None) -> int:
         "best_cpu_s": {case: best[case][1] for case in cases},
         "ratio_iceimpact_to_trivial_cpu": ratio,
         "ratio_iceimpact_to_trivial_wall": us_wall[cases[0]] / us_wall[cases[1]],
+        "ratio_fmi3_to_fmi2_cpu": fmi3_ratio,
+        "ratio_fmi3_to_fmi2_dostep_cpu": (us_calls[cases[3]]["doStep"]
+                                          / us_calls[cases[0]]["doStep"]),
+        "ratio_fmi3_to_fmi2_dostep_in_library_cpu": in_library[cases[3]] / in_library[cases[0]],
         **({"base": args.base,
             "ratio_base_to_trivial_cpu": us_cpu[base_case] / us_cpu[cases[1]]}
            if base_case else {}),

@@ -10,8 +10,8 @@ against the ice mass ``M`` (log spacing), built with the sweep API. Each cell is
 - right: the extreme base shear ``max |k x|`` (from ``kx_max_N`` and ``kx_min_N``).
 
 Cells in sticking contact for most of the window are marked with a dot. See
-docs/design_loads.md for what the numbers are and their limits (one SDOF structure, one load case
-per cell, no safety factors).
+docs/explanation/design-loads.md for what the numbers are and their limits (one SDOF structure, one
+load case per cell, no safety factors).
 
     python examples/design_map.py              # 8 x 6 runs of 60 s, a few minutes on 2 cores
     python examples/design_map.py --m 10       # DEL for a Wöhler exponent of 10
@@ -173,8 +173,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=None, help="default: all cores")
     parser.add_argument("--out-dir", type=Path, default=ROOT / "docs" / "img")
     parser.add_argument("--write-doc", type=Path, metavar="MD",
-                        help="rewrite the generated account of MD (docs/design_loads.md; the "
-                             "default map only)")
+                        help="rewrite the generated account of MD "
+                             "(docs/explanation/design-loads.md; the default map only)")
     args = parser.parse_args(argv)
 
     if args.quick:

@@ -4,13 +4,13 @@ ModalStructure.fmu through FMPy, compared with IceImpact's built-in SDOF structu
     python build_fmu.py
     python examples/ice_on_tower.py [--fmus dist] [--t-end 20] [--step 2e-4] [--out out] [--quick]
 
-The tower is seen at the ice's contact point (the waterline) through three modes: a slender
-first bending mode and two higher modes with larger mode-shape values there (see ``TOWER``).
-IceImpact needs the mass the tower opposes to an impulse at the contact point, the impulse mass
-``1 / sum(phi_i^2 / m_i)`` (docs/coupling.md, "The mass IceImpact needs"), and is given the
+The tower is seen at the ice's contact point (the waterline) through three modes: a slender first
+bending mode and two higher modes with larger mode-shape values there (see ``TOWER``). IceImpact
+needs the mass the tower opposes to an impulse at the contact point, the impulse mass ``1 /
+sum(phi_i^2 / m_i)`` (docs/explanation/coupling.md, "The mass IceImpact needs"), and is given the
 static stiffness there for its chatter time scale. The masters' loop is the scripted FMPy
-Gauss-Seidel master of ``examples/system/system.py`` (ice first, ``coupling.scheme = 1``),
-passing ``x``, ``v`` and ``a``.
+Gauss-Seidel master of ``examples/system/system.py`` (ice first, ``coupling.scheme = 1``), passing
+``x``, ``v`` and ``a``.
 
 Two SDOF idealisations of the same tower run with the built-in structure (structure.model = 1)
 for comparison:

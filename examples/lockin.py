@@ -1,7 +1,8 @@
 """The article's lock-in case (Figure 13, Section 5) through IceImpact.fmu, analysed for lock-in.
 
     python build_fmu.py && python examples/lockin.py [--fmu dist/IceImpact.fmu]
-        [--stop-time 200] [--out out] [--core] [--window 10] [--write-doc docs/lockin.md]
+        [--stop-time 200] [--out out] [--core] [--window 10]
+        [--write-doc docs/explanation/lockin.md]
 
 Scene: quadratic drag (``drag.model = 2``), ice drag area ``ice.A = 2`` m^2, flow ``flow.u = 0.1``
 m/s, every other parameter at the Figure 2 default (omega_n = sqrt(k/m) = 25 rad/s, e = 1). The
@@ -204,7 +205,7 @@ def generated_block(path: Path) -> str:
 
 
 def markdown_table(rec: Record, rows: list[dict]) -> str:
-    """The window table of docs/lockin.md (one row per window) and the run's totals."""
+    """The window table of docs/explanation/lockin.md (one row per window) and the run's totals."""
     two_pi = 2 * math.pi
     lines = ["| window (s) | impacts | mean interval (s) | cluster period T (s) | "
              "ωnT/2π (clusters) | N, within 5 % | dominant ω of x (rad/s) | "
@@ -324,7 +325,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="run iceimpact.run instead of the FMU (for comparison)")
     parser.add_argument("--window", type=float, default=10.0, help="analysis window, s")
     parser.add_argument("--write-doc", type=Path, metavar="MD",
-                        help="rewrite the window table of MD (docs/lockin.md; default "
+                        help="rewrite the window table of MD (docs/explanation/lockin.md; default "
                              "--stop-time and --window only)")
     args = parser.parse_args(argv)
     if not args.core and not args.fmu.exists():

@@ -65,7 +65,8 @@ QUICK_STOP = 8.0
 #: Resolution of the plots written to ``--out``, dots per inch.
 PLOT_DPI = 90
 #: Resolution and palette size of the copies written to ``--img-dir`` (the figures embedded in
-#: docs/reproduction.md): 80 dpi, 64 colours (lines on white lose nothing visible), 40-150 kB.
+#: docs/explanation/reproduction.md): 80 dpi, 64 colours (lines on white lose nothing visible),
+#: 40-150 kB.
 IMG_DPI = 80
 IMG_COLORS = 64
 
@@ -439,7 +440,7 @@ def drift(run: Run, t: float) -> float | None:
 def standard_measures(run: Run) -> dict[str, Any]:
     """The measures every case reports (SI units; None where undefined).
 
-    These are also the numbers docs/reproduction.md quotes: a number there followed by
+    These are also the numbers docs/explanation/reproduction.md quotes: a number there followed by
     ``<!-- run:SCRIPT.CASE.SOLVER.MEASURE -->`` is this dict's MEASURE for that run
     (:func:`check_doc`).
     """
@@ -769,14 +770,14 @@ def main(name: str, description: str, groups: Sequence[Group],
     parser.add_argument("--img-dir", type=Path, default=None, metavar="DIR",
                         help=f"also write a small copy of each figure into DIR ({IMG_DPI} dpi, "
                              f"{IMG_COLORS} colours; docs/img for the figures of "
-                             "docs/reproduction.md)")
+                             "docs/explanation/reproduction.md)")
     parser.add_argument("--core", action="store_true",
                         help="run in this process (iceimpact.simulator.Simulator stepped as the "
                              "FMU steps it) instead of through the FMU: the same numbers, faster")
     parser.add_argument("--check-doc", type=Path, action="append", metavar="MD",
                         help="compare the numbers MD quotes from these runs (marked "
                              "<!-- run:... -->) with the runs; exit status 3 if any differs "
-                             "(e.g. docs/reproduction.md; repeatable)")
+                             "(e.g. docs/explanation/reproduction.md; repeatable)")
     args = parser.parse_args(argv)
     if not args.core and not args.fmu.exists():
         print(f"{args.fmu} not found: run `python build_fmu.py` first", file=sys.stderr)

@@ -1,17 +1,17 @@
-"""How far rounding alone moves the numbers docs/reproduction.md quotes from the exact solver.
+"""How far rounding alone moves the numbers docs/explanation/reproduction.md quotes from the exact
+solver.
 
     python examples/reproduce_spread.py [--members 16] [--rel 1e-15] [--only fig2 ...]
-        [--out out/reproduction] [--write-doc docs/reproduction.md]
+        [--out out/reproduction] [--write-doc docs/explanation/reproduction.md]
 
-The motion of these scenes is sensitive (docs/accuracy.md): after a few dozen impacts two runs
-that differ by rounding part, so whole-run impact counts, the end of a chatter (the time the
-bodies start sticking for good) and the late decay times are draws from a distribution, not
+The motion of these scenes is sensitive (docs/explanation/accuracy.md): after a few dozen impacts
+two runs that differ by rounding part, so whole-run impact counts, the end of a chatter (the time
+the bodies start sticking for good) and the late decay times are draws from a distribution, not
 properties of the scene. This script runs every exact-solver case of ``reproduce_linear.py`` and
-``reproduce_quadratic.py`` that has impacts once as the docs quote it and again ``--members``
-times with the ice's start moved by a few ulps: ``ice.z0 * (1 + j * rel)``, j = 1..members
-(rel = 1e-15 moves z0 = -0.01 m by 1e-17 m, about 6 ulps per j). Each run is stepped in this
-process exactly as IceImpact.fmu is stepped under FMPy (``reproduce_common.CoreRunner``: the
-same numbers as the FMU).
+``reproduce_quadratic.py`` that has impacts once as the docs quote it and again ``--members`` times
+with the ice's start moved by a few ulps: ``ice.z0 * (1 + j * rel)``, j = 1..members (rel = 1e-15
+moves z0 = -0.01 m by 1e-17 m, about 6 ulps per j). Each run is stepped in this process exactly as
+IceImpact.fmu is stepped under FMPy (``reproduce_common.CoreRunner``: the same numbers as the FMU).
 
 It prints, per case and measure, the unperturbed value and the range over it and the members,
 writes
@@ -126,7 +126,7 @@ def cell(script: str, case: str, measure: str, spec: str, entry: dict[str, Any])
 
 
 def table(results: list[dict[str, Any]], members: int, rel: float) -> str:
-    """The Markdown table docs/reproduction.md includes."""
+    """The Markdown table docs/explanation/reproduction.md includes."""
     lines = [f"Exact solver, 400 s (communication step 5 ms). Each cell: the value of the run "
              f"quoted on this page, then [the range over it and {members} runs with ice.z0 "
              f"moved by j x {rel:g} relative, j = 1..{members}].", "",
@@ -155,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="case key(s) to run (e.g. fig2, or quadratic.a2); repeatable")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder")
     parser.add_argument("--write-doc", type=Path, metavar="MD",
-                        help="rewrite the generated table of MD (docs/reproduction.md)")
+                        help="rewrite the generated table of MD (docs/explanation/reproduction.md)")
     args = parser.parse_args(argv)
     chosen = [(s, c) for s, c in cases()
               if not args.only or c.key in args.only or f"{s}.{c.key}" in args.only]

@@ -43,7 +43,7 @@
  *     lib-dynload and site-packages). In a process without Python the loader starts that runtime
  *     itself, isolated: its home and module path are set here from the FMU's own location, the
  *     host's environment (PYTHONHOME, PYTHONPATH, ...) is ignored, no signal handler is
- *     installed. A process that already runs Python keeps its interpreter (docs/fmu.md).
+ *     installed. A process that already runs Python keeps its interpreter (docs/explanation/fmu-loader.md).
  *  6. PythonFMU 0.7.0 frees its interpreter state twice at exit: the C++ static destructor of its
  *     `pyState` (an exit handler) frees the block, then its ELF destructor (onLibraryUnload, run
  *     by _dl_fini) assigns to the destroyed pointer and decrements a count inside the freed block,
@@ -101,7 +101,9 @@ extern int __cxa_atexit(void (*function)(void *), void *argument, void *dso_hand
 #define BUNDLED_HOME "python" /* relative to binaries/linux64 */
 #endif
 
+#ifndef EXPORT /* fmi3.c compiles this file with its fmi2 entry points internal */
 #define EXPORT __attribute__((visibility("default")))
+#endif
 
 /* Log category with which the slave fails the current call with fmi2Error (see 3. above). */
 #define FAIL_CATEGORY "fmi2Error"
@@ -638,7 +640,7 @@ static void *open_python(const fmi2CallbackFunctions *f, fmi2String name, const 
                "process has not loaded and which was not found: %s. Install one of them as a "
                "shared library, with numpy and scipy (Debian/Ubuntu: apt-get install "
                "libpython3.X python3-numpy python3-scipy, 3.X the version of python3), or use "
-               "the standalone FMU, which carries its own Python (docs/fmu.md).",
+               "the standalone FMU, which carries its own Python (docs/how-to/hand-over-the-fmu.md).",
                wanted.text, missing.text);
         return NULL;
     }

@@ -20,9 +20,10 @@ measurement breaks:
   fixed-step method, which has no closed form for it) is refused with a ParameterError, and only
   where the cell says so (``refused``).
 
-Run as a script to print the matrix as the Markdown table of docs/robustness.md::
+Run as a script to print the matrix as the Markdown table the robustness explanation includes
+(docs/explanation/robustness/index.md)::
 
-    python tests/extremes.py
+    python tests/extremes.py > benchmarks/results/extremes_matrix.md
 """
 
 from __future__ import annotations
@@ -120,8 +121,8 @@ CELLS: tuple[Cell, ...] = (
          flow=((10.0, -0.1), (20.0, 0.1))),
     Cell("flow reversing while sticking", {"impact_e": 0.5}, t_end=30.0, h=1e-2,
          t_end_ode=30.0, flow=((15.0, -0.1), (22.0, 0.3))),
-    # Morison loads on the structure (docs/morison.md); method 2 has no closed form for the
-    # quadratic drag on the structure and refuses it
+    # Morison loads on the structure (docs/explanation/morison.md); method 2 has no closed form
+    # for the quadratic drag on the structure and refuses it
     Cell("Morison: 1 m leg (Ca, V, Cd, A)", PILE, refused=((2, 2),)),
     Cell("Morison: m_a = 10 m, e = 0.5",
          {**PILE, "structure_V": 16000.0 / 999.0, "impact_e": 0.5}, refused=((2, 2),)),
@@ -130,8 +131,8 @@ CELLS: tuple[Cell, ...] = (
          refused=((2, 2),)),
     Cell("Morison: flow reversing, e = 0.5", {**PILE, "impact_e": 0.5}, t_end=30.0, h=1e-2,
          t_end_ode=15.0, flow=((10.0, -0.1), (20.0, 0.3)), refused=((2, 2),)),
-    # (method 3 stepped over a shallow touch at 4.587 s here, -3.28e-6 m, until it looked for
-    # meetings inside its steps: docs/robustness.md, fix 33)
+    # (method 3 steps over a shallow touch at 4.587 s here, -3.28e-6 m, unless it looks for
+    # meetings inside its steps: docs/explanation/robustness/ode.md#hidden-meeting)
 )
 
 
@@ -166,7 +167,8 @@ def _alarm(signum, frame):
 
 
 def scene_of(cell: Cell, drag: int, method: int) -> Scene:
-    # method 2 with the sign test: the eq. 26 window misses impacts by design (docs/accuracy.md)
+    # method 2 with the sign test: the eq. 26 window misses impacts by design
+    # (docs/explanation/accuracy.md)
     return Scene(**{**cell.changes, "drag_model": drag, "solver_method": method,
                     "solver_detection": 2})
 

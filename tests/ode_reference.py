@@ -24,7 +24,7 @@ def simulate(scene, t_end: float, max_impacts: int = 10**9, rtol: float = 1e-12,
     (x, v, z, w) start it from another state than the scene's initial one.
     """
     rho = scene.fluid_rho
-    # the added mass rho Ca V moves with the structure (docs/morison.md)
+    # the added mass rho Ca V moves with the structure (docs/explanation/morison.md)
     m = scene.structure_m + rho * scene.structure_Ca * scene.structure_V
     c, k = scene.structure_c, scene.structure_k
     M, e, u = scene.ice_M, scene.impact_e, scene.flow_u

@@ -2,8 +2,9 @@
 
 Every corner scene x both drag laws x the three methods must stay finite, keep the gap (method 2:
 within one grid step), conserve momentum at impacts, never create energy without flow, finish
-with bounded work, and (method 1) agree with a tight scipy integration. docs/robustness.md shows
-the same matrix with its measurements (``python tests/extremes.py``).
+with bounded work, and (method 1) agree with a tight scipy integration.
+docs/explanation/robustness/index.md shows the same matrix with its measurements (``python
+tests/extremes.py``).
 """
 
 from __future__ import annotations
@@ -242,7 +243,8 @@ def test_method_2_creates_no_energy_at_zero_flow_from_far_starts(scene, fraction
 
 
 def test_method_3_energy_error_stays_within_the_bound_of_its_tolerance():
-    """docs/accuracy.md, "Method 3's energy error": with nothing dissipating (e = 1, c = 0,
+    """docs/explanation/accuracy.md, "Method 3's energy error": with nothing dissipating (e = 1, c =
+    0,
     Cd = 0, u = 0) method 3's energy moves by at most 3 N (2 rtol E + atol sqrt(2 E)
     (sqrt(k) + sqrt(m) + sqrt(M))) over N <= nfev / 12 DOP853 steps (atol = 1e-3 rtol): each
     step's local error is within 3 (atol + rtol |y|) per state, an elastic impact moves it by

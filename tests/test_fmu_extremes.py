@@ -96,7 +96,8 @@ def test_extremes_matrix_through_the_fmu(fmu_dir, model_description, drag, metho
                 assert out["contact.gap"] >= 0.0 and out["contact.penetration"] >= 0.0
                 if method == 1:
                     assert out["contact.penetration"] == 0.0, cell.name
-                if method == 3 and (drag, method) not in cell.known:  # (docs/morison.md)
+                # (docs/explanation/morison.md)
+                if method == 3 and (drag, method) not in cell.known:
                     assert out["contact.penetration"] <= 10 * 1e-3 * scene.solver_rtol, cell.name
             checked += 1
     finally:

@@ -135,7 +135,7 @@ def test_published_time_of_the_last_impact_is_in_the_master_time_frame(start_tim
     report.__dict__["t_last"] = t_last
     model.publish(report)
     got = model.published[[o.name for o in OUTPUTS].index("contact.t_last")]
-    want = t_last + start_time if t_last >= 0.0 else -1.0  # docs/fmu.md: simulation time
+    want = t_last + start_time if t_last >= 0.0 else -1.0  # docs/reference/fmu.md: simulation time
     assert got == want and math.copysign(1.0, got) == math.copysign(1.0, want), (got, want)
     assert [model.get(o.name) for o in OUTPUTS] == list(model.published)
 

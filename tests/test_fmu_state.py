@@ -300,7 +300,8 @@ def test_reset_before_initialization_and_doStep_without_initialization(fmu_dir,
 
 
 def test_structure_force_is_the_spring_force():
-    """structure.force = k x (the base shear of docs/design_loads.md), after every step."""
+    """structure.force = k x (the base shear of docs/explanation/design-loads.md), after every
+    step."""
     model = model_after(0, {"structure.k": 2.5e6, "impact.e": 0.5})
     for k in range(1500):
         assert model.do_step(k * DT, DT)

@@ -1,4 +1,5 @@
-"""Impact counts of long runs and rounding (docs/accuracy.md, Impact counts and rounding).
+"""Impact counts of long runs and rounding
+(docs/explanation/accuracy.md#impact-counts-and-rounding).
 
 The two impact-heavy e = 1 scenes of ``benchmarks/core_speed.py`` whose counts moved most when the
 root search changed: every flight of the exact solver agrees with an independent DOP853

@@ -1,5 +1,5 @@
 """The work limits of each method (iceimpact.limits): scenes that would hang are refused up
-front, with a message naming the limit. docs/robustness.md, "Limits from the numerics"."""
+front, with a message naming the limit. docs/explanation/robustness/limits.md."""
 
 from __future__ import annotations
 

@@ -3,21 +3,21 @@ structure) under each BLAS kernel and numpy SIMD level this CPU can run, in fres
 
 Each configuration sets ``OPENBLAS_CORETYPE`` (the kernel numpy's bundled OpenBLAS uses: Haswell,
 SkylakeX, Prescott) and, or not, ``NPY_DISABLE_CPU_FEATURES`` (numpy's AVX-512 loops off, as on a
-CPU without AVX-512). Its process reports the kernel and the SIMD target it really got, the
-digests of every number of the reference runs (tests/reference_digests.py: states, impulses,
-impact lists, ``run()``'s samples) and of the outputs of IceImpact.fmu simulated by FMPy. Every
-configuration must give the stored digests: the core's event arithmetic makes no BLAS call and
-uses no numpy function whose bits depend on the SIMD level (docs/accuracy.md#machine-independence).
-Method 3 integrates with scipy, which uses BLAS: its runs are compared within its error bound
+CPU without AVX-512). Its process reports the kernel and the SIMD target it really got, the digests
+of every number of the reference runs (tests/reference_digests.py: states, impulses, impact lists,
+``run()``'s samples) and of the outputs of IceImpact.fmu simulated by FMPy. Every configuration must
+give the stored digests: the core's event arithmetic makes no BLAS call and uses no numpy function
+whose bits depend on the SIMD level (docs/explanation/accuracy.md#machine-independence). Method 3
+integrates with scipy, which uses BLAS: its runs are compared within its error bound
 (tests/solvers/test_ode.py), never by digests.
 
 One more configuration is the C library's: glibc picks its ``exp``, ``sin``, ``cos``... by CPU as
-well, an FMA variant where the CPU has FMA and AVX2, an SSE2 one where not (x86-64 CPUs before
-2013, and low-power ones since), and the two differ in the last bit for about 1 argument in 1,000.
-``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA`` gives a process the SSE2 variants: there the
-events of the reference runs (every impact's time, velocities and impulse, the sticking flags)
-are the stored ones, while states between impacts may differ in their last bits (measured, and
-what ``reference_digests.event_quantities`` names; docs/accuracy.md#machine-independence).
+well, an FMA variant where the CPU has FMA and AVX2, an SSE2 one where not (x86-64 CPUs before 2013,
+and low-power ones since), and the two differ in the last bit for about 1 argument in 1,000.
+``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA`` gives a process the SSE2 variants: there the events
+of the reference runs (every impact's time, velocities and impulse, the sticking flags) are the
+stored ones, while states between impacts may differ in their last bits (measured, and what
+``reference_digests.event_quantities`` names; docs/explanation/accuracy.md#machine-independence).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Morison loads on the structure (issue 15, docs/morison.md): added mass rho Ca V and drag
+"""Morison loads on the structure (docs/explanation/morison.md): added mass rho Ca V and drag
 ``F_s = rho Cd A |u - v| (u - v) / 2`` (or its linearisation about drag.v_lin), each off unless a
 scene asks for it.
 
@@ -26,7 +26,8 @@ from iceimpact.solvers.exact import solver as event_solver
 from ode_reference import simulate as ode_simulate
 
 RHO = Scene().fluid_rho
-#: A 1 m diameter leg with 1 m of draft (docs/morison.md): Ca = 1, V = pi/4 m^3, Cd = 1, A = 1 m^2.
+#: A 1 m diameter leg with 1 m of draft (docs/explanation/morison.md): Ca = 1, V = pi/4 m^3, Cd = 1,
+#: A = 1 m^2.
 PILE = {"structure_Ca": 1.0, "structure_V": math.pi / 4, "structure_Cd": 1.0, "structure_A": 1.0}
 #: The structure alone: the ice far upstream, at rest, undragged.
 ALONE = {"ice_z0": -1.0e3, "ice_v0": 0.0, "ice_Cd": 0.0}

@@ -3,10 +3,15 @@
 Native hosts (a plain C master, the ECOS command line, libcosim's C API) run with ``env={}``:
 no LD_PRELOAD, PYTHONPATH or PYTHONHOME. The FMU's loader (fmu_native/loader.c) brings in the
 libpython it was built with and the boot module (fmu_src/iceimpact_fmu_boot.py) the Python
-environment recorded in resources/ (see docs/fmu.md, "What a host needs"). Also here: the FMU
+environment recorded in resources/ (see docs/how-to/hand-over-the-fmu.md). Also here: the FMU
 runs its own core whatever the host imported, errors reach a default host call, instances do not
 leak, and several FMUs share a process; with Python 3.12 and 3.13 (FMPy under each, and a C host
 on a machine whose only Python is one of them) the results equal Python 3.11's to the last bit.
+
+The FMI 3.0 IceImpact3.fmu runs the same slave behind the same loader (fmu_native/fmi3.c): in the
+C host's FMI 3.0 port (tests/c_host/host3.c), in ECOS, with Python 3.12 and 3.13, and standalone
+on a machine with no Python, its outputs equal IceImpact.fmu's in the same host, to the printed
+digit; host3.c's early return (-R) prints a row at each contact event, as the core steps them.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ from native_host import (
     python_facts,
     run_empty_env,
     venv_for,
+    without_python,
 )
 
 VALUES = {"ice.M": 800.0}  # impacts within the first second
@@ -66,22 +72,61 @@ def test_c_host_with_an_empty_environment_equals_fmpy_every_time(fmu, fmu_dir, c
     assert got["contact.count"][-1] > 0
 
 
-def test_ecos_command_line_with_an_empty_environment_equals_the_core(fmu, tmp_path):
-    ecos = ecos_binary(tmp_path)
+def test_c_host3_with_an_empty_environment_equals_the_fmi2_fmu_every_time(fmu3_dir, c_host3,
+                                                                         c_host_run_here):
+    """IceImpact3.fmu in host3.c prints, byte for byte, what IceImpact.fmu prints in host.c on
+    the same grid (every output, %.17g)."""
+    args = [str(c_host3), fmu3_dir, "-n", str(N_STEPS), "-s", "ice.M=800"]
+    for _ in range(3):
+        done = run_empty_env(args)
+        assert done.returncode == 0, done.stderr[-3000:]
+        assert done.stdout == c_host_run_here.stdout
+        assert "undefined symbol" not in done.stderr
+        assert "started Python 3.11 (" in done.stderr
+
+
+def ecos_columns(fmu: Path, folder: Path) -> dict[str, list[str]]:
+    """ECOS's command line run of ``fmu`` with an empty environment, 2 s of DT steps: the
+    columns of its CSV, as text."""
+    ecos = ecos_binary(folder)
     done = run_empty_env([str(ecos), "simulate", "--path", str(fmu), "--stopTime", "2",
-                          "--stepSize", str(DT)], cwd=tmp_path)
+                          "--stepSize", str(DT)], cwd=folder)
     assert done.returncode == 0, done.stdout + done.stderr
-    lines = (tmp_path / "IceImpact.csv").read_text().strip().splitlines()
+    (csv,) = folder.glob("*.csv")  # named after the model identifier
+    lines = csv.read_text().strip().splitlines()
     header = [h.strip() for h in lines[0].split(",")]
-    data = np.array([[float(x) for x in line.split(",")] for line in lines[1:]])
-    assert data.shape[0] == N_STEPS + 1
+    rows = [[x.strip() for x in line.split(",")] for line in lines[1:]]
+    assert all(len(row) == len(header) for row in rows)
+    return {name: [row[i] for row in rows] for i, name in enumerate(header)}
+
+
+@pytest.fixture(scope="module")
+def ecos_fmi2(fmu, tmp_path_factory) -> dict[str, list[str]]:
+    return ecos_columns(fmu, tmp_path_factory.mktemp("ecos_fmi2"))
+
+
+def test_ecos_command_line_with_an_empty_environment_equals_the_core(ecos_fmi2):
+    assert len(ecos_fmi2["time"]) == N_STEPS + 1
     expected = core({}, N_STEPS, lambda k: DT)  # ECOS steps exactly DT
     for o in OUTPUTS:
         kind = {float: "REAL", int: "INT", bool: "BOOL"}[o.kind]
-        got = data[1:, header.index(f"instance::{o.name}[{kind}]")]
+        got = np.array(ecos_fmi2[f"instance::{o.name}[{kind}]"][1:], dtype=float)
         # ECOS writes its CSV with 6 decimals: equal to the last printed digit
         np.testing.assert_allclose(got, expected[o.name], rtol=0, atol=5.01e-7, err_msg=o.name)
-    assert data[-1, header.index("instance::contact.count[INT]")] > 0
+    assert float(ecos_fmi2["instance::contact.count[INT]"][-1]) > 0
+
+
+def test_ecos_command_line_runs_the_fmi3_fmu_as_the_fmi2_one(fmu3, ecos_fmi2, tmp_path):
+    """ECOS, an FMI 3.0 master too, with an empty environment: every column of its CSV the same
+    text for IceImpact3.fmu as for IceImpact.fmu (ECOS prints 6 decimals)."""
+    got = ecos_columns(fmu3, tmp_path)
+    # FMI 3.0's independent variable, a variable of the FMU: ECOS records it as a column
+    time = np.array(got.pop("instance::time[REAL]"), dtype=float)
+    np.testing.assert_allclose(time, np.array(got["time"], dtype=float), rtol=0, atol=5e-7)
+    assert set(got) == set(ecos_fmi2)
+    for column, text in ecos_fmi2.items():
+        assert got[column] == text, column
+    assert float(got["instance::contact.count[INT]"][-1]) > 0
 
 
 @pytest.fixture(scope="module")
@@ -480,3 +525,71 @@ def test_c_host_on_a_machine_with_python_3_12_or_3_13_equals_the_build_python(
     assert f"started Python {version} (" in done.stderr, done.stderr[-3000:]
     assert done.stdout == c_host_run_here.stdout  # every output, %.17g: to the last bit
     assert parse_csv(done.stdout)["contact.count"][-1] > 0
+
+
+@pytest.mark.parametrize(("version", "others"), [("3.12", "hidden"),
+                                                 ("3.13", "without numpy and scipy")])
+def test_c_host3_on_a_machine_with_python_3_12_or_3_13_equals_the_fmi2_fmu(
+        fmu3_dir, c_host3, c_host_run_here, tmp_path, version, others):
+    """IceImpact3.fmu in host3.c on the machines above (one of each kind): it starts
+    ``version``, and prints what IceImpact.fmu prints in host.c with the build's Python."""
+    base = other_python(version)
+    site = python_facts(venv_for(version, pins()))["site"]
+    command = [str(c_host3), fmu3_dir, "-n", str(N_STEPS), "-s", "ice.M=800"]
+    done = subprocess.run(only_python(command, base, Path(site), tmp_path,
+                                      others="hidden" if others == "hidden" else "no packages"),
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert f"started Python {version} (" in done.stderr, done.stderr[-3000:]
+    assert done.stdout == c_host_run_here.stdout  # every output, %.17g: to the last bit
+
+
+# 8. IceImpact3.fmu standalone, and early return in a native host ----------------------------------
+def test_c_host3_without_python_runs_the_standalone_fmu3_as_the_default_fmus(
+        c_host3, standalone3_dir, c_host_run_here):
+    """The standalone IceImpact3.fmu on a machine with no Python (every Python of this one
+    hidden, an empty environment): its own CPython, numpy and scipy, and the output of the
+    default FMUs (IceImpact.fmu in host.c, to the last bit)."""
+    done = subprocess.run(without_python([str(c_host3), standalone3_dir, "-n", str(N_STEPS),
+                                          "-s", "ice.M=800"]),
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert done.stderr == ""  # nothing printed: no warning of a missing module on the way
+    assert done.stdout == c_host_run_here.stdout
+
+
+def test_c_host3_with_early_return_prints_a_row_at_each_contact_event(c_host3, fmu3_dir):
+    """host3.c -R (earlyReturnAllowed) on a 10 ms grid: a row at each early return, at
+    lastSuccessfulTime, then on to the same grid point. The rows are the core's, stepped as the
+    host steps the FMU (Simulator.advance_to with stop_at_event, to the master's points), to the
+    last bit; each impact (contact.count going up) is an early return at its own time."""
+    n, h = 2000, 0.01
+    done = run_empty_env([str(c_host3), fmu3_dir, "-n", str(n), "-h", str(h), "-s", "ice.M=800",
+                          "-R"])
+    assert done.returncode == 0, done.stderr[-3000:]
+    got = parse_csv(done.stdout)
+    sim = Simulator(Scene.from_fmi(VALUES))
+    now, times, reports, early = 0.0, [], [], []
+    for k in range(1, n + 1):
+        t = k * h
+        while True:
+            end = now + (t - now)  # the FMU's end: communication point plus step size
+            report = sim.advance_to(end, stop_at_event=True)
+            reports.append(report)
+            early.append(report.t != end)
+            times.append(report.t if early[-1] else t)
+            if not early[-1]:
+                break
+            now = report.t
+        now = t
+    early = np.array(early)
+    np.testing.assert_array_equal(got["time"][1:], times)
+    for o in OUTPUTS:
+        np.testing.assert_array_equal(got[o.name][1:],
+                                      [float(getattr(r, o.field)) for r in reports],
+                                      err_msg=o.name)
+    count = got["contact.count"][1:]
+    impacts = np.flatnonzero(np.diff(count, prepend=0) > 0)
+    assert len(impacts) == count[-1] >= 5  # one impact a row: none shares a step with another
+    assert early[impacts].all()
+    np.testing.assert_array_equal(got["contact.t_last"][1:][impacts], got["time"][1:][impacts])

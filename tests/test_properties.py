@@ -14,8 +14,8 @@ def scenes(draw):
     """Valid scenes over the extremes: M/m from 1e-3 to 1e3, omega_n from 0.1 to 1e4 rad/s,
     zeta from 0 to 5 (0, 1 - 1e-8 and 1 exactly included), flows from -1 to 10 m/s (0 and
     1e-6 included), the ice starting in contact or up to 5 cm away, at the structure's speed
-    or not. Combinations that validation refuses (docs/robustness.md, the limits from the
-    numerics) are not scenes to run."""
+    or not. Combinations that validation refuses (docs/explanation/robustness/limits.md) are not
+    scenes to run."""
     m = draw(st.floats(1.0, 1e6))
     omega_n = 10 ** draw(st.floats(-1.0, 4.0))
     zeta = draw(st.one_of(st.just(0.0), st.just(1.0), st.just(1 - 1e-8), st.floats(0.0, 5.0)))

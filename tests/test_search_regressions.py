@@ -1,6 +1,5 @@
 """Faults the random search found (tools/random_search.py --scales --flows), each replayed:
-its scene runs soundly now. docs/robustness.md, "Random search with flow sequences and scale
-extremes"."""
+its scene runs soundly now. docs/explanation/robustness/searches.md and the pages it links."""
 
 from __future__ import annotations
 
@@ -467,9 +466,10 @@ def test_a_sticking_separation_at_denormal_scales_is_located():
         assert report.gap >= 0.0 and report.impulse >= 0.0
 
 
-# --- the far-scale search (tools/random_search.py --far): docs/robustness.md, "The far-scale
-# search". Each case is the search's REPLAY line (scene fields not at their defaults); the
-# replay turns every numpy warning into a fault, so an invalid value computed on the way fails
+# --- the far-scale search (tools/random_search.py --far):
+# docs/explanation/robustness/searches.md#the-far-scale-search. Each case is the search's REPLAY
+# line (scene fields not at their defaults); the replay turns every numpy warning into a fault, so
+# an invalid value computed on the way fails
 
 #: method 1, quadratic drag switched off (ice.Cd = 0), k = 4.2e-148 N/m: the sticking pair's
 #: period is 9.9e74 s

@@ -1,6 +1,5 @@
 """The impact budget of a communication step (``solver.max_impacts``), and the stick-part cycle at
-a stiff structure that makes it needed (docs/robustness.md, "Many real impacts at a stiff
-structure").
+a stiff structure that makes it needed (docs/explanation/robustness/stiff-structures.md).
 
 A step that would make more impacts than the budget is refused (SolverError in Python,
 fmi2Discard at the FMU, exit status 2 in the CLI) with the budget, the rate of impacts and the two
@@ -146,7 +145,8 @@ def test_the_fmu_discards_a_step_over_the_budget_and_goes_on(fmu_dir, model_desc
         inst.free()
 
 
-# The random search's seed-49 scene (method 1, docs/robustness.md): a plastic ice pressed by its
+# The random search's seed-49 scene (method 1, docs/explanation/robustness/stiff-structures.md):
+# a plastic ice pressed by its
 # linear drag on a stiff undamped structure, moving together at 1e-4 m/s at the start.
 SEED_49 = dict(structure_m=1851.183822340676, structure_c=0.0, structure_k=5.307267671675244e17,
                structure_x0=-1.0553886196597527e-48, structure_v0=0.0001,

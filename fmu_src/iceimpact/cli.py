@@ -9,7 +9,7 @@
 
 Scenes are TOML files with the FMU's parameter names (:func:`iceimpact.load_scene`); without one
 the article's Figure 2 scene is used. ``--set`` changes single parameters of it. Runs use the core
-(:func:`iceimpact.run`), not the FMU. See docs/sweeps.md.
+(:func:`iceimpact.run`), not the FMU. See docs/how-to/sweep-parameters.md.
 
 Exit status: 0 success; 1 a sweep with failed runs (unless ``--allow-failures``) or a worker
 process that died; 2 an argument error (bad option, grid, scene file, output table that cannot
@@ -115,7 +115,8 @@ def _add_engine_options(parser: argparse.ArgumentParser, overwrite_help: str,
                         help="exit 0 even when some runs failed (default: exit status 1)")
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of ``iceimpact`` (subcommands ``simulate``, ``sweep``, ``plot``)."""
+    """The argument parser of ``iceimpact`` (subcommands ``simulate``, ``sweep``, ``plot``,
+    ``loads``); the documentation's command-line reference is generated from it."""
     parser = argparse.ArgumentParser(
         prog="iceimpact",
         description="Flow-driven repeated ice impacts on a flexible structure (exact "
@@ -413,7 +414,8 @@ def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
 
 
 def _add_loads_parser(sub: argparse._SubParsersAction) -> None:
-    """``iceimpact loads``: a load-case table over a service life (docs/design_loads.md)."""
+    """``iceimpact loads``: a load-case table over a service life
+    (docs/how-to/design-over-a-season.md)."""
     lo = sub.add_parser(
         "loads", help="run a load-case table (cases, hours per year, repetitions) and combine "
                       "the lifetime damage-equivalent loads",

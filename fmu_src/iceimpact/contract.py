@@ -1,7 +1,8 @@
 """The FMI contract of IceImpact.fmu: every variable, its unit, range, start value and meaning.
 
-This table is the one home of the FMU's interface (docs/fmu.md lists it; a test checks that the
-page and the built modelDescription.xml agree with it). Everything else draws from it:
+This table is the one home of the FMU's interface (the documentation's page of FMU
+variables is generated from it; a test checks that the built modelDescription.xml agrees with
+it). Everything else draws from it:
 
 - :mod:`iceimpact.scene` validates parameters against the ranges here and takes its defaults
   from the start values here;
@@ -65,7 +66,7 @@ MAX_IMPACTS = 100_000
 MAX_EVALUATIONS = 4_000_000
 INT32_MAX = 2**31 - 1
 #: Default of solver.chatter_fraction: a bounce shorter than this fraction of the structure's
-#: natural period ends an elastic chatter (docs/accuracy.md, "The chatter threshold").
+#: natural period ends an elastic chatter (docs/explanation/accuracy.md, "The chatter threshold").
 CHATTER_FRACTION = 1e-2
 
 
@@ -169,7 +170,7 @@ PARAMETERS: tuple[Variable, ...] = (
     _real("solver.rtol", "1", "relative tolerance of method 3", 1.0e-8,
           allowed="1e-13 <= rtol < 1", minimum=1e-13, maximum=1.0, max_exclusive=True),
     # the sign test by default: the article's window misses every impact where the structure
-    # is at rest (its width is the structure's speed times the step; docs/accuracy.md)
+    # is at rest (its width is the structure's speed times the step; docs/explanation/accuracy.md)
     _enum("solver.detection", "impact test of method 2: 2 = sign change of the gap (the "
           "default); 1 = the article's tolerance window of eq. 26, only to reproduce the "
           "article: it misses every impact at a structure at rest (zero width), so the ice "
@@ -187,7 +188,8 @@ PARAMETERS: tuple[Variable, ...] = (
           "(both step from the same values, the structure feels a step's force over the next "
           "step: ECOS, libcosim). Ignored with the built-in structure", SCHEME_GAUSS_SEIDEL,
           {SCHEME_GAUSS_SEIDEL: "Gauss-Seidel, ice first", SCHEME_JACOBI: "Jacobi"}),
-    # Morison loads on the structure (docs/morison.md): each term is off while its product is 0
+    # Morison loads on the structure (docs/explanation/morison.md): each term is off while its
+    # product is 0
     _real("structure.Ca", "1", "Morison added-mass coefficient of the structure: added mass "
           "fluid.rho Ca V moves with it (0 = off)", 0.0, **_NON_NEGATIVE),
     _real("structure.V", "m3", "displaced volume of the structure (added mass fluid.rho Ca V)",
@@ -197,7 +199,8 @@ PARAMETERS: tuple[Variable, ...] = (
     _real("structure.A", "m2", "projected area of the structure facing the flow (drag)", 0.0,
           **_NON_NEGATIVE),
     # a step's latency bound: at the costliest measured ~0.3 ms an impact (a stick-part cycle at
-    # a stiff structure, docs/robustness.md) 1e5 impacts are ~30 s of CPU; the article's scenes
+    # a stiff structure, docs/explanation/robustness/stiff-structures.md) 1e5 impacts are ~30 s of
+    # CPU; the article's scenes
     # make at most a few thousand impacts a simulated second
     Variable("solver.max_impacts", "solver_max_impacts", PARAMETER, int, "",
              "most impacts in one communication step: a step that needs more is refused "
@@ -222,7 +225,7 @@ PARAMETERS: tuple[Variable, ...] = (
           "this fraction of the structure's natural period 2 pi / omega_n ends the bouncing "
           "with one plastic impact (a smaller fraction resolves more of the chatter, at more "
           "impacts); with impact.e < 1 it marks the bounces from which a Zeno sequence is "
-          "counted against its budget (docs/accuracy.md). Method 2 does not use it",
+          "counted against its budget (docs/explanation/accuracy.md). Method 2 does not use it",
           CHATTER_FRACTION, allowed="1e-6 <= chatter_fraction <= 0.5", minimum=1e-6,
           maximum=0.5),
 )
@@ -296,7 +299,7 @@ OUTPUTS: tuple[Variable, ...] = (
          minimum=0.0, initial_depends_on=("structure.model", "ice.z0")),
     _out("structure.force", "spring_force", float, "N",
          "spring force k x of the structure: the base shear of the SDOF idealisation, the load "
-         "a design check takes (docs/design_loads.md); 0 with an external structure "
+         "a design check takes (docs/explanation/design-loads.md); 0 with an external structure "
          "(structure.model = 2), whose internal forces live in the other FMU",
          initial_depends_on=_X0 + ("structure.k",)),
     _out("coupling.force", "coupling_force", float, "N",
@@ -326,8 +329,8 @@ def number_text(value: float | int) -> str:
 
 def markdown_table(variables: tuple[Variable, ...] = VARIABLES, *, fold: str = "",
                    fold_note: str = "") -> str:
-    """The variables as a Markdown table (docs/fmu.md: this contract's; a test keeps the page in
-    step).
+    """The variables as a Markdown table (the documentation's page of FMU variables is made
+    from it at every build).
 
     ``fold`` names a prefix of numbered groups, such as ``"mode"`` for ``mode1.f``, ``mode2.f``,
     ...: the rows of groups 2 and above are then summarised in one row after group 1's, which

@@ -2,7 +2,7 @@
 costs bounded CPU time, and the time resolution of the exact method's root search.
 
 Validation (:mod:`iceimpact.scene`) calls these rules; each refusal names the parameter, its
-value, the limit and why (docs/robustness.md, "Limits from the numerics", has the measurements
+value, the limit and why (docs/explanation/robustness/limits.md has the measurements
 behind each constant). The solvers read only :data:`TIME_RESOLUTION` from here.
 """
 
@@ -48,7 +48,8 @@ def drag_rate_text(scene: Scene, limit: float, what: str) -> str:
 def rate_limit(scene: Scene) -> float:
     """Largest relaxation rate (1/s) the scene's method integrates in bounded work: method 3
     with an explicit integrator (RK45, DOP853), ODE_EXPLICIT_RATE_MAX; method 1 and method 3
-    with LSODA or Radau, DRAG_RATE_MAX (docs/robustness.md). Method 1's sticking phase is held
+    with LSODA or Radau, DRAG_RATE_MAX (docs/explanation/robustness/limits.md). Method 1's sticking
+    phase is held
     to the lower TAYLOR_RATE_MAX besides (check_sticking_rate)."""
     if scene.solver_method == METHOD_ODE and scene.solver_ode_method in EXPLICIT_ODE_METHODS:
         return ODE_EXPLICIT_RATE_MAX
@@ -59,7 +60,7 @@ def omega_limit(scene: Scene) -> float:
     """Largest omega_n (rad/s) the scene's method resolves in bounded work: OMEGA_MAX_EXACT
     times min(1, solver.chatter_fraction / 1e-2) (method 1), OMEGA_MAX_ODE (method 3), and
     with Radau RADAU_OMEGA_MAX scaled by (solver.rtol / RADAU_OMEGA_RTOL)^(1/4), its steps per
-    period scaling as rtol^(-1/4), up to OMEGA_MAX_ODE (docs/robustness.md)."""
+    period scaling as rtol^(-1/4), up to OMEGA_MAX_ODE (docs/explanation/robustness/limits.md)."""
     if scene.solver_method == METHOD_EXACT:
         # the chatter time scales with solver.chatter_fraction: a smaller one lowers the limit
         # (a larger one keeps it: stiffer structures are untested)
@@ -222,7 +223,7 @@ def check_structure_drag_rate(scene: Scene, speed: float, name: str) -> None:
 
 def check_work(scene: Scene) -> None:
     """Refuse scenes whose time scales the method cannot resolve in bounded work (see
-    OMEGA_MAX_EXACT, OMEGA_MAX_ODE, DRAG_RATE_MAX; docs/robustness.md)."""
+    OMEGA_MAX_EXACT, OMEGA_MAX_ODE, DRAG_RATE_MAX; docs/explanation/robustness/limits.md)."""
     s = scene
     if s.solver_method == METHOD_FIXED_STEP:
         return  # closed forms (and eq. 36) on a grid: work is the number of grid points
@@ -332,7 +333,8 @@ DRAG_RATE_MAX = 1e6
 #: of it, and a higher order's longer steps would lose to cancellation (terms up to
 #: e^(rate h)) the digits they gain. Measured 0.1 to 0.3 steps and up to TAYLOR_COST s of CPU
 #: x rate per simulated second at 1e5 to 1e6 1/s (tools/taylor_rate_cost.py,
-#: docs/robustness.md), so that at this limit 1 s of simulated time costs at most ~2 s of CPU
+#: docs/explanation/robustness/limits.md), so that at this limit 1 s of simulated time costs at
+#: most ~2 s of CPU
 #: (at 1e6 1/s, the limit before, 4-11 s in those scenes; the random search's scenes at
 #: 3.7e5-5.4e5 1/s took 4.5-10 s).
 TAYLOR_RATE_MAX = 1e5
@@ -350,7 +352,8 @@ EXPLICIT_ODE_METHODS = {1: "RK45", 2: "DOP853"}
 #: rate rules above (c / m, b / M, 2 B speed / M, the Morison drag on the structure) at this
 #: limit instead of DRAG_RATE_MAX. Near its stability bound such an integrator costs about
 #: 3e-5 s of CPU x rate per simulated second (measured 2.6e-5 to 3.5e-5 s at 2.9e5 1/s in
-#: the four stiff scene kinds of docs/robustness.md, with the flow reversed every 1 ms step:
+#: the four stiff scene kinds of docs/explanation/robustness/limits.md, with the flow reversed
+#: every 1 ms step:
 #: 3.3-10.1 s per simulated second at 2.9e5 1/s, 28 s at 1e6; tools/ode_rate_cost.py), so that
 #: 1 s of simulated time costs at most ~10 s of CPU. LSODA (solver.ode_method = 3) switches to
 #: an implicit method when stiff: at most 7.6 s per simulated second at 9.9e5 1/s in the same

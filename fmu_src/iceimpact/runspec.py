@@ -18,7 +18,7 @@ from .scene import FLOW_INPUT, PARAMETERS, SPECS_BY_NAME, Scene
 
 #: Default sample step of the command-line runs and sweeps, s: 125 samples per natural period of
 #: the Figure 2 structure (4 Hz) and a Nyquist frequency of 250 Hz for the spectrum; sampling
-#: dominates the cost of a run, which is proportional to t_end / dt (see docs/sweeps.md).
+#: dominates the cost of a run, which is proportional to t_end / dt (see docs/explanation/speed.md).
 DEFAULT_DT = 2e-3
 
 #: Most samples (t_end / dt) of one run: a run stores about 60 bytes per sample, so this is

@@ -116,13 +116,14 @@ class Scene:
 
     @property
     def added_mass(self) -> float:
-        """Morison added mass m_a = rho Ca V of the structure, kg (0: off; docs/morison.md)."""
+        """Morison added mass m_a = rho Ca V of the structure, kg (0: off;
+        docs/explanation/morison.md)."""
         return self.fluid_rho * self.structure_Ca * self.structure_V
 
     @property
     def structure_mass(self) -> float:
         """Mass that moves with the structure, m + m_a, kg: its inertia in eq. 8 and in the
-        impact law (eq. 12-17), the added mass moving with it (docs/morison.md)."""
+        impact law (eq. 12-17), the added mass moving with it (docs/explanation/morison.md)."""
         return self.structure_m + self.added_mass
 
     @property
@@ -319,7 +320,8 @@ def _ratio(a: float, b: float) -> float:
 
 
 def _check_morison(scene: Scene) -> None:
-    """Combinations the Morison loads on the structure do not support (docs/morison.md)."""
+    """Combinations the Morison loads on the structure do not support
+    (docs/explanation/morison.md)."""
     s = scene
     if s.external and s.morison_on:
         name, value = (("structure.Ca", s.structure_Ca) if s.added_mass != 0.0

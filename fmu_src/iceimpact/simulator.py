@@ -162,7 +162,8 @@ class Simulator:
         return self.solver.sticking_since
 
     def advance(self, h: float, u: float | None = None,
-                structure: tuple[float, float, float] | None = None) -> StepReport:
+                structure: tuple[float, float, float] | None = None,
+                stop_at_event: bool = False) -> StepReport:
         """Advance by the communication step ``h`` (s) with flow speed ``u`` (m/s) held constant.
 
         ``u`` defaults to the scene's ``flow.u``. With an external structure (structure.model =
@@ -175,6 +176,12 @@ class Simulator:
         way the simulator is exactly as before the call: a later step from the same time
         reports the whole impulse of its interval. A step the method refused is refused again
         for the same input.
+
+        With ``stop_at_event`` (methods 1 and 3; method 2 and a Jacobi-coupled external
+        structure always step to the end) the step ends at the first contact event before
+        ``t + h``: an impact, or the ice leaving the structure it rode on. The report is then
+        the state just after it, at ``report.t`` (an impact's impulse included), and the next
+        step goes on from there as the whole step would have (FMI 3.0's early return).
         """
         if not (h.__class__ is float and 0.0 < h < _INF):  # (the fast path: a valid float)
             h = checked_real("communication step", h, "a finite number > 0 (s)", _positive)
@@ -183,16 +190,17 @@ class Simulator:
         if not t_end > t:
             raise ParameterError("communication step", h, f"a step that advances the time "
                                  f"t = {t!r} s: t + h > t (smaller steps are lost to rounding)")
-        return self._step(t_end, h, u, structure)
+        return self._step(t_end, h, u, structure, stop_at_event)
 
     def advance_to(self, t_end: float, u: float | None = None,
-                   structure: tuple[float, float, float] | None = None) -> StepReport:
+                   structure: tuple[float, float, float] | None = None,
+                   stop_at_event: bool = False) -> StepReport:
         """Advance to the communication point ``t_end`` (s, > t), as :meth:`advance`."""
         t = self.solver.t
         if not (t_end.__class__ is float and t < t_end < _INF):
             t_end = checked_real("communication point", t_end, f"a finite time > t = {t!r} s",
                                  lambda value: value > t)
-        return self._step(t_end, t_end - t, u, structure)
+        return self._step(t_end, t_end - t, u, structure, stop_at_event)
 
     def _structure_inputs(self, structure: Any) -> tuple[float, float, float]:
         """The external structure's inputs of a step, checked: a tuple, list or 1-d array of
@@ -206,7 +214,7 @@ class Simulator:
                      for spec, value in zip(STRUCTURE_INPUTS, structure, strict=True))
 
     def _step(self, t_end: float, h: float, u: float | None,
-              structure: Any = None) -> StepReport:
+              structure: Any = None, stop_at_event: bool = False) -> StepReport:
         if u is None:
             u = self.scene.flow_u
         elif not (u.__class__ is float and u == self._flow_checked[0]
@@ -220,7 +228,13 @@ class Simulator:
             if inputs is not None:
                 solver.inputs = inputs
             solver.begin_step()
-            impulse = solver.advance_to(t_end, u)
+            if stop_at_event:
+                t_start = solver.state.t
+                impulse = solver.advance_to(t_end, u, True)
+                if solver.state.t != t_end:  # returned at an impact
+                    h = solver.state.t - t_start
+            else:
+                impulse = solver.advance_to(t_end, u)
             report = self._report(impulse, h)
             # never let NaN or inf reach an output (the sum is finite when they all are, save
             # for an overflow of the sum itself, which the field-by-field test then clears)

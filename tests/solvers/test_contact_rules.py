@@ -159,10 +159,11 @@ def test_ode_work_is_bounded_in_elastic_chatter():
 
 
 def test_the_chatter_threshold_trades_impacts_for_nothing_a_design_sees():
-    """solver.chatter_fraction (docs/accuracy.md, "The chatter threshold"): Figure 2 over 400 s
-    at 1e-1 and at 1e-4 of the period. The finer threshold resolves the elastic chatter ~580
-    times longer in impacts (364 against 209,758; the bodies stick at 167 s, and not by 400 s),
-    while the RMS of k x moves by 3.4e-4, its peak not at all and its DELs by at most 1.3e-5."""
+    """solver.chatter_fraction (docs/explanation/accuracy.md, "The chatter threshold"): Figure 2
+    over 400 s at 1e-1 and at 1e-4 of the period. The finer threshold resolves the elastic
+    chatter ~580 times longer in impacts (364 against 209,758; the bodies stick at 167 s, and
+    not by 400 s), while the RMS of k x moves by 3.4e-4, its peak not at all and its DELs by at
+    most 1.3e-5."""
     from iceimpact.studies.loads import run_loads
 
     coarse, fine = (run(Scene(solver_chatter_fraction=f), 400.0, dt=1e-3) for f in (1e-1, 1e-4))
@@ -196,7 +197,8 @@ def test_an_elastic_chatter_at_a_stiff_structure_is_bounded_by_the_chatter_time(
     shorter than the chatter time (solver.chatter_fraction of the structure's period), then the
     bodies stick. So the impacts of any window are at most its length over the chatter time
     (the rate reaches ~0.9 of it), the chatter ends, and its total is ~0.1 omega_n impacts
-    (9,894 at 1e4 rad/s, 107,737 at 1e5): the work docs/robustness.md bounds."""
+    (9,894 at 1e4 rad/s, 107,737 at 1e5): the work docs/explanation/robustness/stiff-structures.md
+    bounds."""
     from iceimpact.solvers.contact_rules import chatter_time
 
     scene = Scene(**ELASTIC_CHATTER)
@@ -218,7 +220,8 @@ def test_an_elastic_chatter_at_a_stiff_structure_is_bounded_by_the_chatter_time(
 
 @pytest.mark.parametrize("method", [1, 3])
 def test_the_contact_after_an_impact_is_not_a_degenerate_contact(monkeypatch, method):
-    """Fix 30's light floe (0.34 mg on a 1.8 g structure, e = 0.7, the flow reversed one 1 ms
+    """The light floe bouncing near the explicit rate limit (0.34 mg on a 1.8 g structure, e = 0.7,
+    the flow reversed one 1 ms
     step in four): every 4 ms the returning floe's impact is closed plastically (chatter
     closure), and the contact right after it, at equal velocities, was counted as a contact
     re-forming with no speed. From the ninth within the chatter time (0.39 s) the bodies were

@@ -139,8 +139,9 @@ def test_the_sticking_clearance_agrees_with_the_written_out_contact_force(fracti
         assert abs(root - exact) <= 2.0 * TIME_RESOLUTION
 
 
-#: fix 14's pair with its ice 82 mg heavier and a smaller floe (the random search's replay on
-#: the code of fix 27, docs/robustness.md fix 28): after its chatter the pair rings in contact
+#: the stiff pair ringing in contact with its ice 82 mg heavier and a smaller floe (the random
+#: search's replay; docs/explanation/robustness/sticking.md#stick-part-cycle): after its
+#: chatter the pair rings in contact
 #: 23 N beyond the drag force b u = 2.1e4 N, and the exact motion parts for 5.8e-9 s a period
 #: (a gap of ~2e-19 m), re-contacting at a closing speed of rounding
 STICK_PART_CYCLE = dict(
@@ -150,8 +151,9 @@ STICK_PART_CYCLE = dict(
     ice_v0=-0.5706191297623756, fluid_rho=999.0, impact_e=0.0, drag_model=1,
     drag_v_lin=1.282686929497336, flow_u=6478.176589776202, solver_method=1)
 
-#: events (impacts, separations, touches) a 0.37 s step of the scenes below may take; the code
-#: before fix 28 took 84,000 in 20 s of CPU without ending the first step
+#: events (impacts, separations, touches) a 0.37 s step of the scenes below may take; without
+#: the tension rule of the stick-part cycle the scene takes 84,000 in 20 s of CPU without ending
+#: the first step
 _MAX_EVENTS_PER_STEP = 2000
 
 
@@ -232,7 +234,8 @@ def _ringing_pair(fraction: float, fields: dict | None = None):
 
 @pytest.mark.parametrize("excess", [1e-3, 3e-2, 0.1])
 def test_only_a_tension_too_slight_to_part_the_pair_resolvably_is_held(excess):
-    """Fix 28's threshold on the stiff pair (b u = 2.1e4 N, omega 3.9e7 rad/s): ringing 1e-3
+    """The stick-part cycle's threshold on the stiff pair (b u = 2.1e4 N, omega 3.9e7 rad/s):
+    ringing 1e-3
     beyond the amplitude at which its contact force touches zero, the force dips 21 N below
     zero for 2.3e-9 s a period (checked on 50 written-out periods): a relative speed of
     2.8e-11 m/s, far below the rounding of the speeds (6.5e-9 m/s), so the phase is proven at
@@ -580,7 +583,8 @@ def test_the_search_tells_a_run_busy_integrating_at_its_rate_from_a_stall():
 
 
 def test_method_3_sees_a_meeting_hidden_inside_one_integrator_step():
-    """Fix 33 (the search with seed 57): a light ice (0.59 kg, quadratic drag) following a slow
+    """A meeting hidden inside one integrator step (the search with seed 57): a light ice (0.59 kg,
+    quadratic drag) following a slow
     structure, the flow reversed by random signs at 1 ms steps. DOP853 crossed a 3.5 ms dip of
     the gap below zero in one 4 ms step, whose ends both had an open gap: solve_ivp tests the
     event's sign at step ends only, so the ice went 2.5e-7 m through the structure with no
@@ -619,7 +623,8 @@ def test_method_3_sees_a_meeting_hidden_inside_one_integrator_step():
 
 
 def test_method_3_sees_a_tensile_moment_hidden_inside_one_integrator_step():
-    """Fix 33, sticking: the seed-49 scene at omega_n 1.7e3 rad/s (k / 1e8), a plastic ice
+    """A meeting hidden inside one integrator step, sticking: the seed-49 scene at omega_n 1.7e3
+    rad/s (k / 1e8), a plastic ice
     stuck on an undamped structure and ringing just beyond what its drag holds. Its contact
     force turns tensile for a short moment each period, shorter than DOP853's steps: tested at
     step ends only, the bodies were held through it (a pull) and method 3 made 10, 4 and 1
@@ -653,7 +658,8 @@ def test_method_3_sees_a_tensile_moment_hidden_inside_one_integrator_step():
 @pytest.mark.parametrize("drag_model", [1, 2], ids=["linear", "quadratic"])
 @pytest.mark.parametrize("morison", [False, True], ids=["plain", "morison"])
 def test_the_contact_force_rate_is_the_derivative_of_the_contact_force(drag_model, morison):
-    """``Together.contact_force_rate`` (fix 33's look inside method 3's sticking steps) against
+    """``Together.contact_force_rate`` (the look inside method 3's sticking steps for a hidden
+    tensile moment) against
     a central difference of ``contact_force`` along the sticking motion, for both drag laws,
     with and without the Morison drag on the structure; arrays element by element."""
     from iceimpact.solvers.contact_rules import make_together

@@ -1,5 +1,5 @@
 """Method 3 (solvers/ode.py) against the exact method on the reference runs, within the error
-bound of its tolerance (docs/accuracy.md, "Method 3's energy error" and "Machine
+bound of its tolerance (docs/explanation/accuracy.md, "Method 3's energy error" and "Machine
 independence").
 
 scipy's integrators call BLAS (``np.dot`` in each Runge-Kutta stage), whose kernel differs by CPU,

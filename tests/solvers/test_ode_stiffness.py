@@ -265,7 +265,8 @@ def test_method_3_light_floe_near_the_rate_limit_costs_the_rate_rules_work():
 def test_method_3_a_forced_hold_is_integrated_in_the_segments_spans():
     """A forced hold (bodies together, separation not looked for until its end: a degenerate
     contact, or events repeating at one instant) of the chatter time, 0.39 s for this slow
-    structure, was integrated whole in one call at the step bound of fix 30's light floe
+    structure, was integrated whole in one call at the step bound of the light floe bouncing near
+    the explicit rate limit
     (345,842 evaluations) and thrown away at the next flow change. It is now integrated in the
     segment's spans, never more than a chunk ahead of the time asked, and its end is still where
     the contact logic decides again."""

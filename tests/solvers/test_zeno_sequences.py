@@ -1,8 +1,8 @@
 """Zeno sequences (0 < e < 1) against an independent reference (tests/zeno_reference.py: closed
 forms in 80-digit arithmetic, followed bounce by bounce to 1e-24 s of the sequence's end): the
 exact method follows each sequence to within ZENO_TIME (1e-9 s) of its end and the bodies stick
-there, not where a bounce first falls below the chatter time (docs/accuracy.md, "Zeno sequences
-and sticking").
+there, not where a bounce first falls below the chatter time (docs/explanation/accuracy.md,
+"Zeno sequences and sticking").
 
 The default scene with e = 0.5 is followed from t = 0. With e = 0.8 the scene amplifies rounding
 (a change of 1e-18 m at the start moves its sticking by milliseconds at 26 s, pinned below), so

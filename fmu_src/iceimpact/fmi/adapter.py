@@ -126,7 +126,15 @@ class FmuModel(FmuLifecycle):
                     TUNERS[name](sim, value)
             structure = (tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS)
                          if sim.external else None)
-            report = sim.advance(step_size, self.flow_u, structure)
+            if self.early_return:
+                # to the master's point itself, so that the steps after an early return end
+                # on the master's grid (sim.t + step_size may differ from it by rounding)
+                end = current_time + step_size - self.start_time
+                report = sim.advance_to(end, self.flow_u, structure, stop_at_event=True)
+                if report.t != end:
+                    self.returned_at = report.t + self.start_time
+            else:
+                report = sim.advance(step_size, self.flow_u, structure)
         except (ParameterError, SolverError) as exc:
             if before is not None:
                 sim.restore(before)  # the tunables applied before the refusal are undone

@@ -38,6 +38,12 @@ OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 TIME_RTOL = 1e-9
 _INF = math.inf
 
+#: What the FMI 3.0 layer (fmu_native/fmi3.c) sets and reads beside the contract's variables:
+#: whether steps return at impacts (fmi3InstantiateCoSimulation's earlyReturnAllowed), and the
+#: time the last step reached (its lastSuccessfulTime).
+EARLY_RETURN = "fmi3.earlyReturnAllowed"
+REACHED_TIME = "fmi3.lastSuccessfulTime"
+
 
 class FmuLifecycle:
     """One FMU instance's values and life-cycle rules (no FMI library involved).
@@ -68,6 +74,10 @@ class FmuLifecycle:
         #: that keeps them ready (refreshed whenever they change; the FMU reads them at every
         #: step without a call per variable); None: every output is read through :meth:`get`.
         self.published: Sequence[Any] | None = None
+        #: Steps end at the first impact in them (FMI 3.0's early return); see :meth:`do_step`.
+        self.early_return = False
+        #: Where the step in progress returned early (set by :meth:`advance`), else None.
+        self.returned_at: float | None = None
 
     # hooks of a model ----------------------------------------------------------------------------
     @property
@@ -90,7 +100,8 @@ class FmuLifecycle:
 
     def advance(self, current_time: float, step_size: float) -> bool:
         """One step from the checked ``current_time``, taking :attr:`pending`; False (after
-        logging why) refuses it and changes nothing."""
+        logging why) refuses it and changes nothing. With :attr:`early_return` a model may end
+        the step at an event before its end: it then sets :attr:`returned_at` to that time."""
         raise NotImplementedError
 
     # variables -----------------------------------------------------------------------------------
@@ -98,11 +109,16 @@ class FmuLifecycle:
         """The value of a parameter, the input or an output."""
         if name in self.values:
             return self.pending.get(name, self.values[name])
+        if name == REACHED_TIME:
+            return self.time
         return self.read(name)
 
     def set(self, name: str, value: Any) -> None:
         """fmi2Set of a parameter or the input; validated when it takes effect."""
         if self.write_input(name, value):
+            return
+        if name == EARLY_RETURN:
+            self.early_return = bool(value)
             return
         if not self.initialized:
             self.values[name] = value
@@ -161,9 +177,11 @@ class FmuLifecycle:
                           f"does not match the time of the FMU, {self.time!r} s (the end of the "
                           "last step)")
                 return False
+            self.returned_at = None
             if not self.advance(current_time, step_size):
                 return False
-            self.time = current_time + step_size
+            returned_at = self.returned_at
+            self.time = current_time + step_size if returned_at is None else returned_at
             return True
         except Exception as exc:  # never let an exception reach the FMI library
             self._log(ERROR, f"doStep at t = {current_time!r} s failed: {exc!r}")

@@ -11,9 +11,9 @@ import os
 import sys
 from typing import Any
 
-# Where FMU libraries lie in an extracted FMU; those that export finalizePythonInterpreter are
-# PythonFMU's.
-_FMU_LIBRARY = "/binaries/linux64/"
+# Where FMU libraries lie in an extracted FMU (FMI 2.0, FMI 3.0); those that export
+# finalizePythonInterpreter are PythonFMU's.
+_FMU_LIBRARIES = ("/binaries/linux64/", "/binaries/x86_64-linux/")
 # Libraries (paths of loaded PythonFMU libraries) already guarded below.
 _GUARDED_LIBRARIES: set[str] = set()
 
@@ -51,7 +51,8 @@ def guard_native_exit() -> None:
     not the host calls ``dlclose``.
 
     Every PythonFMU library in the process has the defect, ours and those of other FMUs a host
-    loads beside it (an FMU library lies under ``binaries/linux64/``), so every one found is
+    loads beside it (an FMU library lies under ``binaries/linux64/`` or, FMI 3.0,
+    ``binaries/x86_64-linux/``), so every one found is
     guarded, not only IceImpact's.
 
     The fix: for each loaded copy of such a library, register ``finalizePythonInterpreter``
@@ -65,8 +66,8 @@ def guard_native_exit() -> None:
     try:
         with open("/proc/self/maps") as maps:
             fields = [line.rstrip("\n").split(None, 5) for line in maps]
-        new = {f[5] for f in fields if len(f) == 6 and _FMU_LIBRARY in f[5]
-               and f[5].endswith(".so")}
+        new = {f[5] for f in fields if len(f) == 6 and f[5].endswith(".so")
+               and any(folder in f[5] for folder in _FMU_LIBRARIES)}
         new -= _GUARDED_LIBRARIES
         if not new:
             return

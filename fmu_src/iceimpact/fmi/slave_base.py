@@ -48,7 +48,7 @@ from pythonfmu.enums import Fmi2Status
 
 from ..contract import CONTINUOUS, DISCRETE, FIXED, INPUT, OUTPUT, PARAMETER, TUNABLE, Variable
 from ..errors import ParameterError
-from .lifecycle import FmuLifecycle
+from .lifecycle import EARLY_RETURN, REACHED_TIME, FmuLifecycle
 from .pythonfmu_fixes import guard_native_exit
 
 #: A message logged with this category fails the current FMI call with fmi2Error: the FMU's loader
@@ -69,6 +69,12 @@ def fail_call(slave: Fmi2Slave, message: str) -> None:
     """
     slave.log(message, Fmi2Status.error, FAIL_CATEGORY)
 
+
+#: The value references through which the FMI 3.0 layer of IceImpact3.fmu (fmu_native/fmi3.c,
+#: compiled with these numbers) sets EARLY_RETURN (a Boolean) and reads REACHED_TIME (a Real, the
+#: FMI 3.0 description's independent variable ``time``): the same slave serves both FMI
+#: versions; no FMI 2.0 description lists them.
+FMI3_CHANNEL = {EARLY_RETURN: (0x7FFFFF00, bool), REACHED_TIME: (0x7FFFFF01, float)}
 
 _TYPES = {float: Real, int: Integer, bool: Boolean}
 #: The FMI types, by the contract's kind, as the FMI functions name them (fmi2GetReal).
@@ -153,8 +159,16 @@ class FmuSlave(Fmi2Slave):
                                 if v.kind is kind and v.causality != OUTPUT}
                          for kind in _TYPE_NAMES}
         #: by FMI type: the value references fmi2Get reads
-        cls._readable = {kind: frozenset(vr for vr, v in enumerate(variables) if v.kind is kind)
-                         for kind in _TYPE_NAMES}
+        readable = {kind: {vr for vr, v in enumerate(variables) if v.kind is kind}
+                    for kind in _TYPE_NAMES}
+        #: value reference -> name, of every variable fmi2Get may read
+        cls._names = {vr: v.name for vr, v in enumerate(variables)}
+        vr, kind = FMI3_CHANNEL[EARLY_RETURN]
+        cls._settable[kind][vr] = EARLY_RETURN
+        vr, kind = FMI3_CHANNEL[REACHED_TIME]
+        readable[kind].add(vr)
+        cls._names[vr] = REACHED_TIME
+        cls._readable = {kind: frozenset(vrs) for kind, vrs in readable.items()}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
@@ -188,8 +202,8 @@ class FmuSlave(Fmi2Slave):
         if not self._all_of(vrs, kind, "Get"):
             return [_UNDEFINED[kind]] * len(vrs)
         get = self._model.get
-        variables = self._variables
-        return [kind(get(variables[vr].name)) for vr in vrs]
+        names = self._names
+        return [kind(get(names[vr])) for vr in vrs]
 
     def _all_of(self, vrs: list[int], kind: type, verb: str) -> bool:
         """True if every value reference is a variable of type ``kind`` (fmi2Set: not an

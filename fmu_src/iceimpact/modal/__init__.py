@@ -2,7 +2,7 @@
 
 ``structure.py`` is the modal core (no FMI), ``contract.py`` its FMI variables (rows of
 :class:`iceimpact.contract.Variable`), ``fmu.py`` its model on the shared FMI life cycle and its
-state record. docs/coupling.md tells how it is coupled with IceImpact.fmu.
+state record. docs/explanation/coupling.md tells how it is coupled with IceImpact.fmu.
 """
 
 from .structure import ModalStructure, Mode

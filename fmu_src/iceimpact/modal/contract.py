@@ -3,7 +3,7 @@
 The one home of the structure FMU's interface: the slave (``fmu_src/ModalStructure.py``)
 registers exactly these variables, :mod:`iceimpact.modal.fmu` validates the parameters against the
 ranges here, ``build_fmu.py`` writes units, min/max, descriptions and the default experiment from
-it, and docs/coupling.md lists it (:func:`markdown_table`).
+it, and docs/explanation/coupling.md lists it (:func:`markdown_table`).
 
 FMI 2.0 has no arrays: the FMU has :data:`MAX_MODES` modes, ``mode1.*`` to ``mode5.*``, of which
 the first ``modes`` are used (the others are ignored and not validated). The defaults are one mode
@@ -120,7 +120,8 @@ BY_NAME: dict[str, Variable] = {v.name: v for v in VARIABLES}
 
 
 def markdown_table() -> str:
-    """The variables as the Markdown table of docs/coupling.md (``mode2.*`` to ``mode5.*``
+    """The variables as the Markdown table of docs/explanation/coupling.md (``mode2.*`` to
+    ``mode5.*``
     summarised in one row)."""
     return contract.markdown_table(VARIABLES, fold="mode", fold_note=(
         f"the same six parameters for modes 2 to {MAX_MODES}"))

@@ -24,7 +24,7 @@ on the step size only and are cached per step size.
 The impact law of IceImpact's external-structure mode (``structure.model = 2``) needs the mass
 the structure opposes to a short impulse at the contact point: :attr:`ModalStructure.impulse_mass`
 ``= 1 / sum(phi_i^2 / m_i)``, which for one mode is its effective mass ``m_i / phi_i^2``
-(:attr:`Mode.effective_mass`). See docs/coupling.md, "The structure FMU".
+(:attr:`Mode.effective_mass`). See docs/explanation/coupling.md, "The structure FMU".
 """
 
 from __future__ import annotations

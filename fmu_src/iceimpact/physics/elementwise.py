@@ -1,7 +1,8 @@
 """The C library's exp, expm1, log1p, sin, cos, sinh and cosh, element by element over arrays.
 
 numpy's own ufuncs for these functions have variants per SIMD level: on a CPU with AVX-512 they
-give other last bits than on one without (docs/accuracy.md#machine-independence). The closed
+give other last bits than on one without (docs/explanation/accuracy.md#machine-independence). The
+closed
 forms evaluated over arrays (a sampled run, the grid of method 2) use these functions instead:
 each element is Python's :mod:`math` function of it, the same value the scalar closed forms
 give, on every CPU. They cost some 45 ns an element against numpy's 1 to 5; the callers

@@ -11,7 +11,7 @@ The article integrates the quadratic law with explicit Euler (eq. 34-36); the cl
 exact. Both hold for any sign of r0 and for u = 0; with no drag (Cd = 0) the ice coasts.
 
 The same laws give the Morison drag on the structure (:func:`make_structure_drag`, off unless a
-scene asks for it; docs/morison.md).
+scene asks for it; docs/explanation/morison.md).
 """
 
 from __future__ import annotations
@@ -255,7 +255,8 @@ def make_drag(scene) -> LinearDrag | QuadraticDrag:
 
 def make_structure_drag(scene) -> LinearDrag | QuadraticDrag | None:
     """Morison drag of the flow on the structure under ``drag.model``, None when off (structure.Cd
-    structure.A = 0; docs/morison.md). The same law as the ice's, on the structure's velocity v
+    structure.A = 0; docs/explanation/morison.md). The same law as the ice's, on the structure's
+    velocity v
     and mass m + m_a: ``F_s = B_s |u - v| (u - v)`` (quadratic) or ``b_s (u - v)`` (linearised),
     B_s = rho Cd_s A_s / 2, b_s = B_s v_lin."""
     if not scene.structure_drag_on:

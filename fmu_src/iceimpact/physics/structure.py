@@ -18,7 +18,8 @@ Evaluation works on floats (``math``, fast, used by the event solver) and on num
 same functions of the C library element by element, :mod:`.elementwise`: the same floats on every
 CPU).
 
-Morison loads on the structure (docs/morison.md): the added mass m_a = rho Ca V moves with it
+Morison loads on the structure (docs/explanation/morison.md): the added mass m_a = rho Ca V moves
+with it
 (``mass`` m + m_a), and the linearised drag ``b_s (u - x')`` is a damping b_s plus a constant
 force b_s u, i.e. an offset b_s u / k (:func:`morison_oscillator`): the closed forms stay exact.
 """
@@ -295,7 +296,7 @@ class Oscillator:
         v0 plus its increments, ``v0 + A s1 (e^{s1 t} - 1) + B s2 (e^{s2 t} - 1)``: exactly v0 at
         t = 0, and rounding of the order of the increments; once the fast mode has decayed, the
         sum of the two modes, whose rounding decays with them
-        (docs/robustness.md#over-damped-velocity)."""
+        (docs/explanation/robustness/flights.md#over-damped-velocity)."""
         slow, fast = self._s_slow, self._s_fast
         gap = slow - fast  # 2 wo
         return (v0 - fast * y0) / gap, (slow * y0 - v0) / gap
@@ -439,7 +440,8 @@ def morison_oscillator(mass: float, damping: float, stiffness: float, drag_b: fl
 
 
 class DraggedStructure:
-    """The structure under the quadratic Morison drag (docs/morison.md), which has no closed form:
+    """The structure under the quadratic Morison drag (docs/explanation/morison.md), which has no
+    closed form:
     ``mass x'' + damping x' + stiffness x = F_s(x')``, ``F_s = B_s |u - x'| (u - x')``, the flow
     speed u constant; ``drag`` gives F_s (:func:`iceimpact.physics.ice.make_structure_drag`).
 

@@ -83,7 +83,10 @@ class Solver:
     1. ``advance_to(t_end, u)`` marches from ``state.t`` to ``t_end`` (> t) with the flow speed
        u held, leaves ``state`` at ``t_end`` and returns the contact impulse on the structure
        over the interval (N.s), impacts included. The event-driven methods do it through the
-       one loop of :class:`~iceimpact.solvers.march.EventMarch`.
+       one loop of :class:`~iceimpact.solvers.march.EventMarch`. With ``stop_at_event`` an
+       event-driven method (1 or 3) ends the march at the first contact event (an impact, a
+       separation) before ``t_end`` instead (``state`` just after it); method 2 marches to
+       ``t_end`` regardless.
     2. Every impact goes through :meth:`_record` (the count, the list, the step's impact
        budget: one beyond it raises :class:`SolverError`); sticking is entered and left through
        :meth:`_set_sticking`.
@@ -119,7 +122,7 @@ class Solver:
     def __init__(self, scene: Scene, record_impacts: bool = True):
         self.scene = scene
         # the mass moving with the structure: m + m_a with the Morison added mass (eq. 8 and the
-        # impact law, docs/morison.md), exactly m without it
+        # impact law, docs/explanation/morison.md), exactly m without it
         self.m = scene.structure_mass
         #: Morison drag of the flow on the structure (same law as the ice's), None when off
         self.structure_drag = make_structure_drag(scene)
@@ -148,8 +151,9 @@ class Solver:
         """Change e for impacts from now on (``impact.e`` is tunable)."""
         self.e = e
 
-    def advance_to(self, t_end: float, u: float) -> float:
-        """March to ``t_end`` with flow speed u; return the impulse on the structure (N.s)."""
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
+        """March to ``t_end`` (or, with ``stop_at_event``, to the first contact event before
+        it) with flow speed u; return the impulse on the structure (N.s)."""
         raise NotImplementedError
 
     def begin_step(self, start: float | None = None) -> None:
@@ -167,7 +171,8 @@ class Solver:
         """Count an impact (and list it, if impacts are recorded). One impact beyond the step's
         budget (:meth:`begin_step`) raises :class:`SolverError`: the simulator rolls the step
         back, so a scene whose impacts would take a step minutes or hours (a stick-part cycle
-        at a stiff structure, docs/robustness.md) is refused with the way out, never a hang."""
+        at a stiff structure, docs/explanation/robustness/budgets.md) is refused with the way out,
+        never a hang."""
         if self.impact_count >= self.impact_limit:
             raise SolverError(self._over_budget(impact.t))
         self.impact_count += 1

@@ -137,7 +137,7 @@ def chatter_time(omega_n: float, fraction: float) -> float:
     2 scene) whose mean force is the sticking contact force. A bounce shorter than the chatter
     time ends them with one plastic impact, which bounds the work per simulated second; the
     motion it skips is a bounce of height g'' T^2 / 8 (below ~1e-9 m in the Figure 2 scene at
-    the default 1e-2). docs/accuracy.md ("The chatter threshold") measures its trade."""
+    the default 1e-2). docs/explanation/accuracy.md ("The chatter threshold") measures its trade."""
     return fraction * 2.0 * math.pi / omega_n
 
 
@@ -271,7 +271,8 @@ class Together:
 
 
 class TogetherWithStructureDrag(Together):
-    """Bodies moving together with the Morison drag on the structure as well (docs/morison.md):
+    """Bodies moving together with the Morison drag on the structure as well
+    (docs/explanation/morison.md):
     ``(m + m_a + M) x'' + c x' + k x = F_drag(x') + F_s(x')``, ``m`` being m + m_a. The contact
     force stays the drag on the ice minus the ice's inertia, and the integrated impulse ``P`` the
     ice's drag impulse: the structure's drag acts on the structure, not through the contact."""
@@ -508,7 +509,7 @@ class ContactRules:
         the bodies' state, :func:`reanchor_on_flow_change`), or an impact (the velocities after
         it, equal after a plastic one: the closing speed the impact resolved was real). Counted,
         repeated real impacts would hold the bodies with no look for a separation
-        (docs/robustness.md#contact-after-impact).
+        (docs/explanation/robustness/contact.md#contact-after-impact).
         """
         policy = self.policy
         closing = w - v

@@ -30,7 +30,7 @@ On a fixed grid of step dt = ``solver.dt`` (s), anchored at the last impact:
   grid responses do. (The drag-law acceleration of a free floe, ``(b/M)(u - w)``, is about
   3e-3 m/s^2 in the article's scenes whenever (ii) holds, so (iii) could never be met with it.
   With u = 0.1 m/s the differences do not meet it either: the bodies chatter, meeting every few
-  grid steps, and the article's e = 0.5 scenes are never pinned; see docs/accuracy.md.)
+  grid steps, and the article's e = 0.5 scenes are never pinned; see docs/explanation/accuracy.md.)
 
 The communication step need not be a multiple of dt: impacts are tested on grid points only, and
 the state at an off-grid time is the closed form there (a partial Euler step for the quadratic
@@ -127,7 +127,8 @@ class FixedStepSolver(Solver):
 
     def _oscillator(self, u: float) -> Oscillator:
         """The structure's closed form (eq. 9-10) in a flow of speed u: with the linearised
-        Morison drag on it (docs/morison.md), a damping b_s and an offset b_s u / k; the scene
+        Morison drag on it (docs/explanation/morison.md), a damping b_s and an offset b_s u / k;
+        the scene
         refuses the quadratic one for this method (no closed form)."""
         if self.structure_drag is None:
             return Oscillator(self.m, self.c, self.k)
@@ -349,7 +350,9 @@ class FixedStepSolver(Solver):
             z, w = self.drag.motion(z_a, w_a, self.u, tau)
         return State(t, x, v, z, w)
 
-    def advance_to(self, t_end: float, u: float) -> float:
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
+        # (stop_at_event is not taken: the scheme finds impacts at its grid points only, and a
+        # step that ended at one would move the grid of the steps after it)
         t_now = self.state.t
         if u != self.u:  # zero-order hold: a new grid starts at the change
             s = self.state

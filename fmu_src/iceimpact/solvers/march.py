@@ -33,6 +33,14 @@ class EventMarch(Solver):
     5. ``reanchor(u, t_end)``: the flow speed changes to u at the current time (zero-order hold):
        the segment restarts there, from the current state (``t_end``: the end of the step about
        to be taken, a hint for how far to compute ahead).
+    6. ``event_time(event)``: the time (s) of an event ``next_event`` returned.
+
+    With ``stop_at_event``, :meth:`march` ends at the first contact event after its start and
+    before ``t_end``: an event that brings an impact or starts or ends the bodies' sticking
+    together (a touch without speed that leaves them in flight is not one; nor an event at the
+    start, so that a step always advances the time). ``state`` is then the state just after it
+    (an impact's impulse included in the returned one), and the next march goes on from there
+    exactly as the uninterrupted march would have (an FMI 3.0 early return, docs/fmu.md).
 
     ``u`` is the flow speed of the current segment; ``pending_impulse`` holds the impulse of
     impacts at the current time not yet reported (an impact at t = 0 goes to the first step).
@@ -41,29 +49,40 @@ class EventMarch(Solver):
     u: float
     pending_impulse: float
 
-    def advance_to(self, t_end: float, u: float) -> float:
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
         if u != self.u:  # (set_flow, inline: this runs at every communication step)
             self.reanchor(u, t_end)
-        return self.march(t_end)
+        return self.march(t_end, stop_at_event)
 
     def set_flow(self, u: float, t_end: float) -> None:
         """Re-anchor the segment if the flow speed changes (rule 5), once for every path in."""
         if u != self.u:
             self.reanchor(u, t_end)
 
-    def march(self, t_end: float) -> float:
-        """Run the segments from the current one to ``t_end``; the impulse on the structure (the
-        sum in event order, so that every path that marches adds the same numbers in the same
-        order)."""
+    def march(self, t_end: float, stop_at_event: bool = False) -> float:
+        """Run the segments from the current one to ``t_end`` (with ``stop_at_event``: to the
+        first contact event before it, see above); the impulse on the structure (the sum in event
+        order, so that every path that marches adds the same numbers in the same order)."""
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
+        t_start = self.state.t
         while True:
             event = self.next_event(t_end)
             if event is None:
                 impulse += self.finish(t_end)
                 return impulse
             impulse += self.impulse_to(event)
-            impulse += self.take_event(event)
+            if stop_at_event:
+                count, sticking = self.impact_count, self.sticking
+                t_event = self.event_time(event)
+                impulse += self.take_event(event)
+                # (never at the start: a step must advance the time)
+                if ((self.impact_count != count or self.sticking != sticking)
+                        and t_start < t_event < t_end):
+                    impulse += self.finish(t_event)  # the new segment at its start: no impulse
+                    return impulse
+            else:
+                impulse += self.take_event(event)
 
     def take_event(self, event: Any) -> float:
         """:meth:`at_event`; the impulse of its impacts, taken from ``pending_impulse``."""
@@ -85,4 +104,7 @@ class EventMarch(Solver):
         raise NotImplementedError
 
     def reanchor(self, u: float, t_end: float) -> None:
+        raise NotImplementedError
+
+    def event_time(self, event: Any) -> float:
         raise NotImplementedError

@@ -2,7 +2,8 @@
 
 This is the integration a user would write by hand. In flight the state ``[x, v, z, w]`` obeys
 ``m x'' + c x' + k x = 0`` (eq. 8; with the Morison terms on the structure, m is m + m_a and the
-drag F_s(x') is on the right, docs/morison.md) and ``M w' = F_drag(w)`` (linearised, eq. 4-5, or
+drag F_s(x') is on the right, docs/explanation/morison.md) and ``M w' = F_drag(w)`` (linearised,
+eq. 4-5, or
 quadratic, eq. 2-3 and 31-32); the gap ``g = x - z`` is a terminal event with direction -1
 (eq. 25: the bodies meet). At the event the impact law of eq. 12-17
 (:func:`iceimpact.physics.contact.impact`) gives the new velocities; positions do not jump
@@ -146,7 +147,7 @@ class _Flight:
 
 
 class _DraggedFlight(_Flight):
-    """Flight with the Morison drag on the structure (docs/morison.md):
+    """Flight with the Morison drag on the structure (docs/explanation/morison.md):
     ``m x'' = F_s(x') - c x' - k x``, m being m + m_a."""
 
     def __init__(self, solver: OdeSolver):
@@ -294,11 +295,12 @@ class OdeSolver(EventMarch):
           small their motion about it.
         - Sticking: the dampings act on the whole moving mass m + m_a + M
           (``integrated_rate(..., together=True)``), not on the flight's masses, which are
-          thousands of times stiffer for a light floe (docs/robustness.md#holds-in-spans).
+          thousands of times stiffer for a light floe
+          (docs/explanation/robustness/ode.md#holds-in-spans).
         - In flight the ice's quadratic drag is left out: its rate 2 B |w - u| / M vanishes where
           the ice meets the flow, the only place its motion falls below the tolerance, and
           above it the error control sees the unstable step itself
-          (docs/robustness.md#explicit-step-bounds).
+          (docs/explanation/robustness/ode.md#explicit-step-bounds).
 
         A function of the call's start, so that a restored snapshot integrates its chunk again
         identically."""
@@ -359,7 +361,7 @@ class OdeSolver(EventMarch):
         """One solve_ivp call from (lo, y_lo) to hi; within a forced hold, without the event
         and at most to the hold's end. A hold is integrated in the segment's spans like any
         other time, not whole: a flow change may discard what lies ahead
-        (docs/robustness.md#holds-in-spans)."""
+        (docs/explanation/robustness/ode.md#holds-in-spans)."""
         events = self.event_fn
         if lo < self.hold_until:
             hi, events = min(hi, self.hold_until), None
@@ -419,7 +421,8 @@ class OdeSolver(EventMarch):
 
     def _hidden_event(self, res) -> float | None:
         """The first event of the segment inside one integrator step that scipy's event test
-        cannot see (s), or None (docs/robustness.md#hidden-meeting). solve_ivp tests the
+        cannot see (s), or None (docs/explanation/robustness/ode.md#hidden-meeting). solve_ivp
+        tests the
         event's sign at the ends of its steps only, so a dip below zero that starts and ends
         within one step goes unseen: in flight, the gap (the ice would pass through the
         structure); sticking, the contact force (a pull held through). Such a dip has
@@ -469,7 +472,7 @@ class OdeSolver(EventMarch):
         :mod:`~iceimpact.solvers.contact_rules` with :data:`INTEGRATED_POLICY`; ``reanchor``:
         after a change of the flow speed, which is no event; ``after_impact``: the velocities
         after an impact, an event, but no contact re-forming:
-        docs/robustness.md#contact-after-impact)."""
+        docs/explanation/robustness/contact.md#contact-after-impact)."""
         if not reanchor:
             if _same_instant(t, self._last_event_t):
                 self._events_here += 1
@@ -548,6 +551,9 @@ class OdeSolver(EventMarch):
         if self.event is not None and self.event[0] <= t_end:
             return self.event
         return None
+
+    def event_time(self, event: tuple[float, np.ndarray]) -> float:
+        return event[0]
 
     def impulse_to(self, event: tuple[float, np.ndarray]) -> float:
         if self.phase is Phase.STICK:

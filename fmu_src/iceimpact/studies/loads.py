@@ -2,7 +2,7 @@
 
 What a structural designer takes from one load case (ISO 19906 and IEC 61400-3 ask for an
 extreme load and the fatigue damage for ice), computed from the samples of a run after an
-optional transient, SI units throughout (docs/design_loads.md explains every number):
+optional transient, SI units throughout (docs/explanation/design-loads.md explains every number):
 
 - the **spring force** ``k x`` (N), the base shear of the single-degree-of-freedom idealisation:
   its maximum and minimum with their times (:func:`extremes`), and its rainflow cycles

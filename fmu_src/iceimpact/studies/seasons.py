@@ -6,7 +6,7 @@ year each case lasts, and a number of repetitions (the motion is sensitive to it
 so one run is one sample; repetition ``k`` starts the ice ``k`` steps of :func:`perturbation`
 further upstream). The runs go through the sweep engine (:func:`iceimpact.sweep.run_points`:
 process pool or dask, resumable, the same limits and refusals), one row per run; the rows are then
-combined (SI units throughout; docs/design_loads.md, "Design over an ice season"):
+combined (SI units throughout; docs/explanation/design-loads.md, "Design over an ice season"):
 
 - per case ``i``, over the cycles of its repetitions pooled (rainflow cycles of ``k x`` counted
   per run by :mod:`iceimpact.studies.loads`; pooling adds their Miner sums ``D = sum n S^m``,

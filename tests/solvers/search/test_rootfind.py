@@ -131,7 +131,7 @@ def test_the_search_holds_its_signal_only_during_a_call():
     assert search.next_root_before(10.0, probe, f, rate) == pytest.approx(math.log(2.0))
 
 
-# --- probes whose values lie far apart (docs/robustness.md, fix 23) ---------------------------
+# --- probes whose values lie far apart (docs/explanation/robustness/flights.md#probes-far-apart)
 
 def _first_stretch(probe: tuple[float, float, float, float, float]) -> float:
     """The frontier after one step of a search from 0 on a signal with this probe, its value
@@ -174,12 +174,12 @@ FAR_APART = {
 @pytest.mark.parametrize("name", list(FAR_APART))
 def test_probes_with_values_far_apart_prove_what_their_bounds_prove(name):
     """A probe is homogeneous: in a time unit tau every step length is tau times that of
-    (f, f' tau, f'' tau^2, K tau^2, J tau^3). With tau = 2^-300 (and values times 2^-900, so
-    that J is about 1) the squares and products of the step lengths underflowed, fix 15's
-    scaling of all five values by one factor cannot help, and two stretches came out longer
-    than their bounds prove (unsound). Each probe is now rescaled in time as well
-    (``rootfind.balanced``): the stretch is exactly tau times the balanced probe's, and the
-    proven one (decimal arithmetic) to rounding."""
+    (f, f' tau, f'' tau^2, K tau^2, J tau^3). With tau = 2^-300 (and values times 2^-900, so that J
+    is about 1) the squares and products of the step lengths underflowed, the scaling of all five
+    values by one factor (for scales whose squares underflow) cannot help, and two stretches came
+    out longer than their bounds prove (unsound). Each probe is now rescaled in time as well
+    (``rootfind.balanced``): the stretch is exactly tau times the balanced probe's, and the proven
+    one (decimal arithmetic) to rounding."""
     unit = FAR_APART[name]
     tau, scale = 2.0 ** -300, 2.0 ** -900
     far = tuple(value * scale / tau ** degree

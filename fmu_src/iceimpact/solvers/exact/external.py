@@ -9,7 +9,7 @@ impulse the ice delivered during the step, which the master applies to the struc
 first (``coupling.scheme = 1``), the next one with a Jacobi master (``coupling.scheme = 2``, the
 fixed-step algorithms of ECOS and libcosim).
 
-Within a step (docs/coupling.md, "External-structure mode"):
+Within a step (docs/explanation/coupling.md, "External-structure mode"):
 
 - **The structure's own forces.** ``F_o`` (spring, damping, anything but the contact) is measured
   from the structure's acceleration and the contact force it felt: ``F_o = m a_in - F_felt`` at
@@ -257,10 +257,13 @@ class ExternalSolver(EventSolver):
         self.seg = ExternalStick(self, t, x, v, u, start=hold)
         self._set_sticking(True, t)
 
-    def advance_to(self, t_end: float, u: float) -> float:
+    def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
         x_in, v_in, a_in = self.inputs
         t = self.state.t
         h = t_end - t
+        # a Jacobi master holds the last step's force on the structure over the whole step it
+        # planned (unfelt_impulse): such a step is not cut at an impact
+        stop_at_event = stop_at_event and not self.jacobi
         raw, ref = self.measure_other_force(t, v_in, a_in)
         self.other_force, self.other_force_rate = self.estimate_other_force(raw, ref, t)
         self.step_start = t
@@ -285,7 +288,8 @@ class ExternalSolver(EventSolver):
         else:
             # the structure lags its extrapolation: no penetration, the ice goes back to it
             self._begin(t, x_in, v_s, min(z, x_in), w, u, reanchor=True)
-        impulse = self.march(t_end)
+        impulse = self.march(t_end, stop_at_event)
+        h = self.state.t - t  # (shorter if the step returned at an impact)
         returned = (self.jacobi_force(impulse, h, started_riding) if self.jacobi
                     else impulse / h)
         felt = (unfelt / h) if self.jacobi else returned

@@ -262,7 +262,8 @@ class Flight(_SearchedSegment):
         at the crest before it, where the gap is about 2R. There the search takes over and
         locates the impact as anywhere else. Each call evaluates at most 4 log2(periods) + 4
         probes however slowly the ice drifts. A dip within the rounding of the gap (a few ulps of
-        the positions) may be taken for a touch (docs/robustness.md#tangent-ringing).
+        the positions) may be taken for a touch
+        (docs/explanation/robustness/flights.md#tangent-ringing).
 
         The doubling stops where omega t reaches ``DRIFT_PHASE_LIMIT`` (beyond, one ulp of the
         phase nears a degree); the search then goes on period by period."""
@@ -324,7 +325,8 @@ class Flight(_SearchedSegment):
 
 
 class DraggedFlight(Flight):
-    """Flight with the quadratic Morison drag on the structure (docs/morison.md), which has no
+    """Flight with the quadratic Morison drag on the structure (docs/explanation/morison.md), which
+    has no
     closed form: the structure's equation ``m x'' + c x' + k x = B_s |u - x'| (u - x')`` is the
     sticking equation of the quadratic drag without the ice, and is integrated by the same
     Taylor steps (:class:`~iceimpact.solvers.search.taylor.StickingTaylor` with no drag on an

@@ -53,7 +53,8 @@ class EventSolver(EventMarch):
         super().__init__(scene, record_impacts)
         self.osc = self._structure()
         self.drag = make_drag(scene)
-        # Morison drag on the structure (docs/morison.md): linearised, a damping b_s and an offset
+        # Morison drag on the structure (docs/explanation/morison.md): linearised, a damping b_s
+        # and an offset
         # b_s u / k of the closed form (structure_osc); quadratic, an integrated flight
         # (DraggedFlight). Off: b_s = 0 and the flight is today's closed form.
         drag_s = self._structure_drag()
@@ -225,6 +226,9 @@ class EventSolver(EventMarch):
             if event is None or event > tau_end:
                 return tau_end
         return event
+
+    def event_time(self, tau_event: float) -> float:
+        return self.seg.t0 + tau_event
 
     def impulse_to(self, tau_event: float) -> float:
         seg = self.seg

@@ -45,7 +45,8 @@ _MAX_STEPS = 8
 
 class LinearStick(_SearchedSegment):
     """Bodies together under linear drag: closed form (mass m+M, damping c+b, offset b u / k;
-    with the Morison terms on the structure, m is m + m_a and b_s adds to b: docs/morison.md).
+    with the Morison terms on the structure, m is m + m_a and b_s adds to b:
+    docs/explanation/morison.md).
 
     Positions, velocities and the contact force are all evaluated as increments from the
     anchor, as a flight's are. The equilibrium b u / k can be far away (7.7e12 m for a light
@@ -232,7 +233,7 @@ class LinearStick(_SearchedSegment):
         """Whether every tensile stretch of the contact force from here on is too slight to
         part the bodies resolvably, so that they are held together through it (otherwise a
         stiff pair parts and re-contacts once a period without end:
-        docs/robustness.md#stick-part-cycle).
+        docs/explanation/robustness/sticking.md#stick-part-cycle).
 
         Under-damped, q = -b y' - M y'' is a free response (see :meth:`clearance`); in its
         phase plane ``q = rho cos(theta)``, ``q' = -omega0 rho sin(theta)`` (omega0^2 =
@@ -309,7 +310,7 @@ class LinearStick(_SearchedSegment):
           (q0, q0')). Far from the equilibrium, b (dx - u dt) is a difference of displacements
           whose rounding exceeds small impulses; this form has none. But lam0 is the anchor's
           force, and its rounding stays while the motion decays
-          (docs/robustness.md#far-equilibrium-sticking has the cases).
+          (docs/explanation/robustness/sticking.md#far-equilibrium-sticking has the cases).
         - balance: the step's momentum balance on its own modes, the drag impulse on the ice
           ``b (u dt - dy)`` minus its momentum change ``M dy'``, with dy = d1 + d2 and
           dy' = s1 d1 + s2 d2 the changes of the two modes over the step

@@ -36,7 +36,8 @@ halved. A zero the polynomial only touches is no root (as in :mod:`.rootfind`).
 Each step depends only on its start time and state, so steps do not depend on the communication
 step, and a step rebuilt from its start (a restored state) has the same coefficients to the bit.
 
-**The same bits on every machine** (docs/accuracy.md#machine-independence). The arithmetic is
+**The same bits on every machine** (docs/explanation/accuracy.md#machine-independence). The
+arithmetic is
 ``+ - * /`` in an order this module fixes, so no BLAS kernel or SIMD level moves a bit: the
 Cauchy products are summed by a loop in a fixed order (not by the built-in ``sum``, whose
 rounding of floats changed in Python 3.12), the powers ``h^n`` are the C library's
@@ -372,7 +373,8 @@ class StickingTaylor:
     (kg), the structural damping c (N.s/m) and stiffness k (N/m), the quadratic drag constant B
     (kg/m, eq. 33) and flow speed u (m/s), and the ice mass M (kg) whose inertia the contact force
     subtracts from the drag. ``structure_B`` (kg/m) is the quadratic Morison drag on the
-    structure (docs/morison.md): it drives the bodies with the ice's drag, but is no part of the
+    structure (docs/explanation/morison.md): it drives the bodies with the ice's drag, but is no
+    part of the
     contact force nor of the ice's drag impulse P."""
 
     def __init__(self, total_mass: float, damping: float, stiffness: float, drag_B: float,
