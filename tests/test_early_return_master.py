@@ -70,8 +70,10 @@ def test_early_return_times_the_impacts_better_than_plain(runs):
     which holds each impact's impulse over its step, meets 12 of them, the matched ones more than
     10 times further off (measured: 55 ms)."""
     mono = run(IMPACTING, T_IMPACTS, dt=1e-3)
-    reference = mono.impacts["t"]
-    assert len(reference) == 16
+    # the monolithic run follows the first Zeno sequence to its end (61 impacts by 3.1 s); with
+    # an external structure it is closed at the chatter time, at its 16th impact
+    assert len(mono.impacts) == 61
+    reference = mono.impacts["t"][:16]
     early = runs[("early", 1e-3, T_IMPACTS)]["impacts"]
     plain = runs[("plain", 1e-3, T_IMPACTS)]["impacts"]
     assert len(early) == len(reference)

@@ -350,7 +350,8 @@ class ContactRules:
     def __init__(self, m: float, M: float, omega_n: float, free_accels: FreeAccels,
                  policy: ContactPolicy, chatter_fraction: float,
                  parting_noise: tuple[float, float] = (0.0, 0.0),
-                 time_resolution: float = 0.0, gap_noise: tuple[float, float] = (0.0, 0.0)):
+                 time_resolution: float = 0.0, gap_noise: tuple[float, float] = (0.0, 0.0),
+                 follow_zeno: bool = True):
         self.m, self.M = m, M
         self.mu = m * M / (m + M)   # reduced mass, kg
         self.omega_n = omega_n
@@ -362,6 +363,9 @@ class ContactRules:
         # above gap_noise = (relative to |x|, absolute in m), the noise of its positions
         self.time_resolution = time_resolution
         self.gap_noise = gap_noise
+        # False: a Zeno sequence is closed at the chatter time, as an elastic chatter is (an
+        # external structure, whose motion over the bounces the coupling does not resolve)
+        self.follow_zeno = follow_zeno
         self.degenerate = DegenerateContacts(self.chatter_time)
         # the estimated end of the Zeno sequence the latest impact closed before it (s), until
         # the solver takes it (take_accumulation); None when it closed none, or at its end
@@ -420,6 +424,9 @@ class ContactRules:
           bodies move together (the mean motion of bounces short against the structure's
           period), and sticking starts at ``t + bounce / (1 - e)``, which
           :meth:`take_accumulation` hands to the solver.
+
+        Without ``follow_zeno`` a Zeno sequence is closed as an elastic chatter is, at its first
+        bounce shorter than the chatter time (or once it would end within ZENO_TIME).
         """
         m, M = self.m, self.M
         v_plus, w_plus = impact(v_minus, w_minus, m, M, e)
@@ -428,8 +435,8 @@ class ContactRules:
             if lam > 0.0:
                 opening = v_plus - w_plus
                 bounce = 2.0 * opening * self.mu / lam
-                close = bounce < self.chatter_time
-                if e < 1.0:
+                close = bounce < self.chatter_time or bounce < ZENO_TIME * (1.0 - e)
+                if e < 1.0 and self.follow_zeno:
                     rest = bounce / (1.0 - e)  # the geometric series of the bounces
                     close = rest < ZENO_TIME
                     if not close and (self._unresolved(t, x, opening, bounce) or (

@@ -159,9 +159,10 @@ class ExternalSolver(EventSolver):
 
     name = "external"
     SAMPLES_AT_ONCE = False  # each step has its own structure inputs
-    #: a Zeno sequence closed before its end sticks at once: the structure's motion to that end
-    #: is the other FMU's, which each step restarts from
-    ACCUMULATION_TAIL = False
+    #: a Zeno sequence is closed at the chatter time: the structure's motion over its bounces is
+    #: the other FMU's, which each step (or early return, its impulse a 0.1 us kick) restarts
+    #: from, and which bounces down to 1 ns would outrun
+    FOLLOW_ZENO = False
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)

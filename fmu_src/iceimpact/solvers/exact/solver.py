@@ -45,9 +45,9 @@ class EventSolver(EventMarch):
 
     name = "exact"
     SAMPLES_AT_ONCE = True
-    #: A Zeno sequence closed before its end moves the bodies together to its estimated end,
-    #: where sticking starts (:meth:`ContactRules.impact`); False: sticking starts at once.
-    ACCUMULATION_TAIL = True
+    #: A Zeno sequence is followed to its end, or closed at its estimated end, the bodies moving
+    #: together to it (:meth:`ContactRules.impact`); False: closed at the chatter time.
+    FOLLOW_ZENO = True
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
@@ -67,7 +67,8 @@ class EventSolver(EventMarch):
                        else self._free_accels_without_morison)
         self.rules = ContactRules(self.m, self.M, scene.omega_n, free_accels, EXACT_POLICY,
                                   scene.solver_chatter_fraction,
-                                  time_resolution=ZENO_RESOLUTION * TIME_RESOLUTION)
+                                  time_resolution=ZENO_RESOLUTION * TIME_RESOLUTION,
+                                  follow_zeno=self.FOLLOW_ZENO)
         #: the estimated end of the bounces of a Zeno sequence closed before it (s): the bodies
         #: move together until then, not yet sticking; None otherwise
         self.zeno_end: float | None = None
@@ -190,7 +191,7 @@ class EventSolver(EventMarch):
         together to that estimated end and sticking starts there (a separation on the way
         ends the tail: the bounces never accumulated)."""
         end = self.rules.take_accumulation()
-        if end is None or not self.ACCUMULATION_TAIL:
+        if end is None:
             return
         if self.seg.phase is _STICK and end > t:
             self._set_sticking(False, t)
