@@ -58,19 +58,12 @@ static void log_to_host(fmi2ComponentEnvironment env, fmi2String name, fmi2Statu
     Instance3 *inst = env;
     if (!inst || !inst->log) return;
     char small[1024];
-    char *text = small;
     va_list args;
     va_start(args, message);
-    int n = vsnprintf(small, sizeof small, message ? message : "", args);
+    char *text = format_text(small, sizeof small, message, args);
     va_end(args);
-    if (n >= (int)sizeof small && (text = malloc((size_t)n + 1))) {
-        va_start(args, message);
-        vsnprintf(text, (size_t)n + 1, message, args);
-        va_end(args);
-    }
-    inst->log(inst->environment, (fmi3Status)status, category ? category : "logAll",
-              text ? text : small);
-    if (text && text != small) free(text);
+    inst->log(inst->environment, (fmi3Status)status, category ? category : "logAll", text);
+    if (text != small) free(text);
 }
 
 static void *allocate(size_t n, size_t size) { return calloc(n, size); }

@@ -744,6 +744,19 @@ static fmi2String status_category(fmi2Status status) {
     }
 }
 
+/* A printf-style message as text: in `small` (n bytes) if it fits, else in a buffer of its own
+   (free it when it is not `small`; `small`, cut, if that allocation fails). */
+static char *format_text(char *small, size_t n, const char *fmt, va_list args) {
+    va_list again;
+    va_copy(again, args);
+    int needed = vsnprintf(small, n, fmt ? fmt : "", args);
+    char *text = small;
+    if (needed >= (int)n && (text = malloc((size_t)needed + 1)))
+        vsnprintf(text, (size_t)needed + 1, fmt, again);
+    va_end(again);
+    return text ? text : small;
+}
+
 /* The logger PythonFMU calls: note a failed call, forward what the host should see. */
 static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                         fmi2String category, fmi2String message, ...) {
@@ -760,22 +773,15 @@ static void forward_log(fmi2ComponentEnvironment env, fmi2String name, fmi2Statu
                        (status == fmi2OK && !category_enabled(inst, category))))
         return;
     char small[1024];
-    char *text = small;
     va_list args;
     va_start(args, message);
-    int n = vsnprintf(small, sizeof small, message ? message : "", args);
+    char *text = format_text(small, sizeof small, message, args);
     va_end(args);
-    if (n >= (int)sizeof small && (text = malloc((size_t)n + 1))) {
-        va_start(args, message);
-        vsnprintf(text, (size_t)n + 1, message, args);
-        va_end(args);
-    }
     /* The reason a start failed reaches the user even where the host shows no FMU log. */
-    if (to_stderr) fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s\n", text ? text : small);
+    if (to_stderr) fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s\n", text);
     if (inst->host.logger && (status != fmi2OK || category_enabled(inst, category)))
-        inst->host.logger(inst->host.componentEnvironment, name, status, category, "%s",
-                          text ? text : small);
-    if (text && text != small) free(text);
+        inst->host.logger(inst->host.componentEnvironment, name, status, category, "%s", text);
+    if (text != small) free(text);
 }
 
 /* Said once per process, on stderr, for each kind of call the loader refuses to pass on. */

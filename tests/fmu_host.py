@@ -32,6 +32,36 @@ REAL_OUTPUTS = [o for o in OUTPUTS if o.kind is float]
 FMI_OK, FMI_WARNING, FMI_DISCARD, FMI_ERROR = 0, 1, 2, 3
 
 
+def toolbox_check(fmu: Path) -> tuple[list[str], str, list[str]]:
+    """fmu-manipulation-toolbox's checkers (``fmutool -check``: the FMI 2.0 or 3.0 schema and the
+    standard's rules beyond it) on ``fmu``: the warnings and errors they log, the FMI version
+    the schema check found the FMU compliant with, and the semantic check's errors."""
+    import logging
+
+    from fmu_manipulation_toolbox.checker import (
+        OperationGenericCheck,
+        OperationSemanticCheck,
+        get_checkers,
+    )
+    from fmu_manipulation_toolbox.operations import FMU
+
+    records: list[logging.LogRecord] = []
+    handler = logging.Handler(logging.WARNING)
+    handler.emit = records.append
+    logger = logging.getLogger("fmu_manipulation_toolbox")
+    logger.addHandler(handler)
+    checkers = [checker() for checker in get_checkers()]
+    try:
+        with FMU(str(fmu)) as archive:
+            for checker in checkers:
+                archive.apply_operation(checker)
+    finally:
+        logger.removeHandler(handler)
+    generic = next(c for c in checkers if isinstance(c, OperationGenericCheck))
+    semantic = next(c for c in checkers if isinstance(c, OperationSemanticCheck))
+    return [r.getMessage() for r in records], generic.compliant_with_version, semantic.errors
+
+
 def build_module():
     """build_fmu.py imported as a module."""
     spec = importlib.util.spec_from_file_location("build_fmu", ROOT / "build_fmu.py")

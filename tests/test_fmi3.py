@@ -9,7 +9,6 @@ tests/test_host_failures.py.
 
 from __future__ import annotations
 
-import logging
 import zipfile
 from ctypes import c_char_p
 from xml.etree import ElementTree as ET
@@ -21,6 +20,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
+from fmu_host import build_module, toolbox_check
 from iceimpact import Scene, Simulator
 from iceimpact.contract import BY_NAME
 from iceimpact.fmi.lifecycle import REACHED_TIME
@@ -32,8 +32,6 @@ DISCARD, ERROR = 2, 3
 @pytest.fixture(scope="module")
 def modal_pair(fmus3, tmp_path_factory):
     """ModalStructure.fmu and ModalStructure3.fmu of this session."""
-    from fmu_host import build_module
-
     folder = tmp_path_factory.mktemp("modal2")
     return build_module().build_modal(folder), fmus3 / "ModalStructure3.fmu"
 
@@ -86,32 +84,10 @@ def test_the_fmi3_description_has_the_fmi2_variables_experiment_and_dependencies
 
 @pytest.mark.parametrize("which", ["IceImpact3", "ModalStructure3"])
 def test_fmpy_and_fmu_manipulation_toolbox_find_no_problem(which, fmus3):
-    from fmu_manipulation_toolbox.checker import (
-        OperationGenericCheck,
-        OperationSemanticCheck,
-        get_checkers,
-    )
-    from fmu_manipulation_toolbox.operations import FMU
-
-    path = str(fmus3 / f"{which}.fmu")
-    assert validate_fmu(path) == []
-    records: list[logging.LogRecord] = []
-    handler = logging.Handler(logging.WARNING)
-    handler.emit = records.append
-    logger = logging.getLogger("fmu_manipulation_toolbox")
-    logger.addHandler(handler)
-    checkers = [checker() for checker in get_checkers()]
-    try:
-        with FMU(path) as archive:
-            for checker in checkers:
-                archive.apply_operation(checker)
-    finally:
-        logger.removeHandler(handler)
-    assert [r.getMessage() for r in records] == []
-    generic = next(c for c in checkers if isinstance(c, OperationGenericCheck))
-    semantic = next(c for c in checkers if isinstance(c, OperationSemanticCheck))
-    assert generic.compliant_with_version == "3.0"
-    assert semantic.errors == []
+    path = fmus3 / f"{which}.fmu"
+    assert validate_fmu(str(path)) == []
+    warnings, version, errors = toolbox_check(path)
+    assert (warnings, version, errors) == ([], "3.0", [])
 
 
 # The same outputs as the FMI 2.0 FMU -------------------------------------------------------------

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import logging
 import math
 import os
 import re
@@ -32,7 +31,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.validation import validate_fmu
 
-from fmu_host import FMI_ERROR, FMI_OK, ROOT, Instance, build_module
+from fmu_host import FMI_ERROR, FMI_OK, ROOT, Instance, build_module, toolbox_check
 from iceimpact import contract
 from iceimpact.modal import contract as modal_contract
 from iceimpact.modal.fmu import default_values, structure_from_values
@@ -305,30 +304,8 @@ def test_fmpy_validation_finds_no_problem(which, fmu, modal_fmu):
 def test_fmu_manipulation_toolbox_checker_finds_no_problem(which, fmu, modal_fmu):
     """The checkers of ``fmutool -check``: the FMI 2.0 schema and the standard's rules beyond it
     (Outputs and InitialUnknowns entries, their dependencies and dependenciesKind)."""
-    from fmu_manipulation_toolbox.checker import (
-        OperationGenericCheck,
-        OperationSemanticCheck,
-        get_checkers,
-    )
-    from fmu_manipulation_toolbox.operations import FMU
-
-    records: list[logging.LogRecord] = []
-    handler = logging.Handler(logging.WARNING)
-    handler.emit = records.append
-    logger = logging.getLogger("fmu_manipulation_toolbox")
-    logger.addHandler(handler)
-    checkers = [checker() for checker in get_checkers()]
-    try:
-        with FMU(str(fmu if which == "IceImpact" else modal_fmu)) as archive:
-            for checker in checkers:
-                archive.apply_operation(checker)
-    finally:
-        logger.removeHandler(handler)
-    assert [r.getMessage() for r in records] == []
-    generic = next(c for c in checkers if isinstance(c, OperationGenericCheck))
-    semantic = next(c for c in checkers if isinstance(c, OperationSemanticCheck))
-    assert generic.compliant_with_version == "2.0"
-    assert semantic.errors == []
+    warnings, version, errors = toolbox_check(fmu if which == "IceImpact" else modal_fmu)
+    assert (warnings, version, errors) == ([], "2.0", [])
 
 
 # OMSimulator ------------------------------------------------------------------------------------

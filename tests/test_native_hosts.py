@@ -515,16 +515,23 @@ def test_c_host_on_a_machine_with_python_3_12_or_3_13_equals_the_build_python(
     scipy is ``version``, its libpython where the system's libraries are; Python 3.11 is either
     absent (hidden) or there without numpy and scipy (its site-packages and the build's venv
     hidden). The loader starts ``version``, whose numpy and scipy run the FMU."""
+    done = _run_with_only_python(c_host, fmu_dir, tmp_path, version, others)
+    assert done.stdout == c_host_run_here.stdout  # every output, %.17g: to the last bit
+    assert parse_csv(done.stdout)["contact.count"][-1] > 0
+
+
+def _run_with_only_python(host, fmu_dir, tmp_path, version: str, others: str):
+    """``host`` on the FMU on a machine whose only Python with numpy and scipy is ``version``
+    (the others ``hidden`` or ``without numpy and scipy``); checks it ran with ``version``."""
     base = other_python(version)
     site = python_facts(venv_for(version, pins()))["site"]
-    command = [str(c_host), fmu_dir, "-n", str(N_STEPS), "-s", "ice.M=800"]
+    command = [str(host), fmu_dir, "-n", str(N_STEPS), "-s", "ice.M=800"]
     done = subprocess.run(only_python(command, base, Path(site), tmp_path,
                                       others="hidden" if others == "hidden" else "no packages"),
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-3000:]
     assert f"started Python {version} (" in done.stderr, done.stderr[-3000:]
-    assert done.stdout == c_host_run_here.stdout  # every output, %.17g: to the last bit
-    assert parse_csv(done.stdout)["contact.count"][-1] > 0
+    return done
 
 
 @pytest.mark.parametrize(("version", "others"), [("3.12", "hidden"),
@@ -533,14 +540,7 @@ def test_c_host3_on_a_machine_with_python_3_12_or_3_13_equals_the_fmi2_fmu(
         fmu3_dir, c_host3, c_host_run_here, tmp_path, version, others):
     """IceImpact3.fmu in host3.c on the machines above (one of each kind): it starts
     ``version``, and prints what IceImpact.fmu prints in host.c with the build's Python."""
-    base = other_python(version)
-    site = python_facts(venv_for(version, pins()))["site"]
-    command = [str(c_host3), fmu3_dir, "-n", str(N_STEPS), "-s", "ice.M=800"]
-    done = subprocess.run(only_python(command, base, Path(site), tmp_path,
-                                      others="hidden" if others == "hidden" else "no packages"),
-                          capture_output=True, text=True, timeout=120)
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert f"started Python {version} (" in done.stderr, done.stderr[-3000:]
+    done = _run_with_only_python(c_host3, fmu3_dir, tmp_path, version, others)
     assert done.stdout == c_host_run_here.stdout  # every output, %.17g: to the last bit
 
 

@@ -113,7 +113,7 @@ def _batch_set(kind: type):
     reference checked first (a parameter or input of this type), then each value passed to the
     model; a call with one that is not is refused and sets nothing."""
     def set_(self: FmuSlave, vrs: list[int], values: list[Any]) -> None:
-        names = self._settable[kind]
+        names = self._set_names[kind]
         for vr in vrs:
             if vr not in names:
                 self._all_of(vrs, kind, "Set")  # refuses the call, naming the value reference
@@ -159,16 +159,17 @@ class FmuSlave(Fmi2Slave):
                                 if v.kind is kind and v.causality != OUTPUT}
                          for kind in _TYPE_NAMES}
         #: by FMI type: the value references fmi2Get reads
-        readable = {kind: {vr for vr, v in enumerate(variables) if v.kind is kind}
-                    for kind in _TYPE_NAMES}
+        cls._readable = {kind: frozenset(vr for vr, v in enumerate(variables) if v.kind is kind)
+                         for kind in _TYPE_NAMES}
+        # the same, with the FMI 3.0 channel, which the refusals do not list
+        set_vr, set_kind = FMI3_CHANNEL[EARLY_RETURN]
+        get_vr, get_kind = FMI3_CHANNEL[REACHED_TIME]
+        cls._set_names = {kind: {**names, **({set_vr: EARLY_RETURN} if kind is set_kind else {})}
+                          for kind, names in cls._settable.items()}
+        cls._get_refs = {kind: refs | ({get_vr} if kind is get_kind else set())
+                         for kind, refs in cls._readable.items()}
         #: value reference -> name, of every variable fmi2Get may read
-        cls._names = {vr: v.name for vr, v in enumerate(variables)}
-        vr, kind = FMI3_CHANNEL[EARLY_RETURN]
-        cls._settable[kind][vr] = EARLY_RETURN
-        vr, kind = FMI3_CHANNEL[REACHED_TIME]
-        readable[kind].add(vr)
-        cls._names[vr] = REACHED_TIME
-        cls._readable = {kind: frozenset(vrs) for kind, vrs in readable.items()}
+        cls._names = {**{vr: v.name for vr, v in enumerate(variables)}, get_vr: REACHED_TIME}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
@@ -208,10 +209,11 @@ class FmuSlave(Fmi2Slave):
     def _all_of(self, vrs: list[int], kind: type, verb: str) -> bool:
         """True if every value reference is a variable of type ``kind`` (fmi2Set: not an
         output); else the call is refused (fmi2Error) naming the first that is not."""
-        table = self._settable[kind] if verb == "Set" else self._readable[kind]
+        table = self._set_names[kind] if verb == "Set" else self._get_refs[kind]
         for vr in vrs:
             if vr not in table:
-                self._fail(self._not_allowed(vr, kind, verb, sorted(table)))
+                listed = self._settable[kind] if verb == "Set" else self._readable[kind]
+                self._fail(self._not_allowed(vr, kind, verb, sorted(listed)))
                 return False
         return True
 
