@@ -305,8 +305,8 @@ def main(argv: list[str] | None = None) -> int:
                        - null_call[case],
                        "getReal+getInteger+getBoolean": min(c[3] for c in calls[case])}
                 for case in fmu_cases}
-    print(f"\nper FMI call, FMU2Slave (FMU3Slave) stepped by hand over {call_steps} steps per round (CPU us, "
-          f"best of {args.repeat})")
+    print(f"\nper FMI call, FMU2Slave (FMU3Slave) stepped by hand over {call_steps} steps per "
+          f"round (CPU us, best of {args.repeat})")
     print(f"{'case':{width}s}  {'doStep':>8s}  {'in the library':>14s}  {'3 gets':>8s}")
     for case in fmu_cases:
         print(f"{case:{width}s}  {us_calls[case]['doStep']:8.2f}  "
