@@ -1,13 +1,19 @@
 """Wall time of a season: the example load-case table (50 cases x 3 repetitions x 600 s) run
-by ``iceimpact.studies.seasons.run_season`` with 1 and with N workers.
+by ``iceimpact.studies.seasons.run_season`` with 1 and with N workers, with this tree's core and,
+with ``--base``, with a reference commit's, side by side.
 
 The table is examples/season_cases.csv (ice speeds 0.05-1 m/s, floe masses 400-6400 kg,
 restitution 0.5 and 1, quadratic drag; made-up but plausible hours, 1200 h of ice per year;
-``--write-cases`` regenerates it). CPU time of all processes is measured too ("cores used" =
-CPU / wall: how much of the machine the runs actually got). Each configuration runs once (a
-season is minutes), the results must be equal between them. Prints a table and writes JSON.
+``--write-cases`` regenerates it). Each configuration runs in a fresh process whose
+``iceimpact`` is this tree's or the reference's (``git archive`` of ``fmu_src`` into a temporary
+folder), the two alternating for each worker count so that both see the same load; CPU time of
+all processes is measured too ("cores used" = CPU / wall: how much of the machine the runs
+actually got). Each configuration runs once (a season is minutes); the results must be equal
+between worker counts and between the two cores. From the simulated hours a 1,000-hour season's
+time on the same workers is estimated. Prints a table and writes JSON.
 
     python benchmarks/season.py                       # 150 runs of 600 s, workers 1 and 2
+    python benchmarks/season.py --base f7f01da        # and the same with that commit's core
     python benchmarks/season.py --workers 2 --t-end 60 --out /tmp/season.json   # quick look
     python benchmarks/season.py --write-cases examples/season_cases.csv
 """
@@ -19,11 +25,12 @@ import csv
 import json
 import os
 import platform
-import resource
-import time
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
-from iceimpact.studies.seasons import load_cases, run_season
+from core_speed import extract  # (benchmarks/ is this script's folder on sys.path)
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ROOT / "examples/season_cases.csv"
@@ -54,10 +61,44 @@ def write_cases(path: Path) -> None:
                                      REPETITIONS, 2, u, m, e])
 
 
-def cpu_seconds() -> float:
-    own = resource.getrusage(resource.RUSAGE_SELF)
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+#: One configuration in a fresh process (argv: cases file, t_end, transient, life, workers);
+#: JSON on stdout: wall and CPU time (the process and its workers), the runs' digest, the summary.
+_WORKER = """
+import hashlib, json, resource, sys, time
+from iceimpact.studies.seasons import load_cases, run_season
+
+def cpu():
+    own, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+cases, t_end, transient, life, workers = sys.argv[1], *map(float, sys.argv[2:5]), int(sys.argv[5])
+table = load_cases(cases, t_end=t_end, transient=transient)
+c0, t0 = cpu(), time.perf_counter()
+rows, summary = run_season(table, life, workers=workers, progress=False)
+wall, used = time.perf_counter() - t0, cpu() - c0
+strip = json.dumps([{k: v for k, v in r.items() if k != "wall_s"} for r in rows])
+run_walls = sorted(r["wall_s"] for r in rows)
+print(json.dumps({"wall_s": wall, "cpu_s": used, "digest": hashlib.sha256(strip.encode()).hexdigest(),
+                  "runs": table.n_runs, "cases": len(table.cases), "t_end_s": table.t_end,
+                  "dt_s": table.dt, "repetitions": table.cases[0].repetitions,
+                  "sum_run_wall_s": sum(run_walls), "longest_run_s": run_walls[-1],
+                  "median_run_s": run_walls[len(run_walls) // 2],
+                  "failed_runs": sum(r["status"] != "ok" for r in rows),
+                  "lifetime": summary["lifetime"],
+                  "damage_share_m4": {c["name"]: c["damage_share"]["4"] for c in summary["cases"]}},
+                 allow_nan=True))
+"""
+
+
+def season(core: Path, args: argparse.Namespace, workers: int) -> dict:
+    """One season in a fresh interpreter whose ``iceimpact`` is the one under ``core``."""
+    env = {**os.environ, "PYTHONPATH": str(core)}
+    done = subprocess.run([sys.executable, "-c", _WORKER, str(args.cases), repr(args.t_end),
+                           repr(args.transient), repr(args.life), str(workers)],
+                          capture_output=True, text=True, env=env, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"{core}: {done.stderr[-3000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def main() -> None:
@@ -68,6 +109,8 @@ def main() -> None:
     parser.add_argument("--life", type=float, default=25.0, help="years")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/season.json")
+    parser.add_argument("--base", default=None,
+                        help="a reference commit, run side by side (e.g. f7f01da)")
     parser.add_argument("--write-cases", type=Path, default=None,
                         help="write the example table to this CSV and stop")
     args = parser.parse_args()
@@ -76,54 +119,64 @@ def main() -> None:
         print(f"-> {args.write_cases}")
         return
 
-    table = load_cases(args.cases, t_end=args.t_end, transient=args.transient)
     load_start = os.getloadavg()[0]
-    results, reference, summary = [], None, None
-    for w in args.workers:
-        c0, t0 = cpu_seconds(), time.perf_counter()
-        rows, summary = run_season(table, args.life, workers=w, progress=False)
-        wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
-        strip = json.dumps([{k: v for k, v in r.items() if k != "wall_s"} for r in rows])
-        reference = reference or strip
-        assert strip == reference, "results differ between worker counts"
-        run_walls = sorted(r["wall_s"] for r in rows)
-        results.append({"workers": w, "wall_s": wall, "cpu_s": cpu, "cores_used": cpu / wall,
-                        "sum_run_wall_s": sum(run_walls), "longest_run_s": run_walls[-1],
-                        "median_run_s": run_walls[len(run_walls) // 2],
-                        "failed_runs": sum(r["status"] != "ok" for r in rows)})
-    base = results[0]["wall_s"]
+    cores = {"after": ROOT / "fmu_src"}
+    with tempfile.TemporaryDirectory() as tmp:
+        if args.base:
+            cores = {"before": extract(args.base, Path(tmp)), **cores}
+        results = []
+        for w in args.workers:
+            row: dict = {"workers": w}
+            for name, core in cores.items():  # (alternating: both see the same load)
+                row[name] = season(core, args, w)
+                row[name]["cores_used"] = row[name]["cpu_s"] / row[name]["wall_s"]
+            results.append(row)
+    digests = {r[name]["digest"] for r in results for name in cores}
+    assert len(digests) == 1, "results differ between worker counts or cores"
+    first = results[0]["after"]
+    hours = first["runs"] * first["t_end_s"] / 3600.0  # simulated
     for r in results:
-        r["speedup"] = base / r["wall_s"]
+        r["speedup_vs_1_worker"] = results[0]["after"]["wall_s"] / r["after"]["wall_s"]
+        r["simulated_h"] = hours
+        r["estimate_1000h_wall_s"] = r["after"]["wall_s"] * 1000.0 / hours
+        if "before" in r:
+            r["ratio_wall"] = r["before"]["wall_s"] / r["after"]["wall_s"]
+            r["ratio_cpu"] = r["before"]["cpu_s"] / r["after"]["cpu_s"]
+            r["estimate_1000h_wall_s_before"] = r["before"]["wall_s"] * 1000.0 / hours
 
-    print(f"{len(table.cases)} cases x {table.cases[0].repetitions} repetitions = "
-          f"{table.n_runs} runs of {table.t_end:g} s (dt {table.dt:g} s); {os.cpu_count()} "
-          f"cores, load average {load_start:.2f} at the start, {os.getloadavg()[0]:.2f} at "
-          "the end")
-    print(f"{'workers':>7} {'wall s':>8} {'speedup':>8} {'cpu s':>8} {'cores used':>10} "
-          f"{'sum of runs s':>14} {'longest run s':>14}")
+    print(f"{first['cases']} cases x {first['repetitions']} repetitions = {first['runs']} runs "
+          f"of {first['t_end_s']:g} s (dt {first['dt_s']:g} s, {hours:.1f} simulated hours); "
+          f"{os.cpu_count()} cores, load average {load_start:.2f} at the start, "
+          f"{os.getloadavg()[0]:.2f} at the end; results equal in every configuration")
+    print(f"{'core':>7} {'workers':>7} {'wall s':>8} {'cpu s':>8} {'cores used':>10} "
+          f"{'longest run s':>14} {'1,000 h, min':>13} {'x before':>9}")
     for r in results:
-        print(f"{r['workers']:>7} {r['wall_s']:>8.1f} {r['speedup']:>8.2f} {r['cpu_s']:>8.1f} "
-              f"{r['cores_used']:>10.2f} {r['sum_run_wall_s']:>14.1f} {r['longest_run_s']:>14.2f}")
-    life = summary["lifetime"]
+        for name in cores:
+            c = r[name]
+            gain = f"{r['ratio_wall']:>8.2f}x" if name == "after" and "before" in r else ""
+            print(f"{name:>7} {r['workers']:>7} {c['wall_s']:>8.1f} {c['cpu_s']:>8.1f} "
+                  f"{c['cores_used']:>10.2f} {c['longest_run_s']:>14.2f} "
+                  f"{c['wall_s'] * 1000.0 / hours / 60.0:>13.1f} {gain:>9}")
+    life = first["lifetime"]
     print(f"lifetime ({life['life_years']:g} years, {life['ice_hours']:g} ice hours): 1 Hz DEL "
           + ", ".join(f"m={m} {v:.4g} N" for m, v in life["del_1Hz_N"].items())
           + f"; max k x {life['kx_max_N']:.4g} N ({life['kx_max_case']})")
-    top = sorted(summary["cases"], key=lambda c: -c["damage_share"]["4"])[:5]
-    print("largest shares of the lifetime damage (m = 4): " + ", ".join(
-        f"{c['name']} {c['damage_share']['4']:.1%}" for c in top))
+    top = sorted(first["damage_share_m4"].items(), key=lambda c: -c[1])[:5]
+    print("largest shares of the lifetime damage (m = 4): "
+          + ", ".join(f"{name} {share:.1%}" for name, share in top))
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({
         "benchmark": "season", "cases_file": str(args.cases.relative_to(ROOT)
                                                  if args.cases.is_relative_to(ROOT)
                                                  else args.cases),
-        "cases": len(table.cases), "runs": table.n_runs, "t_end_s": table.t_end,
-        "transient_s": table.transient, "dt_s": table.dt, "life_years": args.life,
+        "base": args.base, "cases": first["cases"], "runs": first["runs"],
+        "t_end_s": first["t_end_s"], "transient_s": args.transient, "dt_s": first["dt_s"],
+        "life_years": args.life, "simulated_h": hours,
         "cpu_count": os.cpu_count(), "load_average_1min_start": load_start,
         "load_average_1min_end": os.getloadavg()[0], "python": platform.python_version(),
         "machine": platform.machine(), "results": results,
-        "lifetime": summary["lifetime"],
-        "damage_share_m4": {c["name"]: c["damage_share"]["4"] for c in summary["cases"]},
+        "lifetime": first["lifetime"], "damage_share_m4": first["damage_share_m4"],
     }, indent=1, allow_nan=True) + "\n")
     print(f"-> {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")
 

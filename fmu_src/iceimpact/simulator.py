@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 from itertools import chain
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -26,6 +27,7 @@ from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_
 from .solvers.base import GAP_ROUNDING, Impact, Samples, Solver
 from .solvers.exact import EventSolver, ExternalSolver
 from .solvers.fixed_step import FixedStepSolver
+from .solvers.impact_log import ImpactLog
 from .solvers.ode import OdeSolver
 
 _SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STEP: FixedStepSolver,
@@ -438,10 +440,12 @@ class Result:
 IMPACT_DTYPE = np.dtype([(name, float) for name in Impact._fields])
 
 
-def impacts_array(impacts: list[Impact]) -> np.ndarray:
+def impacts_array(impacts: Sequence[Impact]) -> np.ndarray:
     """The impact list as a structured numpy array (fields t, x, v_minus, ..., restitution):
     every field is a float, so the flat sequence of all fields is read at once and viewed as
-    records."""
+    records (a solver's :class:`~iceimpact.solvers.impact_log.ImpactLog` gives its rows)."""
+    if isinstance(impacts, ImpactLog):
+        return impacts.rows().view(IMPACT_DTYPE).reshape(-1)
     flat = np.fromiter(chain.from_iterable(impacts), dtype=float,
                        count=len(impacts) * len(IMPACT_DTYPE.names))
     return flat.view(IMPACT_DTYPE)

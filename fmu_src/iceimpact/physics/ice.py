@@ -82,6 +82,19 @@ def quadratic_response(rate: float, w0: float, r0: float
     return quadratic
 
 
+def linear_flight_constants(kappa: float, w0: float, u: float) -> tuple[float, float, float]:
+    """:meth:`LinearDrag.flight_constants` over plain floats (the compiled march of the exact
+    method calls it too, solvers/exact/bounces.py)."""
+    return kappa, w0, w0 - u
+
+
+def quadratic_flight_constants(beta: float, w0: float, u: float) -> tuple[float, float, float]:
+    """:meth:`QuadraticDrag.flight_constants` over plain floats (as
+    :func:`linear_flight_constants`)."""
+    r0 = w0 - u
+    return beta * abs(r0), w0, r0
+
+
 class LinearDrag(_DragLaw):
     """Linearised Morison drag ``M w' = -b (w - u)`` (eq. 4-5)."""
 
@@ -131,7 +144,7 @@ class LinearDrag(_DragLaw):
         """The constants of the free flight from velocity w0 at flow speed u: ``(kappa, w0,
         r0 = w0 - u)``, as :meth:`increment` binds them and the compiled flight search
         (solvers/search/flight_search.py) takes them."""
-        return self.kappa, w0, w0 - u
+        return linear_flight_constants(self.kappa, w0, u)
 
     #: the flight's closed form on :meth:`flight_constants`
     response = staticmethod(linear_response)
@@ -208,8 +221,7 @@ class QuadraticDrag(_DragLaw):
         """The constants of the free flight from velocity w0 at flow speed u: ``(beta |r0|,
         w0, r0 = w0 - u)``, as :meth:`increment` binds them and the compiled flight search
         (solvers/search/flight_search.py) takes them."""
-        r0 = w0 - u
-        return self.beta * abs(r0), w0, r0
+        return quadratic_flight_constants(self.beta, w0, u)
 
     #: the flight's closed form on :meth:`flight_constants`
     response = staticmethod(quadratic_response)

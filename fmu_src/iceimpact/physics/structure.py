@@ -101,6 +101,15 @@ def under_response(neg_sigma: float, omega: float, y0: float, p: float, q: float
     return under
 
 
+def under_constants(offset: float, sigma: float, omega: float, omega2: float, x0: float,
+                    v0: float) -> tuple[float, float, float, float, float, float]:
+    """:meth:`Oscillator.under_constants` on the oscillator's own constants (offset, sigma,
+    omega, omega2): a function over plain floats, which the compiled march of the exact method
+    calls too (solvers/exact/bounces.py)."""
+    y0 = x0 - offset
+    return (-sigma, omega, y0, v0 + sigma * y0, omega2 * y0 + sigma * v0, v0)
+
+
 class Oscillator:
     """Linear damped oscillator ``mass y'' + damping y' + stiffness (x - offset) = 0``."""
 
@@ -228,9 +237,7 @@ class Oscillator:
         q = omega^2 y0 + sigma v0, so that y = y0 C + p S and v = v0 C - q S (eq. 9-10). They
         are the ones :meth:`increment`'s under-damped function binds, and the compiled flight
         search (solvers/search/flight_search.py) takes them in this order."""
-        y0 = x0 - self.offset
-        return (-self.sigma, self.omega, y0, v0 + self.sigma * y0,
-                self.omega2 * y0 + self.sigma * v0, v0)
+        return under_constants(self.offset, self.sigma, self.omega, self.omega2, x0, v0)
 
     def deviation_increment(self, y0: float, v0: float) -> Callable[[float], tuple[float, float]]:
         """:meth:`increment` from the deviation y0 = x0 - offset itself: ``t -> (y(t) - y0,

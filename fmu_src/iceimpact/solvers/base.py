@@ -24,6 +24,7 @@ from ..physics.ice import make_structure_drag
 from ..record import STATE_VERSION, Record, check_version
 from ..scene import Scene
 from .contact_rules import sticking_start
+from .impact_log import ImpactLog
 
 __all__ = ["GAP_ROUNDING", "Impact", "Samples", "Solver", "SolverError", "State", "StateError"]
 
@@ -131,7 +132,7 @@ class Solver:
         self.M = scene.ice_M
         self.e = scene.impact_e
         self.record_impacts = record_impacts
-        self.impacts: list[Impact] = []
+        self.impacts = ImpactLog()
         self.impacts_base = 0           # impacts before the first one listed
         self.impact_count = 0           # impacts since the start
         self.t_last: float | None = None  # time of the latest impact, s

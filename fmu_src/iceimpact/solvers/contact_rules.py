@@ -334,6 +334,48 @@ def reanchor_on_flow_change(x: float, v: float, z: float, w: float,
     return x, v, min(z, x), w
 
 
+def rounding_closing(closing: float, x: float, v: float, w: float, u: float,
+                     omega_n: float) -> bool:
+    """|closing| (m/s) is at rounding level of the speeds of the scene: at most ROUNDING_SPEED
+    times ``|v| + |w| + |u| + omega_n |x|``.
+
+    (Asked twice per impact: the magnitudes are written as comparisons, a call of abs() costing
+    more than the rest in Python; the sign of a zero term cannot change the outcome.)"""
+    speed_scale = ((v if v >= 0.0 else -v) + (w if w >= 0.0 else -w)
+                   + (u if u >= 0.0 else -u) + omega_n * (x if x >= 0.0 else -x))
+    limit = ROUNDING_SPEED * speed_scale + 1e-300
+    return -limit <= closing <= limit
+
+
+def bounce_closure(t: float, x: float, e: float, lam: float, opening: float, mu: float,
+                   chatter_time: float, follow_zeno: bool, budget_bounce: float,
+                   time_resolution: float, gap_relative: float,
+                   gap_absolute: float) -> tuple[bool, float]:
+    """Whether an impact at time t (s), position x (m), restitution e > 0 closes its chatter or
+    Zeno sequence by one plastic impact now (:meth:`ContactRules.impact` says when), and the
+    estimated end of the sequence (s) when it is closed before that end (NaN otherwise).
+
+    ``lam`` (N) is the free contact force after the impact, ``opening`` (m/s) the opening speed
+    v+ - w+; the next bounce lasts ``2 opening mu / lam``. ``budget_bounce`` is
+    :meth:`ContactRules.budget_bounce` of e; ``time_resolution`` and the gap noise (relative
+    to |x|, absolute in m) are the method's (:meth:`ContactRules.impact`). A function over
+    plain floats: the compiled march of the exact method (solvers/exact/bounces.py) calls it
+    too."""
+    if not lam > 0.0:
+        return False, math.nan
+    bounce = 2.0 * opening * mu / lam
+    close = bounce < chatter_time or bounce < ZENO_TIME * (1.0 - e)
+    if e < 1.0 and follow_zeno:
+        rest = bounce / (1.0 - e)  # the geometric series of the bounces
+        close = rest < ZENO_TIME
+        if not close and (
+                bounce < time_resolution * (t if t > 1.0 else 1.0)
+                or opening * bounce < 4.0 * (gap_relative * abs(x) + gap_absolute)
+                or (bounce < chatter_time and bounce > budget_bounce)):
+            return True, t + rest
+    return close, math.nan
+
+
 FreeAccels = Callable[[float, float, float, float], tuple[float, float]]
 
 
@@ -395,14 +437,9 @@ class ContactRules:
         return contact_force(a_x, a_z, self.m, self.M)
 
     def is_rounding(self, closing: float, x: float, v: float, w: float, u: float) -> bool:
-        """|closing| (m/s) is at rounding level of the speeds of the scene.
-
-        (Asked twice per impact: the magnitudes are written as comparisons, a call of abs()
-        costing more than the rest; the sign of a zero term cannot change the outcome.)"""
-        speed_scale = ((v if v >= 0.0 else -v) + (w if w >= 0.0 else -w)
-                       + (u if u >= 0.0 else -u) + self.omega_n * (x if x >= 0.0 else -x))
-        limit = ROUNDING_SPEED * speed_scale + 1e-300
-        return -limit <= closing <= limit
+        """|closing| (m/s) is at rounding level of the speeds of the scene
+        (:func:`rounding_closing`)."""
+        return rounding_closing(closing, x, v, w, u, self.omega_n)
 
     def impact(self, t: float, x: float, v_minus: float, w_minus: float, e: float,
                u: float) -> Impact:
@@ -432,32 +469,19 @@ class ContactRules:
         v_plus, w_plus = impact(v_minus, w_minus, m, M, e)
         if e > 0.0:
             lam = self.free_contact_force(x, v_plus, w_plus, u)
-            if lam > 0.0:
-                opening = v_plus - w_plus
-                bounce = 2.0 * opening * self.mu / lam
-                close = bounce < self.chatter_time or bounce < ZENO_TIME * (1.0 - e)
-                if e < 1.0 and self.follow_zeno:
-                    rest = bounce / (1.0 - e)  # the geometric series of the bounces
-                    close = rest < ZENO_TIME
-                    if not close and (self._unresolved(t, x, opening, bounce) or (
-                            bounce < self.chatter_time and bounce > self.budget_bounce(e))):
-                        close = True
-                        self.accumulation = t + rest
-                if close:
-                    e = 0.0
-                    v_plus, w_plus = impact(v_minus, w_minus, m, M, 0.0)
+            relative, absolute = self.gap_noise
+            close, accumulation = bounce_closure(
+                t, x, e, lam, v_plus - w_plus, self.mu, self.chatter_time, self.follow_zeno,
+                self.budget_bounce(e), self.time_resolution, relative, absolute)
+            if close:
+                if accumulation == accumulation:
+                    self.accumulation = accumulation
+                e = 0.0
+                v_plus, w_plus = impact(v_minus, w_minus, m, M, 0.0)
         if e == 0.0:
             w_plus = v_plus  # exactly together
         return _new(Impact, (t, x, v_minus, w_minus, v_plus, w_plus,
                              impact_impulse(v_minus, v_plus, m), e))
-
-    def _unresolved(self, t: float, x: float, opening: float, bounce: float) -> bool:
-        """A bounce of this duration (s) and opening speed (m/s) at time t, position x is too
-        short for the method to follow: below its time resolution, or of a height
-        ``opening bounce / 4`` within the noise of its positions."""
-        relative, absolute = self.gap_noise
-        return (bounce < self.time_resolution * (t if t > 1.0 else 1.0)
-                or opening * bounce < 4.0 * (relative * abs(x) + absolute))
 
     def impact_at_contact(self, t: float, x: float, v: float, w: float, e: float,
                           u: float) -> tuple[Impact | None, bool]:

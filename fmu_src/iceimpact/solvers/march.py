@@ -48,6 +48,10 @@ class EventMarch(Solver):
 
     u: float
     pending_impulse: float
+    #: a compiled march from the current segment on, where the method has one (the exact
+    #: method's bounces, :class:`~iceimpact.solvers.exact.bounces.BounceMarch`): ``takes(seg)``
+    #: and ``march(t_end, stop_at_event, t_start, impulse) -> (impulse, stopped at or None)``
+    bounces: Any = None
 
     def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
         if u != self.u:  # (set_flow, inline: this runs at every communication step)
@@ -66,11 +70,21 @@ class EventMarch(Solver):
         impulse = self.pending_impulse
         self.pending_impulse = 0.0
         t_start = self.state.t
+        bounces = self.bounces
+        declined = None  # the segment the compiled march left to this loop
         while True:
             event = self.next_event(t_end)
             if event is None:
                 impulse += self.finish(t_end)
                 return impulse
+            # an event in this step: the compiled march takes it and what follows, if it can
+            # (asked only here, so that a step with no event costs it nothing)
+            if bounces is not None and self.seg is not declined and bounces.takes(self.seg):
+                impulse, stopped = bounces.march(t_end, stop_at_event, t_start, impulse)
+                if stopped is not None:  # (an impact with stop_at_event, as below)
+                    return impulse + self.finish(stopped)
+                declined = self.seg
+                continue
             impulse += self.impulse_to(event)
             if stop_at_event:
                 count, sticking = self.impact_count, self.sticking

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError, run
-from iceimpact.solvers.exact import Flight
+from iceimpact.solvers.exact import EventSolver, Flight
 from iceimpact.solvers.search import flight_search, rootfind
 from iceimpact.solvers.search.flight_search import GENERIC, PASSED, ROOT, FlightSearch, flight_root
 from random_search import FLOWS, flow_at, scale_scenes
@@ -69,6 +69,7 @@ class _Counted:
 def pure_function(monkeypatch):
     """Flights search with the pure flight_root (counted), whether or not numba is there."""
     counted = _Counted()
+    monkeypatch.setattr(EventSolver, "COMPILED_BOUNCES", False)  # (no compiled march around it)
     monkeypatch.setattr(Flight, "_ONE_FUNCTION", True)
     monkeypatch.setattr(FlightSearch, "kernel", staticmethod(counted))
     return counted

@@ -163,6 +163,8 @@ class ExternalSolver(EventSolver):
     #: the other FMU's, which each step (or early return, its impulse a 0.1 us kick) restarts
     #: from, and which bounces down to 1 ns would outrun
     FOLLOW_ZENO = False
+    #: its flights end where the other FMU's structure is (_flight_end): no compiled bounces
+    COMPILED_BOUNCES = False
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)

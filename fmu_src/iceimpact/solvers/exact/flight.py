@@ -82,6 +82,7 @@ class Flight(_SearchedSegment):
                               if type(osc) is Oscillator and osc.search_constants is not None
                               else osc.increment(x0, v0))
             self._z_motion = drag.response(*drag.flight_constants(w0, u))
+            self.kernel_constants = None
             self.search = RootSearch(start, time_eps)
 
     # Displacements are evaluated as increments from the anchor, so that the gap near contact

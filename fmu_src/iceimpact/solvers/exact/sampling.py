@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from array import array
-from bisect import bisect_left
 from operator import attrgetter
 from typing import Any
 
@@ -16,7 +15,7 @@ from ..contact_rules import Phase
 from .segment import GROUPED, _SearchedSegment
 
 
-def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float) -> int:
+def first_sample_after(times: Any, i: int, t0: float, tau_event: float) -> int:
     """The first index j >= i with ``times[j] - t0 >= tau_event``: the first sample a march
     reaches after the event (the test advance_to makes; it holds from its first j on, since
     times increase and rounding is monotone). Most events are a few samples apart: the first
@@ -33,7 +32,16 @@ def _first_sample_after(times: list[float], i: int, t0: float, tau_event: float)
         j += 1
     if j == n:
         return n
-    j = bisect_left(times, t0 + tau_event, j, n)
+    # bisect.bisect_left(times, t0 + tau_event, j, n), written out: the compiled march of
+    # bounces (bounces.py) calls this function on an array
+    target = t0 + tau_event
+    hi = n
+    while j < hi:
+        mid = (j + hi) // 2
+        if times[mid] < target:
+            j = mid + 1
+        else:
+            hi = mid
     while j > i and times[j - 1] - t0 >= tau_event:
         j -= 1
     while j < n and times[j] - t0 < tau_event:
@@ -101,11 +109,25 @@ class _SampleGroup:
         k = len(self.t0) - 1
         self.pieces.append((k, tau_from, i, j, math.nan if tau_event is None else tau_event,
                             len(values)))
-        targets.extend(range(i, j))
-        values.extend([0.0] * (j - i))
+        if j - i > 16:  # (a long run of samples, such as a sticking phase's: at once)
+            targets.frombytes(np.arange(i, j, dtype=np.int64).tobytes())
+            values.frombytes(bytes(8 * (j - i)))  # 0.0 each
+        else:
+            targets.extend(range(i, j))
+            values.extend([0.0] * (j - i))
         if tau_event is not None:
             targets.append(j)
             values.append(0.0)
+
+    def extend(self, segments: np.ndarray, firsts: np.ndarray, stops: np.ndarray) -> None:
+        """What :meth:`add` records for flights with no impulse, for many at once: rows of
+        segments (the anchor's values, t0) and their samples firsts..stops-1 (the compiled
+        march of bounces, bounces.py)."""
+        width = len(self.rep.ANCHOR)
+        self.anchors.frombytes(segments[:, :width].tobytes())
+        self.t0.frombytes(segments[:, width].tobytes())
+        self.first.frombytes(firsts.tobytes())
+        self.stop.frombytes(stops.tobytes())
 
     def evaluate(self, times: np.ndarray, out: Samples, values: np.ndarray) -> None:
         first = np.array(self.first, dtype=np.int64)

@@ -29,8 +29,9 @@ from ..contact_rules import (
     reanchor_on_flow_change,
 )
 from ..march import EventMarch
+from . import bounces
 from .flight import DraggedFlight, Flight
-from .sampling import _first_sample_after, _SampleGroup, _sampling_kind
+from .sampling import first_sample_after, _SampleGroup, _sampling_kind
 from .segment import MARCHED, _SearchedSegment
 from .sticking import LinearStick, QuadraticStick
 
@@ -48,6 +49,8 @@ class EventSolver(EventMarch):
     #: A Zeno sequence is followed to its end, or closed at its estimated end, the bodies moving
     #: together to it (:meth:`ContactRules.impact`); False: closed at the chatter time.
     FOLLOW_ZENO = True
+    #: Runs of bounces go through the compiled march where numba is (:mod:`.bounces`).
+    COMPILED_BOUNCES = True
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
@@ -77,6 +80,8 @@ class EventSolver(EventMarch):
         self.pending_impulse = 0.0
         self.seg = None
         self._start()
+        if self.COMPILED_BOUNCES and bounces.COMPILED is not None:
+            self.bounces = bounces.BounceMarch(self)
 
     # what a subclass with a structure of its own changes ------------------------------------------
     def _structure(self) -> Oscillator:
@@ -289,6 +294,7 @@ class EventSolver(EventMarch):
 
     def _sample(self, times: np.ndarray, u: float) -> Samples:
         self.set_flow(u, float(times[-1]))
+        times = np.ascontiguousarray(times, dtype=float)
         t_list = times.tolist()
         n = len(t_list)
         out = Samples(n)
@@ -311,8 +317,17 @@ class EventSolver(EventMarch):
         horizon = t_list[-1]
         interval = 0  # the sample interval whose impact budget runs
         self.begin_step()
+        compiled = self.bounces
+        declined = None  # the segment the compiled march left to this loop
         while i < n:
             seg = self.seg
+            if compiled is not None and seg is not declined and compiled.takes(seg):
+                group = kinds.get(Flight)
+                if group is None:
+                    group = kinds[Flight] = _sampling_kind(seg)
+                i, interval = compiled.sample(times, i, interval, group, targets, values)
+                declined = self.seg
+                continue
             if type(seg) is not last_type:
                 last_type = type(seg)
                 kind = kinds.get(last_type)
@@ -341,7 +356,7 @@ class EventSolver(EventMarch):
             elif i + 1 == n or t_list[i + 1] - t0 >= tau_event:  # (nor one: 3 in 4 of the
                 j = i + 1  # bounces with a sample in Figure 2)
             else:
-                j = _first_sample_after(t_list, i + 2, t0, tau_event)
+                j = first_sample_after(t_list, i + 2, t0, tau_event)
             if grouped:
                 if i < j or seg.PUSHES:  # (a flight with no sample adds nothing: most bounces)
                     kind.add(seg, self.tau, i, j, tau_event, targets, values)
@@ -382,10 +397,9 @@ class EventSolver(EventMarch):
         x, v = y[1:j - i + 1, 0], y[1:j - i + 1, 1]
         out.x[i:j], out.v[i:j], out.z[i:j], out.w[i:j] = x, v, x, v
         out.sticking[i:j] = seg.phase is Phase.STICK
-        targets.extend(range(i, j))
-        if tau_event is not None:
-            targets.append(j)
-        values.extend(seg.impulses_between(tau_all, y).tolist())
+        targets.frombytes(np.arange(i, j + (tau_event is not None), dtype=np.int64).tobytes())
+        values.frombytes(np.ascontiguousarray(seg.impulses_between(tau_all, y),
+                                              dtype=float).tobytes())
 
     # snapshots ----------------------------------------------------------------------------------
     def checkpoint(self) -> Any:

@@ -47,3 +47,17 @@ def not_compiled(what: str, exc: Exception) -> None:
     """Say that numba failed on ``what``: the pure path runs."""
     warnings.warn(f"numba could not compile {what} ({exc}); the pure path runs (the same "
                   "results, slower)", RuntimeWarning, stacklevel=3)
+
+
+def compile_or_none(what: str, build: Callable[[Any], Any]) -> Any:
+    """``build(numba)``: the compiled kernels of a module, or None where numba is not installed,
+    ``ICEIMPACT_PURE`` is set, or numba fails on them (said once, :func:`not_compiled`): the
+    pure path runs."""
+    numba = numba_or_none()
+    if numba is None:
+        return None
+    try:
+        return build(numba)
+    except Exception as exc:  # (any failure of numba leaves the pure path)
+        not_compiled(what, exc)
+        return None

@@ -34,7 +34,7 @@ from typing import Any
 
 from ...limits import TIME_RESOLUTION
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
-from .compiled import entry_point, jit, not_compiled, numba_or_none
+from .compiled import compile_or_none, entry_point, jit
 from .rootfind import (
     _SUM_NEAR_1_LOW,
     BRACKET_STEPS,
@@ -348,18 +348,14 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             math.nan, math.nan, math.nan, math.nan)
 
 
-def _compiled():
-    """:func:`flight_root` compiled by numba, or None (not installed, or ICEIMPACT_PURE set:
-    :mod:`.compiled`).
+_DISPATCHERS: dict[str, Any] = {}
 
-    Compiled at import for its one signature (floats, the two counters integers), so that no
-    run pays for it; numba keeps the machine code in its cache (``__pycache__``), which later
-    imports load."""
-    numba = numba_or_none()
-    if numba is None:
-        return None
-    f8, i8 = numba.float64, numba.int64
-    try:
+
+def compiled_callees(numba: Any) -> dict[str, Any]:
+    """numba's dispatchers of :func:`flight_root` and the functions it calls, by name, compiled
+    once (a compiled caller, such as the exact method's march of bounces, calls them)."""
+    if not _DISPATCHERS:
+        f8, i8 = numba.float64, numba.int64
         motion = jit(numba, (f8,) * 10 + (i8,), _motion)
         ice_accel = jit(numba, (f8, f8, f8, i8), _ice_accel)
         accel_clearance = jit(numba, (f8, f8, f8, f8, i8, f8), _accel_clearance,
@@ -367,13 +363,22 @@ def _compiled():
         clearance = jit(numba, (f8,) * 9 + (i8,), _clearance, _accel_clearance=accel_clearance)
         bracketed = jit(numba, (f8,) * 5 + (numba.types.UniTuple(f8, 4),) + (f8,) * 10 + (i8,),
                         _bracketed, _motion=motion)
-        compiled = jit(numba, (f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root,
-                       _motion=motion, _ice_accel=ice_accel, _clearance=clearance,
-                       _bracketed=bracketed)
-        return entry_point(compiled)
-    except Exception as exc:  # (any failure of numba leaves the pure path)
-        not_compiled("the flight search", exc)
-        return None
+        root = jit(numba, (f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root,
+                   _motion=motion, _ice_accel=ice_accel, _clearance=clearance,
+                   _bracketed=bracketed)
+        _DISPATCHERS.update(flight_root=root, _ice_accel=ice_accel)
+    return _DISPATCHERS
+
+
+def _compiled():
+    """:func:`flight_root` compiled by numba, or None (not installed, or ICEIMPACT_PURE set:
+    :mod:`.compiled`).
+
+    Compiled at import for its one signature (floats, the two counters integers), so that no
+    run pays for it; numba keeps the machine code in its cache (``__pycache__``), which later
+    imports load."""
+    return compile_or_none("the flight search",
+                           lambda numba: entry_point(compiled_callees(numba)["flight_root"]))
 
 
 #: numba's compiled :func:`flight_root` where available (``fast`` extra), else None: the

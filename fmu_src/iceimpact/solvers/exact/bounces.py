@@ -1,0 +1,383 @@
+"""The exact method's march of bounces, compiled: flight after flight, impact after impact, in one
+call, with no Python call per impact.
+
+Most of a run of the exact method (method 1) is bounces: a flight (structure on its under-damped
+closed form, eq. 9-10; ice on its drag law, eq. 6-7 or 31-33) ends in an impact (eq. 16-17)
+after which the bodies part, and the next flight starts at the contact. :func:`bounce_march`
+makes those steps on plain floats: the flight's root search (:func:`~iceimpact.solvers.search.
+flight_search.flight_root`), the contact rules' decisions (:func:`~iceimpact.solvers.
+contact_rules.rounding_closing`, :func:`~iceimpact.physics.contact.impact`,
+:func:`~iceimpact.solvers.contact_rules.bounce_closure`), the impact's record and, in a sampled
+run, the sampler's bookkeeping (which samples fall in which flight, the impulses' order:
+:meth:`EventSolver.sample`). Every one of those is the function the Python objects call, so the
+compiled march and the Python one make the same steps on the same numbers, to the bit.
+
+It hands the march back to Python, before changing anything, at whatever else comes: the
+horizon, an impact after which the bodies do not part (a chatter or Zeno sequence closed, a
+plastic impact, sticking), a contact at rounding level, an impact beyond the step's budget
+(Python raises its refusal), a step of the root search that is not its common one. Python then
+goes on from the same flight exactly as it would have (:class:`BounceMarch`).
+
+Where numba is not installed (or ``ICEIMPACT_PURE`` is set) nothing is compiled and the Python
+march runs alone: :func:`bounce_march` run as Python would be slower than the objects it stands
+for (numpy scalars), so it is used only compiled (and by the tests, which run it as Python too).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ...limits import TIME_RESOLUTION
+from ...physics.contact import contact_force, impact, impact_impulse
+from ...physics.ice import linear_flight_constants, quadratic_flight_constants
+from ...physics.structure import under_constants
+from ..contact_rules import bounce_closure, rounding_closing
+from ..search import flight_search
+from ..search.compiled import compile_or_none, entry_point, jit
+from ..search.flight_search import GENERIC, ROOT, _ice_accel, flight_root
+from .flight import Flight
+from .sampling import first_sample_after
+
+if TYPE_CHECKING:
+    from .solver import EventSolver
+
+# The march's state, in two arrays the kernel reads and writes (F: floats, I: integers).
+# F: the current flight's anchor, start and time resolution; its search's frontier, the probe
+# kept there, the root found (NaN: none) and the state there; the march's impulse, the step's
+# start (the sampler's impact budget), the end of the march, its start.
+(T0, X0, V0, Z0, W0, START, TIME_EPS, A, PROBED_AT, PF, PDF, PD2, PBOUND, PJERK, ROOT_AT,
+ RDX, RV, RDZ, RW, IMPULSE, STEP_START, T_END, T_START) = range(23)
+N_FLOATS = 23
+# I: the search's counters, the next sample, the sample interval whose budget runs, the impact
+# count and the budget's limit, the records written, the outcome, the events taken, the flag
+# stop_at_event, the number of sample times (0: a march to T_END).
+(ITERATIONS, CREEP, SAMPLE, INTERVAL, COUNT, LIMIT, N_SEGMENTS, N_IMPACTS, N_TARGETS, STATUS,
+ EVENTS, STOP_AT_EVENT, N_TIMES) = range(13)
+N_INTS = 13
+# P: the scene's constants: the structure's oscillator (with the linearised Morison drag, if
+# on), the flow speed, the ice's drag law, the contact rules'.
+(P_OFFSET, P_MASS, P_DAMPING, P_STIFFNESS, P_OMEGA2, P_SIGMA, P_OMEGA, P_U, P_COEF,
+ P_QUADRATIC, P_m, P_M, P_MU, P_OMEGA_N, P_E, P_CHATTER, P_FOLLOW_ZENO, P_BUDGET,
+ P_TIME_RESOLUTION, P_GAP_RELATIVE, P_GAP_ABSOLUTE, P_MAX_IMPACTS) = range(22)
+N_PARAMS = 22
+
+#: The outcomes: the flight reaches the end with no event before it; its next event is
+#: Python's to take; an impact ended the march (stop_at_event); the records are full (the
+#: caller empties them and calls again).
+END, EVENT, STOPPED, FULL = 0, 1, 2, 3
+
+#: No impact budget (a march outside a step): a count no run reaches.
+NO_LIMIT = 2 ** 62
+
+#: Records kept between two returns to Python.
+CAPACITY = 4096
+
+
+def bounce_march(F, I, P, times, segments, firsts, stops, targets, values, impacts):
+    """March bounces from the flight in F (see the layout above) until something else comes.
+
+    A march to ``F[T_END]`` (``I[N_TIMES]`` = 0) adds each impact's impulse to ``F[IMPULSE]``
+    in the order :meth:`EventMarch.march` adds them. A sampled march (``times``, the first
+    ``I[N_TIMES]`` of them, from sample ``I[SAMPLE]`` on) writes what
+    :meth:`EventSolver.sample` would: per flight its anchor and t0 (``segments``) and its
+    samples (``firsts``, ``stops``), per impact its sample and impulse (``targets``,
+    ``values``), and runs each sample interval's impact budget. Every impact goes to
+    ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``I[STATUS]`` says why it returned."""
+    offset, mass, damping = P[P_OFFSET], P[P_MASS], P[P_DAMPING]
+    stiffness, omega2 = P[P_STIFFNESS], P[P_OMEGA2]
+    sigma, omega, u, coef = P[P_SIGMA], P[P_OMEGA], P[P_U], P[P_COEF]
+    quadratic = 1 if P[P_QUADRATIC] != 0.0 else 0
+    m, M, mu, omega_n, e = P[P_m], P[P_M], P[P_MU], P[P_OMEGA_N], P[P_E]
+    chatter, follow_zeno, budget = P[P_CHATTER], P[P_FOLLOW_ZENO] != 0.0, P[P_BUDGET]
+    time_resolution = P[P_TIME_RESOLUTION]
+    gap_relative, gap_absolute = P[P_GAP_RELATIVE], P[P_GAP_ABSOLUTE]
+    max_impacts = int(P[P_MAX_IMPACTS])
+    n = I[N_TIMES]
+    while True:
+        t0, x0, v0, z0, w0 = F[T0], F[X0], F[V0], F[Z0], F[W0]
+        horizon = (times[n - 1] if n > 0 else F[T_END]) - t0
+        if F[ROOT_AT] != F[ROOT_AT]:  # the search goes on (Flight.kernel_constants' order)
+            neg_sigma, omega_c, y0, p, q, v0_c = under_constants(offset, sigma, omega, omega2,
+                                                                 x0, v0)
+            if quadratic:
+                rate, w0_c, r0 = quadratic_flight_constants(coef, w0, u)
+            else:
+                rate, w0_c, r0 = linear_flight_constants(coef, w0, u)
+            (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
+             w) = flight_root(horizon, F[A], I[ITERATIONS], I[CREEP], F[PROBED_AT], F[PF],
+                              F[PDF], F[PD2], F[PBOUND], F[PJERK], F[TIME_EPS], x0 - z0, x0, z0,
+                              offset, mass, damping, stiffness, omega2, neg_sigma, omega_c, y0,
+                              p, q, v0_c, rate, w0_c, r0, u, coef, quadratic)
+            if a != a or (outcome == ROOT and root != root):
+                I[STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
+                return
+            F[A], I[ITERATIONS], I[CREEP] = a, iterations, creep
+            F[PROBED_AT], F[PF], F[PDF], F[PD2], F[PBOUND], F[PJERK] = (probed_at, f, df, d2,
+                                                                       bound, jerk)
+            if outcome == GENERIC:
+                I[STATUS] = EVENT
+                return
+            if outcome != ROOT:
+                I[STATUS] = END
+                return
+            F[ROOT_AT], F[RDX], F[RV], F[RDZ], F[RW] = root, dx, v, dz, w
+        tau = F[ROOT_AT]
+        if tau > horizon:
+            I[STATUS] = END
+            return
+        j = 0
+        if n > 0:  # the first sample at or after the event (EventSolver._sample's test)
+            i = I[SAMPLE]
+            if times[i] - t0 >= tau:
+                j = i
+            elif i + 1 == n or times[i + 1] - t0 >= tau:
+                j = i + 1
+            else:
+                j = first_sample_after(times, i + 2, t0, tau)
+        # the flight's end at the contact: ContactRules.impact_at_contact, parting only
+        t = t0 + tau
+        x, v, w = x0 + F[RDX], F[RV], F[RW]
+        closing = w - v
+        if not closing > 0.0 or rounding_closing(closing, x, v, w, u, omega_n) or e == 0.0:
+            I[STATUS] = EVENT
+            return
+        v_plus, w_plus = impact(v, w, m, M, e)
+        a_x = -(damping * v_plus + stiffness * (x - offset)) / mass  # Oscillator.acceleration
+        lam = contact_force(a_x, _ice_accel(w_plus, u, coef, quadratic)[0], m, M)
+        close, _ = bounce_closure(t, x, e, lam, v_plus - w_plus, mu, chatter, follow_zeno,
+                                  budget, time_resolution, gap_relative, gap_absolute)
+        closing = w_plus - v_plus
+        if close or not (closing < 0.0
+                         and not rounding_closing(closing, x, v_plus, w_plus, u, omega_n)):
+            I[STATUS] = EVENT
+            return
+        limit = I[LIMIT]
+        if n > 0 and I[INTERVAL] != j:
+            limit = I[COUNT] + max_impacts
+        if I[COUNT] >= limit:  # (Solver._record refuses it)
+            I[STATUS] = EVENT
+            return
+        if (I[N_IMPACTS] == impacts.shape[0] or I[N_SEGMENTS] == segments.shape[0]
+                or I[N_TARGETS] == targets.shape[0]):
+            I[STATUS] = FULL
+            return
+        # the impact: recorded, its impulse where the march adds it
+        impulse = impact_impulse(v, v_plus, m)
+        k = I[N_IMPACTS]
+        impacts[k, 0], impacts[k, 1], impacts[k, 2], impacts[k, 3] = t, x, v, w
+        impacts[k, 4], impacts[k, 5], impacts[k, 6], impacts[k, 7] = v_plus, w_plus, impulse, e
+        I[N_IMPACTS] = k + 1
+        I[COUNT] += 1
+        if n > 0:
+            i = I[SAMPLE]
+            if i < j:  # _SampleGroup.add: the flight's samples i..j-1
+                s = I[N_SEGMENTS]
+                segments[s, 0], segments[s, 1], segments[s, 2] = x0, v0, z0
+                segments[s, 3], segments[s, 4] = w0, t0
+                firsts[s], stops[s] = i, j
+                I[N_SEGMENTS] = s + 1
+            k = I[N_TARGETS]
+            targets[k], values[k] = j, 0.0 + impulse
+            I[N_TARGETS] = k + 1
+            if I[INTERVAL] != j:  # (Solver.begin_step of sample j's interval)
+                I[INTERVAL], I[LIMIT], F[STEP_START] = j, limit, times[j - 1]
+            I[SAMPLE] = j
+        else:
+            F[IMPULSE] = (F[IMPULSE] + 0.0) + (0.0 + impulse)
+        # the next flight, from the contact, its search from 0 (Flight, FlightSearch)
+        scale = abs(t)
+        F[T0], F[X0], F[V0], F[Z0], F[W0], F[START] = t, x, v_plus, x, w_plus, 0.0
+        F[TIME_EPS] = TIME_RESOLUTION * (scale if scale > 1.0 else 1.0)
+        F[A], F[ROOT_AT] = 0.0, math.nan
+        F[PROBED_AT] = F[PF] = F[PDF] = F[PD2] = F[PBOUND] = F[PJERK] = math.nan
+        I[ITERATIONS], I[CREEP] = 0, 0
+        I[EVENTS] += 1
+        if n == 0 and I[STOP_AT_EVENT] != 0 and F[T_START] < t < F[T_END]:
+            I[STATUS] = STOPPED
+            return
+
+
+def _compile(numba: Any) -> Any:
+    """:func:`bounce_march` compiled by numba, on the compiled functions it calls."""
+    f8, i8 = numba.float64, numba.int64
+    callees = flight_search.compiled_callees(numba)
+    scalars = {
+        "under_constants": jit(numba, (f8,) * 6, under_constants),
+        "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
+        "quadratic_flight_constants": jit(numba, (f8,) * 3, quadratic_flight_constants),
+        "rounding_closing": jit(numba, (f8,) * 6, rounding_closing),
+        "impact": jit(numba, (f8,) * 5, impact),
+        "impact_impulse": jit(numba, (f8,) * 3, impact_impulse),
+        "contact_force": jit(numba, (f8,) * 4, contact_force),
+        "bounce_closure": jit(numba, (f8,) * 7 + (numba.boolean,) + (f8,) * 4, bounce_closure),
+        "first_sample_after": jit(numba, (f8[::1], i8, f8, f8), first_sample_after),
+    }
+    array1, array2 = f8[::1], f8[:, ::1]
+    kernel = jit(numba, (array1, i8[::1], array1, array1, array2, i8[::1], i8[::1], i8[::1],
+                         array1, array2), bounce_march,
+                 flight_root=callees["flight_root"], _ice_accel=callees["_ice_accel"], **scalars)
+    return entry_point(kernel)
+
+
+#: numba's compiled :func:`bounce_march`, or None (numba absent, ``ICEIMPACT_PURE`` set, or the
+#: flight search not compiled): the Python march runs alone
+COMPILED = (compile_or_none("the march of bounces", _compile)
+            if flight_search.COMPILED is not None else None)
+
+
+class BounceMarch:
+    """An :class:`EventSolver`'s compiled march of bounces: the arrays it hands the kernel, and
+    the way from the solver's objects to them and back (the flight to go on with, the impacts,
+    the sampler's records). ``kernel``: :func:`bounce_march`, compiled (or, in tests, as
+    Python)."""
+
+    def __init__(self, solver: EventSolver, kernel: Any = None):
+        self.solver = solver
+        self.kernel = COMPILED if kernel is None else kernel
+        self.F = np.zeros(N_FLOATS)
+        self.I = np.zeros(N_INTS, dtype=np.int64)
+        self.P = np.zeros(N_PARAMS)
+        self.no_times = np.zeros(1)
+        self.segments = np.zeros((CAPACITY, 5))
+        self.firsts = np.zeros(CAPACITY, dtype=np.int64)
+        self.stops = np.zeros(CAPACITY, dtype=np.int64)
+        self.targets = np.zeros(CAPACITY, dtype=np.int64)
+        self.values = np.zeros(CAPACITY)
+        self.impacts = np.zeros((CAPACITY, 8))
+        self._params_for: tuple | None = None
+
+    def takes(self, seg: Any) -> bool:
+        """The kernel can go on from this segment: a flight whose search is the compiled one's
+        (an under-damped structure without the quadratic Morison drag), not handed to
+        RootSearch, and no Zeno tail running."""
+        return (type(seg) is Flight and seg.kernel_constants is not None
+                and not seg.search.handed_back and self.solver.zeno_end is None)
+
+    def _params(self, seg: Any) -> None:
+        solver = self.solver
+        rules = solver.rules
+        e = solver.e
+        key = (seg.osc, seg.u, e, rules.follow_zeno, solver.scene.solver_max_impacts)
+        if key == self._params_for:
+            return
+        self._params_for = key
+        osc, drag = seg.osc, solver.drag
+        coef, quadratic = drag.law_constants
+        relative, absolute = rules.gap_noise
+        self.P[:] = (osc.offset, osc.mass, osc.damping, osc.stiffness, osc.omega2, osc.sigma,
+                     osc.omega, seg.u, coef, float(quadratic), rules.m, rules.M, rules.mu,
+                     rules.omega_n, e, rules.chatter_time, float(rules.follow_zeno),
+                     rules.budget_bounce(e), rules.time_resolution, relative, absolute,
+                     float(solver.scene.solver_max_impacts))
+
+    def _load(self, seg: Any) -> None:
+        """The flight ``seg`` and its search into F and I."""
+        search = seg.search
+        probed = search._probed or flight_search._UNPROBED
+        root = search.root
+        if root is None:
+            root_state = (math.nan,) * 5
+        else:
+            last = seg._last
+            root_state = last if last[0] == root else (root, *seg._motion(root)[1:])
+        self.F[:ROOT_AT + 5] = (seg.t0, seg.x0, seg.v0, seg.z0, seg.w0, seg.start,
+                                search.time_eps, search.a, search._probed_at, *probed,
+                                *root_state)
+        I = self.I
+        I[ITERATIONS], I[CREEP], I[N_SEGMENTS], I[N_IMPACTS], I[N_TARGETS] = (
+            search.iterations, search.creep, 0, 0, 0)
+        I[EVENTS] = 0
+
+    def _flight(self, seg: Any, F: list[float], I: list[int]) -> Any:
+        """The flight the kernel ended on, as the solver's segment: ``seg`` itself if no event
+        was taken, else a new one; its search where the kernel left it."""
+        solver = self.solver
+        if I[EVENTS]:
+            seg = Flight(solver, F[T0], F[X0], F[V0], F[Z0], F[W0], seg.u, F[START])
+            solver.seg = seg
+            solver.tau = 0.0
+        search = seg.search
+        search.a, search.iterations, search.creep = F[A], I[ITERATIONS], I[CREEP]
+        search._probed_at = F[PROBED_AT]
+        search._probed = tuple(F[PF:PJERK + 1])
+        root = F[ROOT_AT]
+        if root == root:
+            search.root = root
+            seg.remember((root, F[RDX], F[RV], F[RDZ], F[RW]))
+        return seg
+
+    def _impacts(self, n: int) -> None:
+        """The kernel's n impacts into the solver's count and list (as Solver._record)."""
+        if not n:
+            return
+        solver = self.solver
+        solver.impact_count += n
+        solver.t_last = float(self.impacts[n - 1, 0])
+        if solver.record_impacts:
+            solver.impacts.extend_rows(self.impacts[:n])
+
+    def march(self, t_end: float, stop_at_event: bool, t_start: float,
+              impulse: float) -> tuple[float, float | None]:
+        """From the solver's current flight, the bounces up to ``t_end`` (EventMarch.march's
+        loop, ``impulse`` its sum so far); returns the sum, and the time of the impact that
+        ended the march with ``stop_at_event`` (None: the march goes on in Python)."""
+        solver = self.solver
+        seg = solver.seg
+        self._params(seg)
+        self._load(seg)
+        F, I = self.F, self.I
+        F[IMPULSE], F[T_END], F[T_START] = impulse, t_end, t_start
+        limit = solver.impact_limit
+        I[COUNT], I[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
+        I[STOP_AT_EVENT], I[N_TIMES] = 1 if stop_at_event else 0, 0
+        while True:
+            self.kernel(F, I, self.P, self.no_times, self.segments, self.firsts, self.stops,
+                        self.targets, self.values, self.impacts)
+            status = int(I[STATUS])
+            self._impacts(int(I[N_IMPACTS]))
+            if status != FULL:
+                break
+            I[N_IMPACTS] = 0
+        floats, ints = F.tolist(), I.tolist()
+        self._flight(seg, floats, ints)
+        impulse = floats[IMPULSE]
+        return impulse, (floats[T0] if status == STOPPED else None)
+
+    def sample(self, times: np.ndarray, i: int, interval: int, group: Any, targets: Any,
+               values: Any) -> tuple[int, int]:
+        """From the solver's current flight and sample i, the bounces of a sampled march
+        (EventSolver._sample's loop, ``interval`` the sample interval whose budget runs, the
+        flights' samples to ``group``, the impulses to ``targets`` and ``values``); returns
+        the sample and the interval the march stands at."""
+        solver = self.solver
+        seg = solver.seg
+        self._params(seg)
+        self._load(seg)
+        F, I = self.F, self.I
+        F[STEP_START] = solver.step_start
+        limit = solver.impact_limit
+        I[COUNT], I[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
+        I[SAMPLE], I[INTERVAL], I[STOP_AT_EVENT], I[N_TIMES] = i, interval, 0, len(times)
+        while True:
+            self.kernel(F, I, self.P, times, self.segments, self.firsts, self.stops,
+                        self.targets, self.values, self.impacts)
+            self._impacts(int(I[N_IMPACTS]))
+            n_segments, n_targets = int(I[N_SEGMENTS]), int(I[N_TARGETS])
+            if n_segments:
+                group.extend(self.segments[:n_segments], self.firsts[:n_segments],
+                             self.stops[:n_segments])
+            if n_targets:
+                targets.frombytes(self.targets[:n_targets].tobytes())
+                values.frombytes(self.values[:n_targets].tobytes())
+            if int(I[STATUS]) != FULL:
+                break
+            I[N_IMPACTS] = I[N_SEGMENTS] = I[N_TARGETS] = 0
+        floats, ints = F.tolist(), I.tolist()
+        self._flight(seg, floats, ints)
+        limit = ints[LIMIT]
+        solver.impact_limit = limit if limit < NO_LIMIT else math.inf
+        solver.step_start = floats[STEP_START]
+        return ints[SAMPLE], ints[INTERVAL]
