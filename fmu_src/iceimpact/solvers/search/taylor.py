@@ -80,10 +80,9 @@ _POWERS = np.arange(ORDER + 1.0)
 #: the exponents 0..ORDER as floats: given to the C library's pow at run time (a compiled loop
 #: unrolled over constant exponents could turn pow(h, 2.0) into h * h, not always pow's floats)
 _EXPONENT_LIST = _POWERS.tolist()
-#: (i / SAMPLES)^n at the sample points, each correctly rounded (Python's int / int); a column
-#: for each point
-_VANDERMONDE_T = np.array([[i ** n / SAMPLES ** n for i in range(SAMPLES + 1)]
-                           for n in range(ORDER + 1)])
+#: (i / SAMPLES)^n at the sample points, each correctly rounded (Python's int / int)
+_VANDERMONDE = np.array([[i ** n / SAMPLES ** n for n in range(ORDER + 1)]
+                         for i in range(SAMPLES + 1)])
 _CURVATURE_WEIGHTS = (_POWERS * (_POWERS - 1)).astype(float)  # |p''| <= sum n(n-1)|c_n| on [0,1]
 _GRID = np.linspace(0.0, 1.0, SAMPLES + 1)
 _PROOF_MARGIN = 1.0 / (8.0 * SAMPLES * SAMPLES)  # (b - a)^2 / 8 for a sample interval
@@ -212,22 +211,32 @@ def pairwise_sum(terms, partial):
 
 
 def _column_sums(terms, partial, sums):
-    """sums[i, j] = :func:`pairwise_sum` of terms[:, i, j], all at once (pure path)."""
-    sums[...] = pairwise_sum(terms, partial)
+    """sums[i, j] = :func:`pairwise_sum` of terms[j, i], all at once (pure path)."""
+    sums[...] = pairwise_sum(terms.T, partial.T)
 
 
 def _column_sums_one_by_one(terms, partial, sums):
     """:func:`_column_sums` one sum at a time, over floats (compiled in its place)."""
     for i in range(sums.shape[0]):
         for j in range(sums.shape[1]):
-            sums[i, j] = pairwise_sum(terms[:, i, j], partial[:, 0, 0])
+            sums[i, j] = pairwise_sum(terms[j, i], partial[0, 0])
 
 
-def proven_intervals(values, curvatures):
-    """Which sample intervals [a, b] are proven to keep each polynomial >= 0 (a column each):
-    min(p(a), p(b)) >= K (b - a)^2 / 8, K >= |p''| on [0, 1] (at an interior minimum p' = 0, so
-    p(a) and p(b) exceed it by at most K (b - a)^2 / 8)."""
-    return np.minimum(values[:-1], values[1:]) >= curvatures * _PROOF_MARGIN
+def proven_intervals(sums, rows, proven):
+    """Which sample intervals [a, b] are proven to keep each polynomial >= 0 (``proven[i, j]``
+    for interval i of signal j; its values on the grid and its curvature bound K in ``sums``,
+    :func:`proof_sums`): min(p(a), p(b)) >= K (b - a)^2 / 8, K >= |p''| on [0, 1] (at an
+    interior minimum p' = 0, so p(a) and p(b) exceed it by at most K (b - a)^2 / 8). Returns
+    whether all are, with each polynomial >= 0 at 0 (no root on the step)."""
+    everywhere = True
+    for j in range(rows):
+        margin = sums[SAMPLES + 1, j] * _PROOF_MARGIN
+        everywhere = everywhere and sums[0, j] >= 0.0
+        for i in range(SAMPLES):
+            ok = sums[i, j] >= margin and sums[i + 1, j] >= margin  # (NaN: not proven)
+            proven[i, j] = ok
+            everywhere = everywhere and ok
+    return everywhere
 
 
 def proof_sums(table, rows, terms, partial, sums):
@@ -236,9 +245,9 @@ def proof_sums(table, rows, terms, partial, sums):
     add.reduce sums a row (:func:`pairwise_sum`; a matrix product's order would be the BLAS
     kernel's), and the bounds sum n (n - 1) |c_n| on |p''| on [0, 1], sums[SAMPLES + 1]."""
     for r in range(rows):
-        terms[:, :SAMPLES + 1, r] = _VANDERMONDE_T * table[3 + r][:, None]
-        terms[:, SAMPLES + 1, r] = np.abs(table[3 + r]) * _CURVATURE_WEIGHTS
-    _column_sums(terms[:, :, :rows], partial[:, :, :rows], sums[:, :rows])
+        np.multiply(_VANDERMONDE, table[3 + r], terms[r, :SAMPLES + 1])
+        np.multiply(np.abs(table[3 + r]), _CURVATURE_WEIGHTS, terms[r, SAMPLES + 1])
+    _column_sums(terms[:rows], partial[:rows], sums[:, :rows])
 
 
 def drag_sign(x, v, u, drag_B, structure_B, c, k, order_over, reciprocals, rs, fs):
@@ -279,11 +288,12 @@ def series(x, v, p, sign, u, drag_B, structure_B, c, k, M, order_over, reciproca
 
 def ordinary_step(lo, x, v, p, until, look_for_separation, u, drag_B, structure_B, c, k, M,
                   max_step, order_over, reciprocals, exponents, rs, fs, table, powers, terms,
-                  partial, sums):
+                  partial, sums, proven):
     """The step from lo (s) at state (x, v, P) up to the proof that it holds no root
     (:class:`StickingTaylor`'s coefficients; the work arrays of :class:`_Work`): fills
     ``table`` with its coefficients in theta = (tau - lo) / h and ``sums`` with the signals'
-    values and curvature bounds (:func:`proof_sums`); returns (outcome, h, theta_end), outcome
+    values and curvature bounds (:func:`proof_sums`), ``proven`` with the intervals proven free
+    of roots (:func:`proven_intervals`); returns (outcome, h, theta_end), outcome
     NO_ROOT (the step runs to theta_end), MAYBE_ROOT (a root of s r or of lam, when separation
     is looked for, may lie on it) or NO_STEP (h is not > 0)."""
     sign = drag_sign(x, v, u, drag_B, structure_B, c, k, order_over, reciprocals, rs, fs)
@@ -298,8 +308,7 @@ def ordinary_step(lo, x, v, p, until, look_for_separation, u, drag_B, structure_
     scale_table(table, h, exponents, powers)
     rows = 2 if look_for_separation else 1
     proof_sums(table, rows, terms, partial, sums)
-    values = sums[:SAMPLES + 1, :rows]
-    if proven_intervals(values, sums[SAMPLES + 1, :rows]).all() and (values[0] >= 0.0).all():
+    if proven_intervals(sums, rows, proven):
         return NO_ROOT, h, theta_end
     return MAYBE_ROOT, h, theta_end
 
@@ -366,7 +375,8 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
                 theta_end: float) -> float | None:
     """First theta in (0, theta_end] where the polynomial sum coeffs[n] theta^n (>= 0 at 0) goes
     below zero, or None. ``values`` are its values on the sample grid, ``curvature`` a bound K on
-    |p''| on [0, 1], ``doubtful`` the sample intervals not proven root-free (:func:`_proven`),
+    |p''| on [0, 1], ``doubtful`` the sample intervals not proven root-free
+    (:func:`proven_intervals`),
     which are halved until proven or a sign change is found. A zero the polynomial approaches
     closer than the halvings resolve is taken for a touch (no root)."""
     if values[0] < 0.0:
@@ -506,7 +516,7 @@ def _clearly_pushes(table, rs, fs, x, v, drag_B, structure_B, c, k, M, total):
 
 def run_steps(lo, x, v, p, start, tau_end, u, drag_B, structure_B, c, k, M, total, max_step,
               order_over, reciprocals, exponents, rs, fs, table, powers, terms, partial, sums,
-              los, hs, his, states, tables, done):
+              proven, los, hs, his, states, tables, done):
     """Steps of a sticking phase from lo (s) at state (x, v, P), one from the end of the other,
     as :class:`StickingTaylor` takes them (a hold before ``start``, then looking for the
     separation), while each is an ordinary step: its contact force a push at its start beyond
@@ -524,7 +534,8 @@ def run_steps(lo, x, v, p, start, tau_end, u, drag_B, structure_B, c, k, M, tota
         until = start if hold else math.inf
         outcome, h, theta_end = ordinary_step(
             lo, x, v, p, until, not hold, u, drag_B, structure_B, c, k, M, max_step,
-            order_over, reciprocals, exponents, rs, fs, table, powers, terms, partial, sums)
+            order_over, reciprocals, exponents, rs, fs, table, powers, terms, partial, sums,
+            proven)
         if outcome != NO_ROOT or not (hold or _clearly_pushes(table, rs, fs, x, v, drag_B,
                                                               structure_B, c, k, M, total)):
             break
@@ -556,7 +567,7 @@ class _Kernels:
         f8, i8, b1 = numba.float64, numba.int64, numba.boolean
         array, table = f8[::1], f8[:, ::1]
         cube = f8[:, :, ::1]
-        any1, any2, any3 = f8[:], f8[:, :], f8[:, :, :]
+        any1 = f8[:]
         recurrence = jit(numba, (*(f8,) * 7, *(array,) * 4), taylor_recurrence)
         self.recurrence = entry_point(recurrence)
         self.horner_table_rows = entry_point(jit(
@@ -570,23 +581,23 @@ class _Kernels:
         scale = jit(numba, (table, f8, array, array), scale_table,
                     _scaled_long=jit(numba, (table, f8), _hand_back_long))
         pairwise = jit(numba, (any1, any1), pairwise_sum)
-        sums = jit(numba, (any3, any3, any2), _column_sums_one_by_one, pairwise_sum=pairwise)
+        sums = jit(numba, (cube, cube, f8[:, :]), _column_sums_one_by_one, pairwise_sum=pairwise)
         proof = jit(numba, (table, i8, cube, cube, table), proof_sums,
                     _column_sums=sums)
-        proven = jit(numba, (any2, any1), proven_intervals)
+        proven = jit(numba, (table, i8, numba.boolean[:, ::1]), proven_intervals)
         sign = jit(numba, (*(f8,) * 7, *(array,) * 4), drag_sign, taylor_recurrence=recurrence)
         fill = jit(numba, (*(f8,) * 10, *(array,) * 5, table), series,
                    taylor_recurrence=recurrence)
         step_args = (*(f8,) * 5, b1, *(f8,) * 7, *(array,) * 5, table, array, cube, cube,
-                     table)
+                     table, b1[:, ::1])
         ordinary = jit(numba, step_args, ordinary_step, drag_sign=sign, series=fill,
                        step_length=length, scale_table=scale, proof_sums=proof,
                        proven_intervals=proven)
         self.ordinary_step = entry_point(ordinary)
         pushes = jit(numba, (table, array, array, *(f8,) * 8), _clearly_pushes)
         self.run_steps = entry_point(jit(
-            numba, (*(f8,) * 14, *(array,) * 5, table, array, cube, cube, table, array, array,
-                    array, table, cube, i8[::1]),
+            numba, (*(f8,) * 14, *(array,) * 5, table, array, cube, cube, table, b1[:, ::1],
+                    array, array, array, table, cube, i8[::1]),
             run_steps, ordinary_step=ordinary, horner_columns=columns,
             _clearly_pushes=pushes))
 
@@ -611,7 +622,7 @@ class _Work:
     """A stepper's work arrays (:func:`ordinary_step`): lists where the pure recurrence runs
     (faster in Python), arrays for the compiled kernels."""
 
-    __slots__ = ("rs", "fs", "table", "powers", "terms", "partial", "sums")
+    __slots__ = ("rs", "fs", "table", "powers", "terms", "partial", "sums", "proven")
 
     def __init__(self, compiled: bool):
         if compiled:
@@ -621,12 +632,14 @@ class _Work:
             self.rs, self.fs, self.powers = [0.0] * (ORDER + 1), [0.0] * ORDER, \
                 [0.0] * (ORDER + 1)
         self.table = np.empty((5, ORDER + 1))
-        self.terms = np.empty((ORDER + 1, SAMPLES + 2, 2))
-        self.partial = np.empty((8, SAMPLES + 2, 2))
+        self.terms = np.empty((2, SAMPLES + 2, ORDER + 1))  # signal, point, order
+        self.partial = np.empty((2, SAMPLES + 2, 8))
         self.sums = np.empty((SAMPLES + 2, 2))
+        self.proven = np.empty((SAMPLES, 2), dtype=bool)
 
     def arrays(self) -> tuple:
-        return (self.rs, self.fs, self.table, self.powers, self.terms, self.partial, self.sums)
+        return (self.rs, self.fs, self.table, self.powers, self.terms, self.partial, self.sums,
+                self.proven)
 
 
 #: Steps a compiled run makes at most in one call (:meth:`StickingTaylor.run`)
@@ -682,7 +695,7 @@ class StickingTaylor:
             rows = 2 if look_for_separation else 1
             values = self._work.sums[:SAMPLES + 1, :rows]
             curvatures = self._work.sums[SAMPLES + 1, :rows]
-            proven = proven_intervals(values, curvatures)
+            proven = self._work.proven
             for row, kind in enumerate((StepEnd.FLIP, StepEnd.SEPARATION)[:rows]):
                 root = _first_root(table[3 + row], values[:, row], float(curvatures[row]),
                                    np.flatnonzero(~proven[:, row]), theta_end)
