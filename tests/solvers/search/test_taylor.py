@@ -466,7 +466,7 @@ def test_compiled_runs_of_steps_equal_the_pure_steps(name, monkeypatch):
         runs = []
         original = StickingTaylor.run
 
-        def counted(self, *args):
+        def counted(self, *args, original=original, runs=runs):
             steps = original(self, *args)
             runs.append(len(steps))
             return steps

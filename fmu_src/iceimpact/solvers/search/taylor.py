@@ -44,14 +44,16 @@ rounding of floats changed in Python 3.12), the powers ``h^n`` are the C library
 ``pow`` (Python's ``**`` on floats, not numpy's vectorised ``power``), the polynomials are
 evaluated by Horner's rule, one coefficient after the other (:func:`horner`, and
 :func:`horner_rows` for many times at once, operation for operation the same), and the values on
-the sample grid are products summed by numpy's ``add.reduce`` along a row (an order fixed by
-numpy's code, not by the CPU), never a matrix product (``@`` goes to BLAS, whose kernels sum
-and fuse in CPU-specific orders).
+the sample grid are products summed in numpy's pairwise order (:func:`pairwise_sum`, numpy's
+``add.reduce`` along a row, the order its code fixes, written out), never a matrix product
+(``@`` goes to BLAS, whose kernels sum and fuse in CPU-specific orders).
 
-The recurrence and Horner's rule are kernels (:func:`taylor_recurrence`,
-:func:`horner_table_rows`, :func:`horner_columns`): Python functions over plain floats, lists and
-arrays, compiled by numba where it is installed (:data:`KERNELS`, :mod:`.compiled`), the same
-floats either way.
+A step up to the proof that no root lies on it is one function over plain floats, lists and
+arrays (:func:`ordinary_step`; the recurrence and Horner's rule are kernels too), run as Python
+by the pure path and compiled by numba where it is installed (:data:`KERNELS`, :mod:`.compiled`),
+the same floats either way; :func:`run_steps` makes the steps of a sticking phase one after the
+other in one compiled call while they are ordinary, and hands the others back to Python
+(docs/explanation/speed.md).
 """
 
 from __future__ import annotations
@@ -376,9 +378,9 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
     """First theta in (0, theta_end] where the polynomial sum coeffs[n] theta^n (>= 0 at 0) goes
     below zero, or None. ``values`` are its values on the sample grid, ``curvature`` a bound K on
     |p''| on [0, 1], ``doubtful`` the sample intervals not proven root-free
-    (:func:`proven_intervals`),
-    which are halved until proven or a sign change is found. A zero the polynomial approaches
-    closer than the halvings resolve is taken for a touch (no root)."""
+    (:func:`proven_intervals`), which are halved until proven or a sign change is found. A zero
+    the polynomial approaches closer than the halvings resolve is taken for a touch (no
+    root)."""
     if values[0] < 0.0:
         return 0.0
     poly = coeffs.tolist()
@@ -741,7 +743,8 @@ class StickingTaylor:
         steps = []
         y_lo = y
         for lo_i, h, hi, table, y_hi in zip(los[:count].tolist(), hs[:count].tolist(),
-                                            his[:count].tolist(), tables, ys):
+                                            his[:count].tolist(), tables[:count], ys,
+                                            strict=True):
             step = TaylorStep(lo_i, y_lo)
             step.h, step.hi, step.table, step.end, step.y_hi = h, hi, table, StepEnd.LENGTH, y_hi
             steps.append(step)
