@@ -425,21 +425,26 @@ def test_taylor_sticking_steps_per_simulated_second_are_proportional_to_the_rate
     from taylor_rate_cost import LOW_FLOW, scene
 
     calls = [0]
-    original = taylor.StickingTaylor.step
+    original, original_run = taylor.StickingTaylor.step, taylor.StickingTaylor.run
 
     def counted(self, *args, **kwargs):
         calls[0] += 1
         return original(self, *args, **kwargs)
 
+    def counted_run(self, *args):  # (the steps of a compiled run)
+        steps = original_run(self, *args)
+        calls[0] += len(steps)
+        return steps
+
     rate = 0.99 * TAYLOR_RATE_MAX
-    taylor.StickingTaylor.step = counted
+    taylor.StickingTaylor.step, taylor.StickingTaylor.run = counted, counted_run
     try:
         sim = Simulator(scene(kind, rate))
         for i in range(20):
             r = sim.advance(1e-3, 1.0 if i % 2 == 0 else LOW_FLOW[kind])
             assert r.gap >= 0.0 and r.impulse >= 0.0 and math.isfinite(r.x)
     finally:
-        taylor.StickingTaylor.step = original
+        taylor.StickingTaylor.step, taylor.StickingTaylor.run = original, original_run
     assert sim.sticking and sim.sticking_since == 0.0
     assert 0.0 < calls[0] <= 0.6 * rate * sim.t
     # just outside: refused (the stiff drag by the drag rule 2 B u / M <= 1e6 1/s as well)

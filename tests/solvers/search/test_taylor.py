@@ -302,6 +302,7 @@ def test_steps_that_do_not_advance_the_time_are_refused(monkeypatch):
         step.end = StepEnd.FLIP
         return step
     monkeypatch.setattr(StickingTaylor, "step", stalled)
+    monkeypatch.setattr(StickingTaylor, "run", lambda *args: [])  # every step through step()
     with pytest.raises(SolverError, match="stalled"):
         sim.advance(0.01, 0.2)  # a new flow: a new sticking segment, whose steps stall
     assert sim.save()["solver"] == saved["solver"]
@@ -360,3 +361,149 @@ def test_the_compiled_kernels_give_the_pure_functions_floats():
     table = np.ascontiguousarray(tables[:, 0, :])
     assert list(taylor.KERNELS.horner_columns(table, 0.37)) == \
         [horner(table[:, j].tolist(), 0.37) for j in range(3)]
+
+
+def _pure_stepper(monkeypatch, *args, **kwargs) -> StickingTaylor:
+    """A StickingTaylor that runs the pure functions (lists, no compiled kernel) in this
+    process, whether numba is installed or not."""
+    from iceimpact.solvers.search import taylor
+    with monkeypatch.context() as patch:
+        patch.setattr(taylor, "KERNELS", None)
+        return StickingTaylor(*args, **kwargs)
+
+
+def _random_stepper(rng) -> tuple[tuple, dict, tuple[float, float, float]]:
+    """Coefficients over many scales and a state: some at u - v = 0 exactly, some pushed apart
+    (the contact force tensile), some with the Morison drag on the structure."""
+    m, M = 10.0 ** rng.uniform(0.0, 5.0, 2)
+    k = 10.0 ** rng.uniform(-2.0, 8.0)
+    c = 0.0 if rng.random() < 0.2 else 10.0 ** rng.uniform(-2.0, 5.0)
+    B = 10.0 ** rng.uniform(-1.0, 4.0)
+    u = 0.0 if rng.random() < 0.1 else rng.uniform(-2.0, 2.0)
+    period = 2.0 * math.pi / math.sqrt(k / (m + M))
+    kwargs = {"structure_B": 10.0 ** rng.uniform(-1.0, 3.0)} if rng.random() < 0.3 else {}
+    x = rng.normal() * 10.0 ** rng.uniform(-6.0, 0.0)
+    v = u if rng.random() < 0.15 else u + rng.normal() * 10.0 ** rng.uniform(-6.0, 0.5)
+    return (m + M, c, k, B, u, M, period), kwargs, (x, v, rng.normal())
+
+
+def test_the_compiled_step_gives_the_pure_functions_floats(monkeypatch):
+    """ordinary_step compiled by numba (taylor.KERNELS) against the same function run as
+    Python (lists where the pure path has lists), from random coefficients and states, holds
+    and looks for separation: the same outcome, length, end, coefficients, proof sums and
+    proven intervals, bit for bit; then StickingTaylor.step (compiled where it can be) against
+    a pure stepper, root searches included."""
+    from iceimpact.solvers.search import taylor
+    if taylor.KERNELS is None:
+        pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
+    rng = np.random.default_rng(11)
+    outcomes = set()
+    ends = set()
+    for _ in range(400):
+        args, kwargs, y = _random_stepper(rng)
+        compiled = StickingTaylor(*args, **kwargs)
+        pure = _pure_stepper(monkeypatch, *args, **kwargs)
+        lo = rng.uniform(0.0, 10.0)
+        until = math.inf if rng.random() < 0.7 else lo + rng.uniform(0.0, 2.0) * args[-1] / 20
+        look = bool(rng.random() < 0.8)
+        got = compiled._ordinary(lo, y, until, look)
+        with monkeypatch.context() as patch:
+            patch.setattr(taylor, "KERNELS", None)
+            want = pure._ordinary(lo, y, until, look)
+        assert tuple(float(w) for w in got) == tuple(float(w) for w in want)
+        outcomes.add(got[0])
+        if got[0] == taylor.NO_STEP:
+            continue
+        np.testing.assert_array_equal(compiled._work.table, pure._work.table, strict=True)
+        rows = 2 if look else 1
+        np.testing.assert_array_equal(compiled._work.sums[:, :rows], pure._work.sums[:, :rows])
+        np.testing.assert_array_equal(compiled._work.proven[:, :rows],
+                                      pure._work.proven[:, :rows])
+        step = compiled.step(lo, y, until, look)
+        with monkeypatch.context() as patch:
+            patch.setattr(taylor, "KERNELS", None)
+            want_step = pure.step(lo, y, until, look)
+        assert (step.hi, step.h, step.end, step.y_hi) == \
+            (want_step.hi, want_step.h, want_step.end, want_step.y_hi)
+        np.testing.assert_array_equal(step.table, want_step.table)
+        ends.add(step.end)
+    # the cases met: ordinary steps, possible roots, flips and separations among them
+    assert {taylor.NO_ROOT, taylor.MAYBE_ROOT} <= outcomes
+    assert {StepEnd.LENGTH, StepEnd.FLIP, StepEnd.SEPARATION} <= ends
+
+
+def test_the_pairwise_sum_is_numpys():
+    """pairwise_sum, over floats (a row) and over arrays (the rows at once): numpy's add.reduce
+    along a row, bit for bit, for 16 to 128 terms of mixed signs and scales (-0.0 sums too)."""
+    from iceimpact.solvers.search.taylor import pairwise_sum
+    rng = np.random.default_rng(5)
+    for n in (16, 23, 37, 64, 101, 128):
+        rows = rng.normal(size=(50, n)) * 10.0 ** rng.integers(-12, 12, (50, n))
+        want = rows.sum(axis=1)
+        partial = np.empty((8, 50))
+        got = pairwise_sum(rows.T, partial)
+        np.testing.assert_array_equal(got, want)
+        assert [float(pairwise_sum(row, np.empty(8))) for row in rows] == want.tolist()
+    assert math.copysign(1.0, pairwise_sum(np.full(37, -0.0), np.empty(8))) == 1.0
+
+
+def _steps(seg: QuadraticStick) -> list:
+    return [(s.lo, s.y_lo, s.h, s.hi, s.end, s.y_hi, s.table.tobytes()) for s in seg.steps]
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_compiled_runs_of_steps_equal_the_pure_steps(name, monkeypatch):
+    """QuadraticStick with its runs of ordinary steps made in one compiled call
+    (StickingTaylor.run) against the same segment stepped one step at a time by the pure
+    functions (taylor.KERNELS off): the same steps and separation, bit for bit, a hold
+    included."""
+    from iceimpact.solvers.search import taylor
+    if taylor.KERNELS is None:
+        pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
+    make, t_end = CASES[name]
+    scene, x0, v0 = make()
+    for start in (0.0, 0.3 * t_end):
+        runs = []
+        original = StickingTaylor.run
+
+        def counted(self, *args, original=original, runs=runs):
+            steps = original(self, *args)
+            runs.append(len(steps))
+            return steps
+        with monkeypatch.context() as patch:
+            patch.setattr(StickingTaylor, "run", counted)
+            compiled = QuadraticStick(EventSolver(scene), 0.0, x0, v0, scene.flow_u, start)
+            event = compiled.next_event(t_end)
+        with monkeypatch.context() as patch:
+            patch.setattr(taylor, "KERNELS", None)
+            pure = QuadraticStick(EventSolver(scene), 0.0, x0, v0, scene.flow_u, start)
+            assert pure.next_event(t_end) == event
+        assert _steps(compiled) == _steps(pure)
+        if name in ("figure18", "lockin_A2"):  # long phases: runs of many steps in one call
+            assert max(runs) > 10
+
+
+def test_a_step_off_the_compiled_path_is_taken_in_python():
+    """A step the compiled kernels hand back (a step beyond 2^28 s, scaled by ldexp; its
+    length in logarithms: a structure with a period of 1e67 s, as in
+    test_search_regressions) is taken by the pure function: the same step as a pure
+    stepper's."""
+    from iceimpact.solvers.search import taylor
+    if taylor.KERNELS is None:
+        pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
+    args = (2.8e8, 0.0, 6.6e-125, 1e-14, 0.0, 11.0)
+    stepper = StickingTaylor(*args, max_step=1.3e67)
+    y = (-0.69, 1e-37, 0.0)
+    with pytest.raises(taylor.HandBack):
+        taylor.KERNELS.ordinary_step(0.0, *y, 1.0, True, 0.0, 1e-14, 0.0, 0.0, 6.6e-125, 11.0,
+                                     1.3e67, *stepper._constants, *stepper._work.arrays())
+    step = stepper.step(0.0, y, 1.0, True)
+    pure = StickingTaylor(*args, max_step=1.3e67)
+    pure._work = taylor._Work(False)
+    pure._constants = (pure._constants[0].tolist(), taylor._RECIPROCAL_LIST,
+                       taylor._EXPONENT_LIST)
+    outcome, h, theta_end = taylor.ordinary_step(0.0, *y, 1.0, True, 0.0, 1e-14, 0.0, 0.0,
+                                                 6.6e-125, 11.0, 1.3e67, *pure._constants,
+                                                 *pure._work.arrays())
+    assert step.h == h and np.array_equal(step.table, pure._work.table[:3].T)
+    assert stepper.run(0.0, y, 0.0, 1.0) == []  # (the run stops before it)

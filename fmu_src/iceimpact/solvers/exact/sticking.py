@@ -383,13 +383,22 @@ class QuadraticStick:
             self._stalled = 0
         return step
 
-    def _extend(self) -> None:
-        if self.steps:
-            last = self.steps[-1]
-            step = self._step_from(last.hi, last.y_hi)
-        else:
-            step = self._step_from(0.0, (self.x0, self.v0, 0.0))
-        self._append(step)
+    def _extend_to(self, tau: float) -> None:
+        """Steps until the frontier reaches tau or the phase separates: runs of ordinary steps
+        in one compiled call (:meth:`StickingTaylor.run`), the others one by one here."""
+        while tau > self.frontier:
+            if self.steps:
+                last = self.steps[-1]
+                lo, y = last.hi, last.y_hi
+            else:
+                lo, y = 0.0, (self.x0, self.v0, 0.0)
+            steps = self.taylor.run(lo, y, self.start, tau)
+            if steps:
+                self.steps += steps
+                self.frontier = steps[-1].hi
+                self._stalled = 0  # (each advanced the time)
+            else:
+                self._append(self._step_from(lo, y))
 
     def _append(self, step: TaylorStep) -> None:
         self.steps.append(step)
@@ -403,8 +412,8 @@ class QuadraticStick:
             return y_b
         if tau == tau_a:
             return y_a
-        while tau > self.frontier:
-            self._extend()
+        if tau > self.frontier:
+            self._extend_to(tau)
         step = self.steps[-1]
         if step.lo > tau:
             for step in reversed(self.steps):  # noqa: B007 (the step holding tau)
@@ -443,8 +452,8 @@ class QuadraticStick:
         return np.where(tau[1:] > tau[:-1], pieces, 0.0)
 
     def next_event(self, tau_end: float) -> float | None:
-        while tau_end > self.frontier:
-            self._extend()
+        if tau_end > self.frontier:
+            self._extend_to(tau_end)
         if self.separation is not None and self.separation <= tau_end:
             return self.separation
         return None
