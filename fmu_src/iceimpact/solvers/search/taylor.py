@@ -65,7 +65,7 @@ from math import fsum as _fsum
 import numpy as np
 from scipy.optimize import brentq
 
-from .compiled import entry_point, jit, not_compiled, numba_or_none
+from .compiled import compile_or_none, entry_point, jit
 
 #: Order of the Taylor steps (degree of the position polynomial).
 ORDER = 36
@@ -353,13 +353,24 @@ def horner_table_rows(coeffs, rows, theta, out):
     """:func:`horner_rows` as loops, for numba: ``out[k, j]`` the value of polynomial j of
     table ``rows[k]`` at ``theta[k]``."""
     top = coeffs.shape[0] - 1
+    width = coeffs.shape[2]
     for k in range(theta.size):
         row, t = rows[k], theta[k]
-        for j in range(coeffs.shape[2]):
+        j = 0
+        while j + 3 <= width:  # three polynomials side by side: independent chains, each the
+            a0 = a1 = a2 = 0.0  # same operations in the same order as one alone
+            for n in range(top, -1, -1):
+                a0 = a0 * t + coeffs[n, row, j]
+                a1 = a1 * t + coeffs[n, row, j + 1]
+                a2 = a2 * t + coeffs[n, row, j + 2]
+            out[k, j], out[k, j + 1], out[k, j + 2] = a0, a1, a2
+            j += 3
+        while j < width:
             acc = 0.0
             for n in range(top, -1, -1):
                 acc = acc * t + coeffs[n, row, j]
             out[k, j] = acc
+            j += 1
 
 
 def horner_columns(table, theta):
@@ -604,20 +615,8 @@ class _Kernels:
             _clearly_pushes=pushes))
 
 
-def _compiled() -> _Kernels | None:
-    """The kernels compiled by numba, or None (:mod:`.compiled`)."""
-    numba = numba_or_none()
-    if numba is None:
-        return None
-    try:
-        return _Kernels(numba)
-    except Exception as exc:  # (any failure of numba leaves the pure path)
-        not_compiled("the Taylor steps", exc)
-        return None
-
-
 #: numba's compiled kernels where available (``fast`` extra), else None: the pure functions run
-KERNELS = _compiled()
+KERNELS: _Kernels | None = compile_or_none("the Taylor steps", _Kernels)
 
 
 class _Work:
