@@ -1,7 +1,7 @@
 """Start-up of the compiled kernels: what a fresh process pays before its first results, pure,
 compiled with an empty cache and compiled with a warm one.
 
-    python benchmarks/startup.py [--rounds N] [--quick]
+    python benchmarks/startup.py [--rounds N] [--quick] [--long SECONDS]
 
 Each case runs in a fresh subprocess, which times itself (CPU time of the process and wall-clock
 time):
@@ -17,7 +17,9 @@ cold cache (``ICEIMPACT_CACHE_DIR`` an empty folder, new for each round: numba c
 kernel) and compiled with a warm cache (a folder one untimed run filled: numba loads every
 kernel). Each worker reports numba's cache hits and misses, which the benchmark checks against
 the case. Rounds are interleaved (the machine is noisy); the table gives the best of
-``--rounds`` (default 5; ``--quick``: 2) for each column. Prints a table and writes
+``--rounds`` (default 5; ``--quick``: 2) for each column. ``--long 400`` adds the FMU over 400
+s, pure and warm, with the process's peak memory: what the compiled kernels save in a long run
+against what numba costs to load. Prints a table and writes
 ``benchmarks/results/startup.json`` and ``startup.md``.
 """
 
@@ -62,7 +64,7 @@ print(json.dumps({"import_cpu": cpu_import, "import_wall": wall_import, "run_cpu
 """
 
 _FMU_WORKER = """
-import json, sys, time
+import json, resource, sys, time
 import fmpy
 wall, cpu = time.perf_counter(), time.process_time()
 result = fmpy.simulate_fmu(%(fmu)r, stop_time=%(stop)r, output_interval=%(step)r)
@@ -72,7 +74,8 @@ compiled = bool(cores) and cores[0].COMPILED is not None
 stats = {"hits": 0, "misses": 0}
 if compiled:
     stats = sys.modules[cores[0].__name__.rsplit(".", 1)[0] + ".compiled"].cache_stats()
-print(json.dumps({"run_cpu": cpu_run, "run_wall": wall_run, "rows": len(result),
+rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # MB (Linux: kB)
+print(json.dumps({"run_cpu": cpu_run, "run_wall": wall_run, "rows": len(result), "rss_mb": rss,
                   "compiled": compiled, "hits": stats["hits"], "misses": stats["misses"]}))
 """
 
@@ -104,20 +107,25 @@ def _check(case: str, record: dict) -> None:
         raise RuntimeError(f"case {case}: the worker reported {record}")
 
 
-def measure(rounds: int, fmu: Path, scratch: Path) -> dict[str, dict[str, list[dict]]]:
-    """{"core"|"fmu": {case: [record of each round]}}, the rounds interleaved."""
+def measure(rounds: int, fmu: Path, scratch: Path,
+            long: float | None = None) -> dict[str, dict[str, list[dict]]]:
+    """{"core"|"fmu"|"long": {case: [record of each round]}}, the rounds interleaved; "long"
+    (``--long``) only pure and warm."""
     warm = {"core": scratch / "warm_core", "fmu": scratch / "warm_fmu"}
+    warm["long"] = warm["fmu"]
     codes = {"core": _CORE_WORKER % {"t_end": T_END},
              "fmu": _FMU_WORKER % {"fmu": str(fmu), "stop": STOP_TIME, "step": STEP}}
-    for what, folder in warm.items():  # one untimed run fills each warm cache
-        _worker(codes[what], _env("warm", folder, what == "fmu"))
+    if long:
+        codes["long"] = _FMU_WORKER % {"fmu": str(fmu), "stop": long, "step": STEP}
+    for what in ("core", "fmu"):  # one untimed run fills each warm cache
+        _worker(codes[what], _env("warm", warm[what], what == "fmu"))
     records: dict[str, dict[str, list[dict]]] = {w: {c: [] for c in ("pure", "cold", "warm")}
                                                  for w in codes}
     for round_ in range(rounds):
         for what, code in codes.items():
-            for case in ("pure", "cold", "warm"):
+            for case in ("pure", "warm") if what == "long" else ("pure", "cold", "warm"):
                 folder = warm[what] if case == "warm" else scratch / f"cold_{what}_{round_}"
-                record = _worker(code, _env(case, folder, what == "fmu"))
+                record = _worker(code, _env(case, folder, what != "core"))
                 _check(case, record)
                 records[what][case].append(record)
                 print(f"round {round_ + 1}/{rounds} {what:<4} {case:<5} "
@@ -133,7 +141,7 @@ def best(records: list[dict], field: str) -> float:
     return min(r[field] for r in records)
 
 
-def markdown(records: dict, rounds: int) -> str:
+def markdown(records: dict, rounds: int, long: float | None = None) -> str:
     lines = [f"Fresh processes, best of {rounds} interleaved rounds for each column; CPU time "
              "of the process / wall-clock time, in seconds. Cold: an empty cache folder (numba "
              "compiles every kernel); warm: the folder an earlier run filled (numba loads every "
@@ -154,6 +162,15 @@ def markdown(records: dict, rounds: int) -> str:
         rs = records["fmu"][case]
         lines.append(f"| {name} | {best(rs, 'run_cpu'):.2f} | {best(rs, 'run_wall'):.2f} "
                      f"| {rs[-1]['hits']} / {rs[-1]['misses']} |")
+    if long:
+        lines += ["", f"The same over {long:g} s (the Figure 2 scene, "
+                  f"{records['long']['pure'][-1]['rows'] - 1} steps, all outputs recorded), "
+                  "the whole process's peak memory beside:", "",
+                  "| case | CPU | wall | peak resident MB |", "|---|---:|---:|---:|"]
+        for case in ("pure", "warm"):
+            rs = records["long"][case]
+            lines.append(f"| {CASES[case]} | {best(rs, 'run_cpu'):.2f} "
+                         f"| {best(rs, 'run_wall'):.2f} | {best(rs, 'rss_mb'):.0f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -161,13 +178,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5, help="interleaved rounds (default 5)")
     parser.add_argument("--quick", action="store_true", help="2 rounds")
+    parser.add_argument("--long", type=float, metavar="SECONDS",
+                        help="also a run of the FMU this long, pure and warm (e.g. 400)")
     args = parser.parse_args(argv)
     rounds = 2 if args.quick else args.rounds
     with tempfile.TemporaryDirectory(prefix="startup_bench_") as tmp:
         scratch = Path(tmp)
         fmu = build_fmu.build(scratch / "dist")
-        records = measure(rounds, fmu, scratch)
-    text = markdown(records, rounds)
+        records = measure(rounds, fmu, scratch, args.long)
+    text = markdown(records, rounds, args.long)
     print()
     print(text)
     import numba
@@ -178,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "numba": numba.__version__, "cpus": os.cpu_count()},
         "rounds": rounds, "t_end": T_END, "fmu_stop_time": STOP_TIME, "fmu_step": STEP,
+        "long_stop_time": args.long,
         "records": records,
     }
     OUT.parent.mkdir(parents=True, exist_ok=True)
