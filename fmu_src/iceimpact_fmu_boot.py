@@ -232,11 +232,11 @@ def _aliases_removed() -> dict:
             if k == CORE or k.startswith(CORE + ".")}
 
 
-#: In the host's environment, "1" lets the FMU's core compile its flight search where the
-#: host's Python has numba (solvers/search/flight_search.py): half the cost per impact, but
-#: about 1.7 s of compiling at the first instantiation of every freshly extracted FMU (numba's
-#: cache lives beside the extracted source), which a host extracting the FMU for each run pays
-#: each time.
+#: In the host's environment, "1" lets the FMU's core compile its kernels where the host's
+#: Python has numba (solvers/search/compiled.py). Not the default: numba's machine code is
+#: cached per user and found again by every fresh extraction of the same FMU, but importing
+#: numba and readying its compiler still costs about 0.3 s of CPU and 120 MB per host process,
+#: more than the kernels save in an FMU run (docs/explanation/speed.md#start-up-and-numbas-cache).
 FMU_COMPILED_ENV = "ICEIMPACT_FMU_COMPILED"
 
 

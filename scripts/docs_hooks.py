@@ -561,6 +561,7 @@ RESULT_SOURCES: dict[str, tuple[str, str]] = {
     "season": ("Season example: cost", "python benchmarks/season.py"),
     "soak": ("Long runs: memory and time per impact", "python benchmarks/soak.py"),
     "standalone_start": ("Standalone FMU start-up", "python benchmarks/standalone_start.py"),
+    "startup": ("Start-up of the compiled kernels", "python benchmarks/startup.py"),
     "stick_part_cycle": ("Stick-part cycles: cost", "python benchmarks/stick_part_cycle.py"),
     "sticking_speed": ("Quadratic sticking phase: cost", "python benchmarks/sticking_speed.py"),
     "sweep_speed": ("Sweep runs per second", "python benchmarks/sweep_speed.py"),

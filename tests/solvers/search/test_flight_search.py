@@ -392,10 +392,11 @@ print(json.dumps({"compiled": compiled, "pure_env": os.environ.get("ICEIMPACT_PU
 
 @pytest.mark.parametrize("opt_in", [False, True])
 def test_the_fmu_runs_the_pure_search_unless_the_host_opts_in(fmu_dir, opt_in):
-    """A host that extracts the FMU afresh for each run would pay numba's compile (about
-    1.7 s) at every instantiation: the FMU's core loads with the pure flight search, and the
-    host's environment is left as it was; ICEIMPACT_FMU_COMPILED=1 lets it compile where the
-    host's Python has numba."""
+    """numba's import (about 0.3 s of CPU and 120 MB in every host process, the compiled
+    kernels' cache warm) costs an FMU more than its compiled kernels save at the steps hosts
+    take (docs/explanation/speed.md): the FMU's core loads with the pure path, and the host's
+    environment is left as it was; ICEIMPACT_FMU_COMPILED=1 lets it compile where the host's
+    Python has numba."""
     env = {k: v for k, v in os.environ.items()
            if k not in ("ICEIMPACT_PURE", "ICEIMPACT_FMU_COMPILED")}
     if opt_in:

@@ -375,8 +375,8 @@ def _compiled():
     :mod:`.compiled`).
 
     Compiled at import for its one signature (floats, the two counters integers), so that no
-    run pays for it; numba keeps the machine code in its cache (``__pycache__``), which later
-    imports load."""
+    run pays for it; the machine code goes to the kernels' cache in the user's cache folder
+    (:mod:`.compiled`), which later imports load, wherever the source lies."""
     return compile_or_none("the flight search",
                            lambda numba: entry_point(compiled_callees(numba)["flight_root"]))
 

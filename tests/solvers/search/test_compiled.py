@@ -1,0 +1,241 @@
+"""The kernels' cache (solvers/search/compiled.py): in the user's cache folder, never beside the
+source; found again by an identical source at a new path (a fresh FMU extraction); a damaged
+or unusable cache compiles again; the results those of the pure path, to the bit."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+from iceimpact.solvers.search import compiled
+
+SRC = Path(__file__).resolve().parents[3] / "fmu_src" / "iceimpact"
+
+#: a fresh process: imports the core from sys.argv[1], runs a linear and a quadratic (sticking:
+#: the Taylor kernels) scene, reports numba's cache hits and misses and the results' digest
+_PROBE = """
+import hashlib, json, sys
+sys.path.insert(0, sys.argv[1])
+import numpy as np
+import iceimpact
+from iceimpact import Scene, run
+from iceimpact.solvers.search import compiled
+h = hashlib.sha256()
+for fields, t_end in (({}, 30.0), ({"drag_model": 2, "impact_e": 0.5}, 20.0)):
+    r = run(Scene(**fields), t_end, dt=1e-2)
+    for key in ("t", "x", "v", "z", "w", "impulse", "sticking"):
+        h.update(np.ascontiguousarray(getattr(r, key)).tobytes())
+    h.update(np.ascontiguousarray(r.impacts["t"]).tobytes())
+print(json.dumps({"file": iceimpact.__file__, "digest": h.hexdigest(), **compiled.cache_stats()}))
+"""
+
+
+def _probe(source_parent: Path, cache: Path | str | None, pure: bool = False) -> dict:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ICEIMPACT_")}
+    env["PYTHONDONTWRITEBYTECODE"] = "1"  # nothing but numba could write beside the source
+    env["ICEIMPACT_PURE"] = "1" if pure else "0"
+    if cache is not None:
+        env["ICEIMPACT_CACHE_DIR"] = str(cache)
+    done = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-c", _PROBE,
+                           str(source_parent)], env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr[-3000:]
+    seen = json.loads(done.stdout.strip().splitlines()[-1])
+    assert seen["file"].startswith(str(source_parent))  # the copy ran, not the installed core
+    return seen
+
+
+def _read_only_copy(target: Path) -> Path:
+    """The core copied under ``target``, its folders and files read-only; ``target``."""
+    shutil.copytree(SRC, target / "iceimpact",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    for folder, _, files in os.walk(target / "iceimpact"):
+        for name in files:
+            os.chmod(os.path.join(folder, name), 0o444)
+        os.chmod(folder, 0o555)
+    return target
+
+
+def _writable(target: Path) -> None:
+    for folder, _, _ in os.walk(target):
+        os.chmod(folder, 0o755)
+
+
+def _numba_files(folder: Path) -> list[Path]:
+    return [p for p in folder.rglob("*") if p.suffix in (".nbi", ".nbc")]
+
+
+@pytest.fixture(scope="module")
+def warm(tmp_path_factory):
+    """A cache filled by a first process (all kernels compiled), the source it compiled, and
+    the pure path's digest."""
+    pytest.importorskip("numba")
+    tmp = tmp_path_factory.mktemp("compiled_cache")
+    source = _read_only_copy(tmp / "first")
+    first = _probe(source, tmp / "cache")
+    pure = _probe(source, tmp / "unused", pure=True)
+    yield {"source": source, "cache": tmp / "cache", "first": first, "pure": pure["digest"]}
+    _writable(tmp)
+
+
+def test_a_read_only_source_caches_in_the_users_folder(warm):
+    """The first process compiles every kernel and writes their entries under
+    ICEIMPACT_CACHE_DIR, none beside the (read-only) source; its results are the pure path's."""
+    first = warm["first"]
+    assert first["kernels"] >= 9 and first["misses"] == first["kernels"]
+    assert first["hits"] == 0
+    assert all(f is not None and Path(f).parent == warm["cache"] for f in first["folders"])
+    assert len({Path(f).name for f in first["folders"]}) == first["kernels"]
+    assert not _numba_files(warm["source"])
+    assert _numba_files(warm["cache"])
+    assert first["digest"] == warm["pure"]
+
+
+def test_an_identical_source_at_a_new_path_loads_from_the_cache(warm, tmp_path):
+    """A fresh process whose core is a new copy of the same source (as a freshly extracted FMU
+    is) loads every kernel from the cache: no compilation, the same results."""
+    source = _read_only_copy(tmp_path / "elsewhere")
+    try:
+        again = _probe(source, warm["cache"])
+    finally:
+        _writable(tmp_path)
+    assert again["hits"] == again["kernels"] == warm["first"]["kernels"]
+    assert again["misses"] == 0
+    assert again["folders"] == warm["first"]["folders"]
+    assert again["digest"] == warm["pure"]
+
+
+def test_a_changed_source_compiles_again(warm, tmp_path):
+    """A kernel's module whose content changed (a comment added) misses the entries of the old
+    one: its kernels compile, the other module's load."""
+    source = tmp_path / "changed"
+    shutil.copytree(warm["source"], source)
+    _writable(source)
+    taylor = source / "iceimpact" / "solvers" / "search" / "taylor.py"
+    os.chmod(taylor, 0o644)
+    taylor.write_text(taylor.read_text() + "\n# changed\n")
+    seen = _probe(source, warm["cache"])
+    changed = [f for f in seen["folders"] if Path(f).name.startswith("taylor.")]
+    assert changed and seen["misses"] == len(changed)
+    assert seen["hits"] == seen["kernels"] - len(changed)
+    assert seen["digest"] == warm["pure"]
+
+
+def test_a_damaged_cache_compiles_again_and_is_mended(warm, tmp_path):
+    """Data files cut short or with a byte changed, an index of garbage: those kernels compile
+    again (no crash, no warning, the same results) and their entries are rewritten, so the
+    next process loads every kernel."""
+    cache = tmp_path / "cache"
+    shutil.copytree(warm["cache"], cache)
+    folders = sorted(cache.iterdir())
+    cut, flipped, garbage = folders[0], folders[1], folders[2]
+    data = next(cut.glob("*.nbc"))
+    data.write_bytes(data.read_bytes()[:len(data.read_bytes()) // 2])
+    data = next(flipped.glob("*.nbc"))
+    blob = bytearray(data.read_bytes())
+    blob[len(blob) // 2] ^= 0x01
+    data.write_bytes(bytes(blob))
+    next(garbage.glob("*.nbi")).write_bytes(b"not an index")
+    mended = _probe(warm["source"], cache)
+    assert mended["misses"] == 3 and mended["hits"] == mended["kernels"] - 3
+    assert mended["digest"] == warm["pure"]
+    after = _probe(warm["source"], cache)
+    assert after["hits"] == after["kernels"] and after["misses"] == 0
+
+
+@pytest.mark.parametrize("unusable", ["a file", "writable by others"])
+def test_an_unusable_cache_folder_compiles_without_a_cache(warm, tmp_path, unusable):
+    """ICEIMPACT_CACHE_DIR a file, or a folder other users may write (its entries could be
+    anyone's): nothing is cached or read there; every kernel compiles, the same results."""
+    cache = tmp_path / "cache"
+    if unusable == "a file":
+        cache.write_text("")
+    else:
+        shutil.copytree(warm["cache"], cache)
+        os.chmod(cache, 0o777)
+    seen = _probe(warm["source"], cache)
+    assert seen["folders"] == [None] * seen["kernels"]
+    assert seen["misses"] == seen["kernels"] and seen["hits"] == 0
+    assert seen["digest"] == warm["pure"]
+
+
+# -- the parts, in this process ----------------------------------------------------------------
+
+_NUMBA = types.SimpleNamespace(__version__="0.0")
+LIMIT = 1.5
+
+
+def _kernel(x):
+    return min(x, LIMIT)
+
+
+def test_the_key_follows_the_globals_a_kernel_reads(monkeypatch):
+    """A constant the kernel reads (numba freezes it into the machine code) changes its key, as
+    does the signature; a global it does not read does not; an object with no stable
+    description leaves the kernel uncached (no key)."""
+    key = compiled.cache_key(_NUMBA, _kernel, "f8(f8)")
+    assert key == compiled.cache_key(_NUMBA, _kernel, "f8(f8)")
+    assert key != compiled.cache_key(_NUMBA, _kernel, "f4(f4)")
+    monkeypatch.setattr(sys.modules[__name__], "LIMIT", 1.5000000000000002)
+    assert compiled.cache_key(_NUMBA, _kernel, "f8(f8)") != key
+    monkeypatch.setattr(sys.modules[__name__], "LIMIT", 1.5)
+    monkeypatch.setattr(sys.modules[__name__], "_UNREAD", 3, raising=False)
+    assert compiled.cache_key(_NUMBA, _kernel, "f8(f8)") == key
+    monkeypatch.setattr(sys.modules[__name__], "LIMIT", object())
+    assert compiled.cache_key(_NUMBA, _kernel, "f8(f8)") is None
+
+
+def test_the_cache_root_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv("ICEIMPACT_CACHE_DIR", str(tmp_path / "here"))
+    assert compiled.cache_root() == str(tmp_path / "here")
+    monkeypatch.delenv("ICEIMPACT_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert compiled.cache_root() == str(tmp_path / "xdg" / "iceimpact" / "numba")
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert compiled.cache_root() == str(tmp_path / "home" / ".cache" / "iceimpact" / "numba")
+
+
+@pytest.mark.skipif(os.name == "nt", reason="POSIX permissions")
+def test_only_a_private_folder_is_used(tmp_path):
+    made = tmp_path / "a" / "b"
+    assert compiled.private_folder(str(made))
+    assert stat.S_IMODE(made.stat().st_mode) == 0o700
+    os.chmod(made, 0o770)
+    assert not compiled.private_folder(str(made))
+    (tmp_path / "file").write_text("")
+    assert not compiled.private_folder(str(tmp_path / "file"))
+
+
+def test_a_sealed_file_read_back_or_refused(tmp_path):
+    path = str(tmp_path / "entry")
+    compiled._seal(path, b"\x80\x04K\x07.")  # pickle of 7
+    assert compiled._unsealed(path) == 7
+    blob = bytearray(Path(path).read_bytes())
+    blob[-2] ^= 0x01
+    Path(path).write_bytes(bytes(blob))
+    with pytest.raises(ValueError):
+        compiled._unsealed(path)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".tmp-")]
+
+
+def test_older_entries_of_a_kernel_are_pruned(tmp_path):
+    """Each edit of a kernel's source makes a new entry: the newest ``keep`` stay, the other
+    kernels' entries are not touched."""
+    for i in range(10):
+        for name in ("mod.kernel", "mod.kernel_two"):
+            folder = tmp_path / f"{name}-{i:024d}"
+            folder.mkdir()
+            os.utime(folder, (1000.0 + i, 1000.0 + i))
+    compiled._prune(str(tmp_path), "mod.kernel-", keep=8)
+    left = sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("mod.kernel-"))
+    assert left == [f"mod.kernel-{i:024d}" for i in range(2, 10)]
+    assert len([p for p in tmp_path.iterdir() if p.name.startswith("mod.kernel_two-")]) == 10
