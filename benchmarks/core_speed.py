@@ -276,7 +276,7 @@ def markdown(rows: list[dict], base: str, members: int = 0, move: float = SPREAD
              warm: int = 0) -> str:
     spreads = any("spread" in r for r in rows)
     compiled = {r["after"].get("compiled") for r in rows}
-    after = ("its flight search compiled by numba" if compiled == {True} else
+    after = ("its kernels compiled by numba" if compiled == {True} else
              "pure Python" if compiled == {False} else "compiled in some runs")
     how = (f"in each process the best of {warm} runs after an untimed first one" if warm
            else "each the first run of a fresh process (its import not counted)")

@@ -22,6 +22,7 @@ stored ones, while states between impacts may differ in their last bits (measure
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import subprocess
@@ -54,6 +55,8 @@ import ctypes, glob, hashlib, json, os, sys
 import numpy as np
 from numpy.lib.introspect import opt_func_info
 sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, os.path.join(sys.argv[1], os.pardir, "tools"))
+import random_scenes
 import reference_digests
 
 def blas_kernel():
@@ -73,6 +76,9 @@ import math
 out = {"kernel": blas_kernel(), "libm_probe": math.exp(float.fromhex(sys.argv[5])).hex(),
        "exp_target": opt_func_info(func_name="^exp$", signature="float64")["exp"]["dd"]["current"],
        "digests": reference_digests.compute(names), "fmu": {}}
+cases = random_scenes.draw(RANDOM_SCENES, RANDOM_SEED)
+out["random_draw"] = hashlib.sha256(repr(cases).encode()).hexdigest()
+out["random"] = random_scenes.digest(cases, compiled=True)
 fmu = sys.argv[3]
 if fmu:
     from fmpy import simulate_fmu
@@ -84,6 +90,12 @@ if fmu:
         out["fmu"][str(i)] = digest.hexdigest()
 print(json.dumps(out))
 """
+
+
+#: Random scenes (tests/random_scenes.py, tools/random_search.py's strategy) each configuration
+#: runs with the compiled march of bounces, and the seed of their draw.
+RANDOM_SCENES, RANDOM_SEED = 30, 7
+_WORKER = _WORKER.replace("RANDOM_SCENES, RANDOM_SEED", f"{RANDOM_SCENES}, {RANDOM_SEED}")
 
 
 def cpu_flags() -> set[str]:
@@ -203,3 +215,19 @@ def test_the_fmu_gives_the_same_outputs_in_every_configuration(machine_runs):
 def test_no_method_3_run_is_pinned_by_digest():
     assert not [case for case in reference_digests.stored() if case.startswith("method 3")]
 
+
+def test_random_scenes_give_the_python_marchs_numbers_in_every_configuration(machine_runs):
+    """Random scenes stepped (with and without early return) and sampled through run(), with the
+    compiled march of bounces in every configuration: the numbers of the Python march here, to
+    the bit (the C library's SSE2 variants aside: their states may differ in the last bits)."""
+    import random_scenes
+
+    cases = random_scenes.draw(RANDOM_SCENES, RANDOM_SEED)
+    draw = hashlib.sha256(repr(cases).encode()).hexdigest()
+    python_march = random_scenes.digest(cases, compiled=False)
+    reports = {config: r for config, r in machine_runs.items()
+               if not isinstance(r, str) and config[1] != LIBM_SSE2}
+    assert reports, "no configuration ran"
+    for config, report in reports.items():
+        assert report["random_draw"] == draw, f"{config}: another draw of the scenes"
+        assert report["random"] == python_march, config

@@ -8,12 +8,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, seed, settings
-from hypothesis import strategies as st
 
-from iceimpact import ParameterError, Scene, Simulator, SolverError, run
-from iceimpact.solvers.exact import EventSolver, bounces
+import random_scenes
+from iceimpact import Scene, Simulator, SolverError, run
+from iceimpact.solvers.exact import bounces
 from iceimpact.solvers.exact.bounces import BounceMarch, bounce_march
-from random_search import FLOWS, flow_at, scale_scenes
 
 compiled_only = pytest.mark.skipif(bounces.COMPILED is None,
                                    reason="numba absent or ICEIMPACT_PURE set: no compiled march")
@@ -21,38 +20,6 @@ compiled_only = pytest.mark.skipif(bounces.COMPILED is None,
 
 def _bits(values) -> list[str]:
     return [float(v).hex() for v in values]
-
-
-def _stepped(scene: Scene, h: float, flow: str, signs: list[bool], compiled: bool,
-             early: bool, steps: int = 300) -> tuple:
-    """Each step's state, impulse and impact count (or the refusal), and the impacts."""
-    out: list = []
-    sim = None
-    try:
-        sim = Simulator(scene)
-        if not compiled:
-            sim.solver.bounces = None
-        u0 = scene.flow_u if scene.flow_u != 0.0 else 0.1
-        for i in range(max(1, min(steps, round(3.0 / h)))):
-            report = sim.advance(h, flow_at(flow, i, u0, signs), stop_at_event=early)
-            s = sim.solver.state
-            out.append(_bits((sim.t, s.x, s.v, s.z, s.w, report.impulse))
-                       + [sim.impact_count, sim.solver.sticking])
-    except (ParameterError, SolverError) as exc:
-        out.append(f"{type(exc).__name__}: {exc}")
-    impacts = [] if sim is None else [_bits(i) for i in sim.impacts]
-    return tuple(map(str, out)), tuple(map(str, impacts))
-
-
-def _sampled(scene: Scene, t_end: float, dt: float, compiled: bool) -> tuple:
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(EventSolver, "COMPILED_BOUNCES", compiled)
-        try:
-            r = run(scene, t_end, dt=dt)
-        except (ParameterError, SolverError) as exc:
-            return (f"{type(exc).__name__}: {exc}",)
-    return tuple(tuple(_bits(getattr(r, key))) for key in ("t", "x", "v", "z", "w", "impulse")) + (
-        tuple(r.sticking.tolist()), tuple(_bits(r.impacts.view(float))))
 
 
 @compiled_only
@@ -83,15 +50,16 @@ def _random_scenes(seed_value: int, examples: int, stepped: bool, sampled: bool,
     @seed(seed_value)
     @settings(max_examples=examples, deadline=None, database=None,
               suppress_health_check=list(HealthCheck))
-    @given(scene=scale_scenes(1), h=st.sampled_from([1e-3, 1e-2, 0.1, 1.0]),
-           flow=st.sampled_from(FLOWS), signs=st.lists(st.booleans(), min_size=1, max_size=8))
-    def case(scene, h, flow, signs):
+    @given(case=random_scenes.CASES)
+    def check(case):
+        scene, h, flow, signs = case
         if stepped:
-            assert (_stepped(scene, h, flow, signs, True, early)
-                    == _stepped(scene, h, flow, signs, False, early))
+            assert (random_scenes.stepped(scene, h, flow, signs, True, early)
+                    == random_scenes.stepped(scene, h, flow, signs, False, early))
         if sampled:
-            assert _sampled(scene, 3.0, h, True) == _sampled(scene, 3.0, h, False)
-    case()
+            assert (random_scenes.sampled(scene, 3.0, h, True)
+                    == random_scenes.sampled(scene, 3.0, h, False))
+    check()
 
 
 @compiled_only
@@ -101,14 +69,14 @@ def test_random_scenes_stepped(early):
     omega_n to the method's limit, every damping regime, either drag law, restitution 0 to 1,
     flows constant, reversing, zero, random), stepped at 1 ms to 1 s, with and without
     stop_at_event: every step's numbers and every impact are the Python march's."""
-    _random_scenes(39 + early, 120, stepped=True, sampled=False, early=early)
+    _random_scenes(39 + early, 300, stepped=True, sampled=False, early=early)
 
 
 @compiled_only
 def test_random_scenes_sampled():
     """The same scenes through run() (the vectorised sampler, whose flights the compiled march
     hands over in blocks): every sample and every impact are the Python march's."""
-    _random_scenes(41, 120, stepped=False, sampled=True)
+    _random_scenes(41, 300, stepped=False, sampled=True)
 
 
 @compiled_only

@@ -27,6 +27,9 @@ The modules, one concern each:
 - :mod:`.sticking`: the bodies together (:class:`LinearStick`, :class:`QuadraticStick`) and the
   clearances that prove the contact force stays a push;
 - :mod:`.sampling`: the vectorised sampler of many sample times in one march;
+- :mod:`.bounces`: the march of bounces (flight, impact, flight...) compiled by numba where it
+  is installed, on the same functions as the Python march, handing back to it at anything
+  else;
 - :mod:`.solver`: :class:`EventSolver`, the method itself;
 - :mod:`.external`: :class:`ExternalSolver`, the same method against a structure from another
   FMU.

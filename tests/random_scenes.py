@@ -1,0 +1,85 @@
+"""Random scenes as ``tools/random_search.py --scales --flows`` draws them, and what the exact
+method reports for them with its compiled march of bounces or with the Python march alone: each
+step's numbers (or the refusal) and every impact, stepped at the scene's step h (optionally with
+early return), and every sample of run() every h. tests/solvers/test_exact_bounces.py compares
+the two paths on them; tests/test_machine_matrix.py compares a fixed draw in every machine
+configuration."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+import pytest
+from hypothesis import HealthCheck, given, seed, settings
+from hypothesis import strategies as st
+
+from iceimpact import ParameterError, Scene, Simulator, SolverError, run
+from iceimpact.solvers.exact import EventSolver
+from random_search import FLOWS, flow_at, scale_scenes
+
+#: The strategy of a case: (scene, step h s, flow sequence, its signs).
+CASES = st.tuples(scale_scenes(1), st.sampled_from([1e-3, 1e-2, 0.1, 1.0]),
+                  st.sampled_from(FLOWS), st.lists(st.booleans(), min_size=1, max_size=8))
+
+
+def _bits(values) -> list[str]:
+    return [float(v).hex() for v in values]
+
+
+def stepped(scene: Scene, h: float, flow: str, signs: list[bool], compiled: bool,
+            early: bool = False, steps: int = 300) -> tuple:
+    """Each step's state, impulse, impact count and sticking flag (or the refusal), and the
+    impacts, stepping at h for 3 s at most."""
+    out: list = []
+    sim = None
+    try:
+        sim = Simulator(scene)
+        if not compiled:
+            sim.solver.bounces = None
+        u0 = scene.flow_u if scene.flow_u != 0.0 else 0.1
+        for i in range(max(1, min(steps, round(3.0 / h)))):
+            report = sim.advance(h, flow_at(flow, i, u0, signs), stop_at_event=early)
+            s = sim.solver.state
+            out.append(_bits((sim.t, s.x, s.v, s.z, s.w, report.impulse))
+                       + [sim.impact_count, sim.solver.sticking])
+    except (ParameterError, SolverError) as exc:
+        out.append(f"{type(exc).__name__}: {exc}")
+    impacts = [] if sim is None else [_bits(i) for i in sim.impacts]
+    return tuple(map(str, out)), tuple(map(str, impacts))
+
+
+def sampled(scene: Scene, t_end: float, dt: float, compiled: bool) -> tuple:
+    """run()'s every sample and impact (or the refusal)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(EventSolver, "COMPILED_BOUNCES", compiled)
+        try:
+            r = run(scene, t_end, dt=dt)
+        except (ParameterError, SolverError) as exc:
+            return (f"{type(exc).__name__}: {exc}",)
+    return tuple(tuple(_bits(getattr(r, key))) for key in ("t", "x", "v", "z", "w", "impulse")) + (
+        tuple(r.sticking.tolist()), tuple(_bits(r.impacts.view(float))))
+
+
+def draw(examples: int, seed_value: int) -> list[tuple]:
+    """``examples`` cases of :data:`CASES`, the same in every process (a fixed seed)."""
+    cases: list[tuple] = []
+
+    @seed(seed_value)
+    @settings(max_examples=examples, deadline=None, database=None, derandomize=False,
+              suppress_health_check=list(HealthCheck))
+    @given(case=CASES)
+    def collect(case):
+        cases.append(case)
+    collect()
+    return cases
+
+
+def digest(cases: list[tuple], compiled: bool) -> str:
+    """One SHA-256 of every case stepped (with and without early return) and sampled."""
+    h = hashlib.sha256()
+    for scene, step, flow, signs in cases:
+        for early in (False, True):
+            h.update(json.dumps(stepped(scene, step, flow, signs, compiled, early)).encode())
+        h.update(json.dumps(sampled(scene, 3.0, step, compiled)).encode())
+    return h.hexdigest()
