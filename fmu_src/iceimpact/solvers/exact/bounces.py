@@ -37,7 +37,7 @@ from ...physics.structure import under_constants
 from ..contact_rules import bounce_closure, rounding_closing
 from ..search import flight_search
 from ..search.compiled import compile_or_none, entry_point, jit
-from ..search.flight_search import GENERIC, ROOT, _ice_accel, flight_root
+from ..search.flight_search import GENERIC, ROOT, _ice_accel, _motion, flight_root
 from .flight import Flight
 from .sampling import first_sample_after
 
@@ -54,9 +54,9 @@ N_FLOATS = 23
 # I: the search's counters, the next sample, the sample interval whose budget runs, the impact
 # count and the budget's limit, the records written, the outcome, the events taken, the flag
 # stop_at_event, the number of sample times (0: a march to T_END).
-(ITERATIONS, CREEP, SAMPLE, INTERVAL, COUNT, LIMIT, N_SEGMENTS, N_IMPACTS, N_TARGETS, STATUS,
- EVENTS, STOP_AT_EVENT, N_TIMES) = range(13)
-N_INTS = 13
+(ITERATIONS, CREEP, SAMPLE, INTERVAL, COUNT, LIMIT, N_IMPACTS, N_TARGETS, STATUS, EVENTS,
+ STOP_AT_EVENT, N_TIMES) = range(12)
+N_INTS = 12
 # P: the scene's constants: the structure's oscillator (with the linearised Morison drag, if
 # on), the flow speed, the ice's drag law, the contact rules'.
 (P_OFFSET, P_MASS, P_DAMPING, P_STIFFNESS, P_OMEGA2, P_SIGMA, P_OMEGA, P_U, P_COEF,
@@ -76,16 +76,17 @@ NO_LIMIT = 2 ** 62
 CAPACITY = 4096
 
 
-def bounce_march(F, I, P, times, segments, firsts, stops, targets, values, impacts):
+def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
     """March bounces from the flight in F (see the layout above) until something else comes.
 
     A march to ``F[T_END]`` (``I[N_TIMES]`` = 0) adds each impact's impulse to ``F[IMPULSE]``
     in the order :meth:`EventMarch.march` adds them. A sampled march (``times``, the first
     ``I[N_TIMES]`` of them, from sample ``I[SAMPLE]`` on) writes what
-    :meth:`EventSolver.sample` would: per flight its anchor and t0 (``segments``) and its
-    samples (``firsts``, ``stops``), per impact its sample and impulse (``targets``,
-    ``values``), and runs each sample interval's impact budget. Every impact goes to
-    ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``I[STATUS]`` says why it returned."""
+    :meth:`EventSolver.sample` would: the states at the samples of each flight it ends
+    (``xs``, ``vs``, ``zs``, ``ws``: the flight search's closed forms, the same floats as the
+    sampler's array closed forms, ``Flight.state_array``), per impact its sample and impulse
+    (``targets``, ``values``), and runs each sample interval's impact budget. Every impact goes
+    to ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``I[STATUS]`` says why it returned."""
     offset, mass, damping = P[P_OFFSET], P[P_MASS], P[P_DAMPING]
     stiffness, omega2 = P[P_STIFFNESS], P[P_OMEGA2]
     sigma, omega, u, coef = P[P_SIGMA], P[P_OMEGA], P[P_U], P[P_COEF]
@@ -99,13 +100,14 @@ def bounce_march(F, I, P, times, segments, firsts, stops, targets, values, impac
     while True:
         t0, x0, v0, z0, w0 = F[T0], F[X0], F[V0], F[Z0], F[W0]
         horizon = (times[n - 1] if n > 0 else F[T_END]) - t0
-        if F[ROOT_AT] != F[ROOT_AT]:  # the search goes on (Flight.kernel_constants' order)
-            neg_sigma, omega_c, y0, p, q, v0_c = under_constants(offset, sigma, omega, omega2,
-                                                                 x0, v0)
-            if quadratic:
-                rate, w0_c, r0 = quadratic_flight_constants(coef, w0, u)
-            else:
-                rate, w0_c, r0 = linear_flight_constants(coef, w0, u)
+        # the flight's constants (Flight.kernel_constants' order)
+        neg_sigma, omega_c, y0, p, q, v0_c = under_constants(offset, sigma, omega, omega2, x0,
+                                                             v0)
+        if quadratic:
+            rate, w0_c, r0 = quadratic_flight_constants(coef, w0, u)
+        else:
+            rate, w0_c, r0 = linear_flight_constants(coef, w0, u)
+        if F[ROOT_AT] != F[ROOT_AT]:  # the search goes on
             (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
              w) = flight_root(horizon, F[A], I[ITERATIONS], I[CREEP], F[PROBED_AT], F[PF],
                               F[PDF], F[PD2], F[PBOUND], F[PJERK], F[TIME_EPS], x0 - z0, x0, z0,
@@ -160,8 +162,7 @@ def bounce_march(F, I, P, times, segments, firsts, stops, targets, values, impac
         if I[COUNT] >= limit:  # (Solver._record refuses it)
             I[STATUS] = EVENT
             return
-        if (I[N_IMPACTS] == impacts.shape[0] or I[N_SEGMENTS] == segments.shape[0]
-                or I[N_TARGETS] == targets.shape[0]):
+        if I[N_IMPACTS] == impacts.shape[0] or I[N_TARGETS] == targets.shape[0]:
             I[STATUS] = FULL
             return
         # the impact: recorded, its impulse where the march adds it
@@ -172,13 +173,11 @@ def bounce_march(F, I, P, times, segments, firsts, stops, targets, values, impac
         I[N_IMPACTS] = k + 1
         I[COUNT] += 1
         if n > 0:
-            i = I[SAMPLE]
-            if i < j:  # _SampleGroup.add: the flight's samples i..j-1
-                s = I[N_SEGMENTS]
-                segments[s, 0], segments[s, 1], segments[s, 2] = x0, v0, z0
-                segments[s, 3], segments[s, 4] = w0, t0
-                firsts[s], stops[s] = i, j
-                I[N_SEGMENTS] = s + 1
+            for k in range(I[SAMPLE], j):  # the flight's samples (Flight.state_array: its
+                # ice increment is 0.0 + dz, the same float as dz but for the sign of a zero)
+                dx, v_k, dz, w_k = _motion(times[k] - t0, neg_sigma, omega_c, y0, p, q, v0_c,
+                                           rate, w0_c, r0, quadratic)
+                xs[k], vs[k], zs[k], ws[k] = x0 + dx, v_k, z0 + (0.0 + dz), w_k
             k = I[N_TARGETS]
             targets[k], values[k] = j, 0.0 + impulse
             I[N_TARGETS] = k + 1
@@ -216,9 +215,10 @@ def _compile(numba: Any) -> Any:
         "first_sample_after": jit(numba, (f8[::1], i8, f8, f8), first_sample_after),
     }
     array1, array2 = f8[::1], f8[:, ::1]
-    kernel = jit(numba, (array1, i8[::1], array1, array1, array2, i8[::1], i8[::1], i8[::1],
-                         array1, array2), bounce_march,
-                 flight_root=callees["flight_root"], _ice_accel=callees["_ice_accel"], **scalars)
+    kernel = jit(numba, (array1, i8[::1], array1, array1, array1, array1, array1, array1,
+                         i8[::1], array1, array2), bounce_march,
+                 flight_root=callees["flight_root"], _ice_accel=callees["_ice_accel"],
+                 _motion=callees["_motion"], **scalars)
     return entry_point(kernel)
 
 
@@ -241,9 +241,6 @@ class BounceMarch:
         self.I = np.zeros(N_INTS, dtype=np.int64)
         self.P = np.zeros(N_PARAMS)
         self.no_times = np.zeros(1)
-        self.segments = np.zeros((CAPACITY, 5))
-        self.firsts = np.zeros(CAPACITY, dtype=np.int64)
-        self.stops = np.zeros(CAPACITY, dtype=np.int64)
         self.targets = np.zeros(CAPACITY, dtype=np.int64)
         self.values = np.zeros(CAPACITY)
         self.impacts = np.zeros((CAPACITY, 8))
@@ -287,8 +284,7 @@ class BounceMarch:
                                 search.time_eps, search.a, search._probed_at, *probed,
                                 *root_state)
         I = self.I
-        I[ITERATIONS], I[CREEP], I[N_SEGMENTS], I[N_IMPACTS], I[N_TARGETS] = (
-            search.iterations, search.creep, 0, 0, 0)
+        I[ITERATIONS], I[CREEP], I[N_IMPACTS], I[N_TARGETS] = search.iterations, search.creep, 0, 0
         I[EVENTS] = 0
 
     def _flight(self, seg: Any, F: list[float], I: list[int]) -> Any:
@@ -334,8 +330,9 @@ class BounceMarch:
         I[COUNT], I[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
         I[STOP_AT_EVENT], I[N_TIMES] = 1 if stop_at_event else 0, 0
         while True:
-            self.kernel(F, I, self.P, self.no_times, self.segments, self.firsts, self.stops,
-                        self.targets, self.values, self.impacts)
+            no = self.no_times
+            self.kernel(F, I, self.P, no, no, no, no, no, self.targets, self.values,
+                        self.impacts)
             status = int(I[STATUS])
             self._impacts(int(I[N_IMPACTS]))
             if status != FULL:
@@ -346,12 +343,13 @@ class BounceMarch:
         impulse = floats[IMPULSE]
         return impulse, (floats[T0] if status == STOPPED else None)
 
-    def sample(self, times: np.ndarray, i: int, interval: int, group: Any, targets: Any,
+    def sample(self, times: np.ndarray, i: int, interval: int, out: Any, targets: Any,
                values: Any) -> tuple[int, int]:
         """From the solver's current flight and sample i, the bounces of a sampled march
-        (EventSolver._sample's loop, ``interval`` the sample interval whose budget runs, the
-        flights' samples to ``group``, the impulses to ``targets`` and ``values``); returns
-        the sample and the interval the march stands at."""
+        (EventSolver._sample's loop, ``interval`` the sample interval whose budget runs): the
+        states at the samples of the flights it ends to ``out`` (:class:`Samples`), the
+        impulses to ``targets`` and ``values``; returns the sample and the interval the march
+        stands at."""
         solver = self.solver
         seg = solver.seg
         self._params(seg)
@@ -362,19 +360,16 @@ class BounceMarch:
         I[COUNT], I[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
         I[SAMPLE], I[INTERVAL], I[STOP_AT_EVENT], I[N_TIMES] = i, interval, 0, len(times)
         while True:
-            self.kernel(F, I, self.P, times, self.segments, self.firsts, self.stops,
-                        self.targets, self.values, self.impacts)
+            self.kernel(F, I, self.P, times, out.x, out.v, out.z, out.w, self.targets,
+                        self.values, self.impacts)
             self._impacts(int(I[N_IMPACTS]))
-            n_segments, n_targets = int(I[N_SEGMENTS]), int(I[N_TARGETS])
-            if n_segments:
-                group.extend(self.segments[:n_segments], self.firsts[:n_segments],
-                             self.stops[:n_segments])
+            n_targets = int(I[N_TARGETS])
             if n_targets:
                 targets.frombytes(self.targets[:n_targets].tobytes())
                 values.frombytes(self.values[:n_targets].tobytes())
             if int(I[STATUS]) != FULL:
                 break
-            I[N_IMPACTS] = I[N_SEGMENTS] = I[N_TARGETS] = 0
+            I[N_IMPACTS] = I[N_TARGETS] = 0
         floats, ints = F.tolist(), I.tolist()
         self._flight(seg, floats, ints)
         limit = ints[LIMIT]

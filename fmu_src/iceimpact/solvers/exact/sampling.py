@@ -119,16 +119,6 @@ class _SampleGroup:
             targets.append(j)
             values.append(0.0)
 
-    def extend(self, segments: np.ndarray, firsts: np.ndarray, stops: np.ndarray) -> None:
-        """What :meth:`add` records for flights with no impulse, for many at once: rows of
-        segments (the anchor's values, t0) and their samples firsts..stops-1 (the compiled
-        march of bounces, bounces.py)."""
-        width = len(self.rep.ANCHOR)
-        self.anchors.frombytes(segments[:, :width].tobytes())
-        self.t0.frombytes(segments[:, width].tobytes())
-        self.first.frombytes(firsts.tobytes())
-        self.stop.frombytes(stops.tobytes())
-
     def evaluate(self, times: np.ndarray, out: Samples, values: np.ndarray) -> None:
         first = np.array(self.first, dtype=np.int64)
         counts = np.array(self.stop, dtype=np.int64) - first

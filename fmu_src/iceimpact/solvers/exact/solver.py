@@ -322,10 +322,7 @@ class EventSolver(EventMarch):
         while i < n:
             seg = self.seg
             if compiled is not None and seg is not declined and compiled.takes(seg):
-                group = kinds.get(Flight)
-                if group is None:
-                    group = kinds[Flight] = _sampling_kind(seg)
-                i, interval = compiled.sample(times, i, interval, group, targets, values)
+                i, interval = compiled.sample(times, i, interval, out, targets, values)
                 declined = self.seg
                 continue
             if type(seg) is not last_type:

@@ -366,7 +366,7 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
         root = jit(numba, (f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root,
                    _motion=motion, _ice_accel=ice_accel, _clearance=clearance,
                    _bracketed=bracketed)
-        _DISPATCHERS.update(flight_root=root, _ice_accel=ice_accel)
+        _DISPATCHERS.update(flight_root=root, _ice_accel=ice_accel, _motion=motion)
     return _DISPATCHERS
 
 
