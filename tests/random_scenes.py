@@ -7,6 +7,7 @@ configuration."""
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 
@@ -83,3 +84,14 @@ def digest(cases: list[tuple], compiled: bool) -> str:
             h.update(json.dumps(stepped(scene, step, flow, signs, compiled, early)).encode())
         h.update(json.dumps(sampled(scene, 3.0, step, compiled)).encode())
     return h.hexdigest()
+
+
+def to_json(cases: list[tuple]) -> str:
+    """The cases as JSON (every scene field at full precision), for another process."""
+    return json.dumps([[dataclasses.asdict(scene), h, flow, signs]
+                       for scene, h, flow, signs in cases])
+
+
+def from_json(text: str) -> list[tuple]:
+    """The cases of :func:`to_json`."""
+    return [(Scene(**fields), h, flow, signs) for fields, h, flow, signs in json.loads(text)]

@@ -22,7 +22,7 @@ stored ones, while states between impacts may differ in their last bits (measure
 
 from __future__ import annotations
 
-import hashlib
+import functools
 import json
 import os
 import subprocess
@@ -32,6 +32,7 @@ from pathlib import Path
 
 import pytest
 
+import random_scenes
 import reference_digests
 from fmu_host import ROOT
 
@@ -76,9 +77,7 @@ import math
 out = {"kernel": blas_kernel(), "libm_probe": math.exp(float.fromhex(sys.argv[5])).hex(),
        "exp_target": opt_func_info(func_name="^exp$", signature="float64")["exp"]["dd"]["current"],
        "digests": reference_digests.compute(names), "fmu": {}}
-cases = random_scenes.draw(RANDOM_SCENES, RANDOM_SEED)
-out["random_draw"] = hashlib.sha256(repr(cases).encode()).hexdigest()
-out["random"] = random_scenes.digest(cases, compiled=True)
+out["random"] = random_scenes.digest(random_scenes.from_json(sys.argv[6]), compiled=True)
 fmu = sys.argv[3]
 if fmu:
     from fmpy import simulate_fmu
@@ -93,9 +92,9 @@ print(json.dumps(out))
 
 
 #: Random scenes (tests/random_scenes.py, tools/random_search.py's strategy) each configuration
-#: runs with the compiled march of bounces, and the seed of their draw.
+#: runs with the compiled march of bounces, and the seed of their draw (drawn here, handed to
+#: each configuration's process as JSON).
 RANDOM_SCENES, RANDOM_SEED = 30, 7
-_WORKER = _WORKER.replace("RANDOM_SCENES, RANDOM_SEED", f"{RANDOM_SCENES}, {RANDOM_SEED}")
 
 
 def cpu_flags() -> set[str]:
@@ -160,6 +159,11 @@ def environment(kernel: str, simd: str) -> dict[str, str]:
     return env
 
 
+@functools.cache
+def random_cases() -> list[tuple]:
+    return random_scenes.draw(RANDOM_SCENES, RANDOM_SEED)
+
+
 @pytest.fixture(scope="module")
 def machine_runs(fmu) -> dict[tuple[str, str], dict]:
     """Each configuration's report (or its skip reason), two processes at a time."""
@@ -169,7 +173,7 @@ def machine_runs(fmu) -> dict[tuple[str, str], dict]:
             return config, reason
         done = subprocess.run([sys.executable, "-c", _WORKER, str(ROOT / "tests"),
                                json.dumps(exact_cases()), str(fmu), json.dumps(FMU_RUNS),
-                               LIBM_PROBE.hex()],
+                               LIBM_PROBE.hex(), random_scenes.to_json(random_cases())],
                               env=environment(*config), capture_output=True, text=True,
                               timeout=600, cwd=ROOT)
         assert done.returncode == 0, f"{config}: {done.stderr[-3000:]}"
@@ -220,14 +224,9 @@ def test_random_scenes_give_the_python_marchs_numbers_in_every_configuration(mac
     """Random scenes stepped (with and without early return) and sampled through run(), with the
     compiled march of bounces in every configuration: the numbers of the Python march here, to
     the bit (the C library's SSE2 variants aside: their states may differ in the last bits)."""
-    import random_scenes
-
-    cases = random_scenes.draw(RANDOM_SCENES, RANDOM_SEED)
-    draw = hashlib.sha256(repr(cases).encode()).hexdigest()
-    python_march = random_scenes.digest(cases, compiled=False)
+    python_march = random_scenes.digest(random_cases(), compiled=False)
     reports = {config: r for config, r in machine_runs.items()
                if not isinstance(r, str) and config[1] != LIBM_SSE2}
     assert reports, "no configuration ran"
     for config, report in reports.items():
-        assert report["random_draw"] == draw, f"{config}: another draw of the scenes"
         assert report["random"] == python_march, config

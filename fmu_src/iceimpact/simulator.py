@@ -534,7 +534,8 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
     samples = sim.sample(times)
 
     def column(name: str, dtype: type = float) -> np.ndarray:
-        return np.concatenate(([getattr(first, name)], getattr(samples, name))).astype(dtype)
+        return np.concatenate(([getattr(first, name)], getattr(samples, name))).astype(
+            dtype, copy=False)
 
     x, z = column("x"), column("z")
     gap, penetration = reported_gap(x - z)

@@ -295,7 +295,9 @@ class EventSolver(EventMarch):
     def _sample(self, times: np.ndarray, u: float) -> Samples:
         self.set_flow(u, float(times[-1]))
         times = np.ascontiguousarray(times, dtype=float)
-        t_list = times.tolist()
+        # the times as floats for the Python loop below, which reads them at every event; with
+        # the compiled march it meets few events, and reads the array itself (no copy)
+        t_list = times.tolist() if self.bounces is None else times
         n = len(t_list)
         out = Samples(n)
         # impulse contributions in the order the scalar march adds them: (sample, value); the
@@ -314,7 +316,7 @@ class EventSolver(EventMarch):
         at_event = self.at_event
         add_target, add_value = targets.append, values.append
         i = 0
-        horizon = t_list[-1]
+        horizon = float(t_list[-1])
         interval = 0  # the sample interval whose impact budget runs
         self.begin_step()
         compiled = self.bounces
@@ -335,9 +337,9 @@ class EventSolver(EventMarch):
                 # tail's end is an event of the solver, not of its segment)
                 if interval != i:
                     interval = i
-                    self.begin_step(t_list[i - 1])
+                    self.begin_step(float(t_list[i - 1]))
                 add_target(i)
-                add_value(self.march(t_list[i]))
+                add_value(self.march(float(t_list[i])))
                 out.set(i, self.state, self.sticking)
                 i += 1
                 continue
@@ -367,7 +369,7 @@ class EventSolver(EventMarch):
             add_target(j)
             if interval != j:  # (the event is sample j's: the first at or after it)
                 interval = j
-                self.begin_step(t_list[j - 1])
+                self.begin_step(float(t_list[j - 1]))
             at_event(tau_event)  # (take_event, inline: this runs at every impact)
             add_value(self.pending_impulse)
             self.pending_impulse = 0.0
