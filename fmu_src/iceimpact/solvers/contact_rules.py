@@ -470,9 +470,11 @@ class ContactRules:
         if e > 0.0:
             lam = self.free_contact_force(x, v_plus, w_plus, u)
             relative, absolute = self.gap_noise
+            budget = self._budget  # (budget_bounce, inline: this runs at every impact)
             close, accumulation = bounce_closure(
                 t, x, e, lam, v_plus - w_plus, self.mu, self.chatter_time, self.follow_zeno,
-                self.budget_bounce(e), self.time_resolution, relative, absolute)
+                budget[1] if budget[0] == e else self.budget_bounce(e), self.time_resolution,
+                relative, absolute)
             if close:
                 if accumulation == accumulation:
                     self.accumulation = accumulation
@@ -496,12 +498,14 @@ class ContactRules:
         The decisions are at_contact's, to the bit: the same rounding test on the same values
         (no counter of :class:`DegenerateContacts` moves when the speed is beyond rounding)."""
         closing = w - v
-        if not closing > 0.0 or self.is_rounding(closing, x, v, w, u):
+        # (is_rounding, inline: this runs at every impact)
+        if not closing > 0.0 or rounding_closing(closing, x, v, w, u, self.omega_n):
             return None, False
         result = self.impact(t, x, v, w, e, u)
         v_plus, w_plus = result[4], result[5]
         closing = w_plus - v_plus
-        return result, closing < 0.0 and not self.is_rounding(closing, x, v_plus, w_plus, u)
+        return result, closing < 0.0 and not rounding_closing(closing, x, v_plus, w_plus, u,
+                                                              self.omega_n)
 
     def plastic_merge(self, v: float, w: float) -> tuple[float, float]:
         """Common velocity of a plastic impact (eq. 16-17, e = 0), m/s, and its impulse on the

@@ -11,6 +11,7 @@ named tuples costs a Python object an impact each way.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
+from itertools import chain
 from typing import Any, overload
 
 import numpy as np
@@ -27,16 +28,15 @@ class ImpactLog(Sequence):
     and read as a sequence of :class:`Impact` (indices, slices, iteration) or as rows at once
     (:meth:`rows`). Equal to any sequence of the same impacts."""
 
-    __slots__ = ("_rows", "_n", "_tail")
+    __slots__ = ("_rows", "_n", "_tail", "append")
 
     def __init__(self, impacts: Sequence[Impact] = ()):
         self._rows = np.zeros((0, _WIDTH))  # rows 0.._n-1 hold the first impacts
         self._n = 0
         self._tail: list[Impact] = []  # the impacts appended one by one since
         self._tail.extend(impacts)
-
-    def append(self, impact: Impact) -> None:
-        self._tail.append(impact)
+        #: ``append(impact)``: the tail's own (the Python march appends at every impact)
+        self.append = self._tail.append
 
     def extend_rows(self, rows: np.ndarray) -> None:
         """Add impacts given as rows of floats (an (n, 8) array, :class:`Impact`'s fields)."""
@@ -60,9 +60,11 @@ class ImpactLog(Sequence):
             grown = np.zeros((max(need, 2 * len(self._rows), 1024), _WIDTH))
             grown[:self._n] = self._rows[:self._n]
             self._rows = grown
-        if self._tail:
-            self._rows[self._n:self._n + len(self._tail)] = self._tail
-            self._n += len(self._tail)
+        if self._tail:  # (every field a float: the flat sequence read at once)
+            n = len(self._tail)
+            self._rows[self._n:self._n + n] = np.fromiter(
+                chain.from_iterable(self._tail), float, count=n * _WIDTH).reshape(n, _WIDTH)
+            self._n += n
             self._tail.clear()
 
     def __len__(self) -> int:

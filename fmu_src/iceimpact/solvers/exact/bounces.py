@@ -25,6 +25,7 @@ for (numpy scalars), so it is used only compiled (and by the tests, which run it
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import TYPE_CHECKING, Any
 
@@ -72,8 +73,8 @@ END, EVENT, STOPPED, FULL = 0, 1, 2, 3
 #: No impact budget (a march outside a step): a count no run reaches.
 NO_LIMIT = 2 ** 62
 
-#: Records kept between two returns to Python.
-CAPACITY = 4096
+#: Records kept between two returns to Python (the impacts' 64 kB).
+CAPACITY = 1024
 
 
 def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
@@ -241,10 +242,20 @@ class BounceMarch:
         self.I = np.zeros(N_INTS, dtype=np.int64)
         self.P = np.zeros(N_PARAMS)
         self.no_times = np.zeros(1)
-        self.targets = np.zeros(CAPACITY, dtype=np.int64)
-        self.values = np.zeros(CAPACITY)
-        self.impacts = np.zeros((CAPACITY, 8))
         self._params_for: tuple | None = None
+
+    # the records, made at the first march (a solver that never meets a bounce makes none)
+    @functools.cached_property
+    def targets(self) -> np.ndarray:
+        return np.zeros(CAPACITY, dtype=np.int64)
+
+    @functools.cached_property
+    def values(self) -> np.ndarray:
+        return np.zeros(CAPACITY)
+
+    @functools.cached_property
+    def impacts(self) -> np.ndarray:
+        return np.zeros((CAPACITY, 8))
 
     def takes(self, seg: Any) -> bool:
         """The kernel can go on from this segment: a flight whose search is the compiled one's

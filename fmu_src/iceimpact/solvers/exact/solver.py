@@ -411,18 +411,19 @@ class EventSolver(EventMarch):
             return super().checkpoint()
         search = seg.search
         degenerate = self.rules.degenerate
-        return (self.state, self.e, self.impact_count, self.t_last, len(self.impacts),
-                self.sticking, self.sticking_since, self.u, self.tau, self.pending_impulse,
-                degenerate.run, degenerate.last, self.zeno_end, seg, search.checkpoint())
+        return (self.state, self.e, self.impact_count, self.t_last, self.sticking,
+                self.sticking_since, self.u, self.tau, self.pending_impulse, degenerate.run,
+                degenerate.last, self.zeno_end, seg, search.checkpoint())
 
     def rollback(self, checkpoint: Any) -> None:
         if isinstance(checkpoint, dict):
             super().rollback(checkpoint)
             return
-        (self.state, self.e, self.impact_count, self.t_last, n_impacts, self.sticking,
-         self.sticking_since, self.u, self.tau, self.pending_impulse, run, last, self.zeno_end,
-         seg, search) = checkpoint
-        del self.impacts[n_impacts:]
+        (self.state, self.e, self.impact_count, self.t_last, self.sticking, self.sticking_since,
+         self.u, self.tau, self.pending_impulse, run, last, self.zeno_end, seg,
+         search) = checkpoint
+        # the impacts listed are those from impacts_base on (none without record_impacts)
+        del self.impacts[self.impact_count - self.impacts_base:]
         self.rules.degenerate.set((run, last))
         seg.search.rollback(search)
         self.seg = seg
