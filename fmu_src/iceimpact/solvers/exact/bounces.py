@@ -8,9 +8,11 @@ makes those steps on plain floats: the flight's root search (:func:`~iceimpact.s
 flight_search.flight_root`), the contact rules' decisions (:func:`~iceimpact.solvers.
 contact_rules.rounding_closing`, :func:`~iceimpact.physics.contact.impact`,
 :func:`~iceimpact.solvers.contact_rules.bounce_closure`), the impact's record and, in a sampled
-run, the sampler's bookkeeping (which samples fall in which flight, the impulses' order:
-:meth:`EventSolver.sample`). Every one of those is the function the Python objects call, so the
-compiled march and the Python one make the same steps on the same numbers, to the bit.
+run, what the sampler records (the states at each flight's samples, by the flight search's
+closed forms, the same floats as the sampler's array closed forms; the impulses in the order
+:meth:`EventSolver.sample` adds them). Every one of those is the function the Python objects
+call, so the compiled march and the Python one make the same steps on the same numbers, to the
+bit.
 
 It hands the march back to Python, before changing anything, at whatever else comes: the
 horizon, an impact after which the bodies do not part (a chatter or Zeno sequence closed, a
