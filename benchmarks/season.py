@@ -78,7 +78,8 @@ rows, summary = run_season(table, life, workers=workers, progress=False)
 wall, used = time.perf_counter() - t0, cpu() - c0
 strip = json.dumps([{k: v for k, v in r.items() if k != "wall_s"} for r in rows])
 run_walls = sorted(r["wall_s"] for r in rows)
-print(json.dumps({"wall_s": wall, "cpu_s": used, "digest": hashlib.sha256(strip.encode()).hexdigest(),
+digest = hashlib.sha256(strip.encode()).hexdigest()
+print(json.dumps({"wall_s": wall, "cpu_s": used, "digest": digest,
                   "runs": table.n_runs, "cases": len(table.cases), "t_end_s": table.t_end,
                   "dt_s": table.dt, "repetitions": table.cases[0].repetitions,
                   "sum_run_wall_s": sum(run_walls), "longest_run_s": run_walls[-1],

@@ -13,9 +13,9 @@ Two levels, like FMPy's ``simulate_fmu`` over ``FMU2Slave``:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from itertools import chain
-from collections.abc import Sequence
 from typing import Any
 
 import numpy as np

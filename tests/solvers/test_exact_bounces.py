@@ -88,7 +88,8 @@ def test_thousands_of_random_scenes(early):
 
 
 @pytest.mark.parametrize("fields, start", [
-    ({}, 150.0), ({"drag_model": 2, "ice_A": 2.0}, 140.0), ({"ice_M": 6400.0, "flow_u": 2.0}, 150.0),
+    ({}, 150.0), ({"drag_model": 2, "ice_A": 2.0}, 140.0),
+    ({"ice_M": 6400.0, "flow_u": 2.0}, 150.0),
     ({"ice_M": 6400.0, "flow_u": 2.0, "drag_model": 2}, 55.0)])
 def test_the_kernel_run_as_python_is_the_python_march(fields, start):
     """bounce_march itself, run as Python (numpy's scalars on the way): the numbers of the

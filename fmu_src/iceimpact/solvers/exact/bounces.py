@@ -47,14 +47,14 @@ from .sampling import first_sample_after
 if TYPE_CHECKING:
     from .solver import EventSolver
 
-# The march's state, in two arrays the kernel reads and writes (F: floats, I: integers).
+# The march's state, in two arrays the kernel reads and writes (F: floats, N: integers).
 # F: the current flight's anchor, start and time resolution; its search's frontier, the probe
 # kept there, the root found (NaN: none) and the state there; the march's impulse, the step's
 # start (the sampler's impact budget), the end of the march, its start.
 (T0, X0, V0, Z0, W0, START, TIME_EPS, A, PROBED_AT, PF, PDF, PD2, PBOUND, PJERK, ROOT_AT,
  RDX, RV, RDZ, RW, IMPULSE, STEP_START, T_END, T_START) = range(23)
 N_FLOATS = 23
-# I: the search's counters, the next sample, the sample interval whose budget runs, the impact
+# N: the search's counters, the next sample, the sample interval whose budget runs, the impact
 # count and the budget's limit, the records written, the outcome, the events taken, the flag
 # stop_at_event, the number of sample times (0: a march to T_END).
 (ITERATIONS, CREEP, SAMPLE, INTERVAL, COUNT, LIMIT, N_IMPACTS, N_TARGETS, STATUS, EVENTS,
@@ -79,17 +79,17 @@ NO_LIMIT = 2 ** 62
 CAPACITY = 1024
 
 
-def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
+def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
     """March bounces from the flight in F (see the layout above) until something else comes.
 
-    A march to ``F[T_END]`` (``I[N_TIMES]`` = 0) adds each impact's impulse to ``F[IMPULSE]``
+    A march to ``F[T_END]`` (``N[N_TIMES]`` = 0) adds each impact's impulse to ``F[IMPULSE]``
     in the order :meth:`EventMarch.march` adds them. A sampled march (``times``, the first
-    ``I[N_TIMES]`` of them, from sample ``I[SAMPLE]`` on) writes what
+    ``N[N_TIMES]`` of them, from sample ``N[SAMPLE]`` on) writes what
     :meth:`EventSolver.sample` would: the states at the samples of each flight it ends
     (``xs``, ``vs``, ``zs``, ``ws``: the flight search's closed forms, the same floats as the
     sampler's array closed forms, ``Flight.state_array``), per impact its sample and impulse
     (``targets``, ``values``), and runs each sample interval's impact budget. Every impact goes
-    to ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``I[STATUS]`` says why it returned."""
+    to ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``N[STATUS]`` says why it returned."""
     offset, mass, damping = P[P_OFFSET], P[P_MASS], P[P_DAMPING]
     stiffness, omega2 = P[P_STIFFNESS], P[P_OMEGA2]
     sigma, omega, u, coef = P[P_SIGMA], P[P_OMEGA], P[P_U], P[P_COEF]
@@ -99,7 +99,7 @@ def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
     time_resolution = P[P_TIME_RESOLUTION]
     gap_relative, gap_absolute = P[P_GAP_RELATIVE], P[P_GAP_ABSOLUTE]
     max_impacts = int(P[P_MAX_IMPACTS])
-    n = I[N_TIMES]
+    n = N[N_TIMES]
     while True:
         t0, x0, v0, z0, w0 = F[T0], F[X0], F[V0], F[Z0], F[W0]
         horizon = (times[n - 1] if n > 0 else F[T_END]) - t0
@@ -112,30 +112,30 @@ def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
             rate, w0_c, r0 = linear_flight_constants(coef, w0, u)
         if F[ROOT_AT] != F[ROOT_AT]:  # the search goes on
             (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
-             w) = flight_root(horizon, F[A], I[ITERATIONS], I[CREEP], F[PROBED_AT], F[PF],
+             w) = flight_root(horizon, F[A], N[ITERATIONS], N[CREEP], F[PROBED_AT], F[PF],
                               F[PDF], F[PD2], F[PBOUND], F[PJERK], F[TIME_EPS], x0 - z0, x0, z0,
                               offset, mass, damping, stiffness, omega2, neg_sigma, omega_c, y0,
                               p, q, v0_c, rate, w0_c, r0, u, coef, quadratic)
             if a != a or (outcome == ROOT and root != root):
-                I[STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
+                N[STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
                 return
-            F[A], I[ITERATIONS], I[CREEP] = a, iterations, creep
+            F[A], N[ITERATIONS], N[CREEP] = a, iterations, creep
             F[PROBED_AT], F[PF], F[PDF], F[PD2], F[PBOUND], F[PJERK] = (probed_at, f, df, d2,
                                                                        bound, jerk)
             if outcome == GENERIC:
-                I[STATUS] = EVENT
+                N[STATUS] = EVENT
                 return
             if outcome != ROOT:
-                I[STATUS] = END
+                N[STATUS] = END
                 return
             F[ROOT_AT], F[RDX], F[RV], F[RDZ], F[RW] = root, dx, v, dz, w
         tau = F[ROOT_AT]
         if tau > horizon:
-            I[STATUS] = END
+            N[STATUS] = END
             return
         j = 0
         if n > 0:  # the first sample at or after the event (EventSolver._sample's test)
-            i = I[SAMPLE]
+            i = N[SAMPLE]
             if times[i] - t0 >= tau:
                 j = i
             elif i + 1 == n or times[i + 1] - t0 >= tau:
@@ -147,7 +147,7 @@ def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
         x, v, w = x0 + F[RDX], F[RV], F[RW]
         closing = w - v
         if not closing > 0.0 or rounding_closing(closing, x, v, w, u, omega_n) or e == 0.0:
-            I[STATUS] = EVENT
+            N[STATUS] = EVENT
             return
         v_plus, w_plus = impact(v, w, m, M, e)
         a_x = -(damping * v_plus + stiffness * (x - offset)) / mass  # Oscillator.acceleration
@@ -157,36 +157,36 @@ def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
         closing = w_plus - v_plus
         if close or not (closing < 0.0
                          and not rounding_closing(closing, x, v_plus, w_plus, u, omega_n)):
-            I[STATUS] = EVENT
+            N[STATUS] = EVENT
             return
-        limit = I[LIMIT]
-        if n > 0 and I[INTERVAL] != j:
-            limit = I[COUNT] + max_impacts
-        if I[COUNT] >= limit:  # (Solver._record refuses it)
-            I[STATUS] = EVENT
+        limit = N[LIMIT]
+        if n > 0 and N[INTERVAL] != j:
+            limit = N[COUNT] + max_impacts
+        if N[COUNT] >= limit:  # (Solver._record refuses it)
+            N[STATUS] = EVENT
             return
-        if I[N_IMPACTS] == impacts.shape[0] or I[N_TARGETS] == targets.shape[0]:
-            I[STATUS] = FULL
+        if N[N_IMPACTS] == impacts.shape[0] or N[N_TARGETS] == targets.shape[0]:
+            N[STATUS] = FULL
             return
         # the impact: recorded, its impulse where the march adds it
         impulse = impact_impulse(v, v_plus, m)
-        k = I[N_IMPACTS]
+        k = N[N_IMPACTS]
         impacts[k, 0], impacts[k, 1], impacts[k, 2], impacts[k, 3] = t, x, v, w
         impacts[k, 4], impacts[k, 5], impacts[k, 6], impacts[k, 7] = v_plus, w_plus, impulse, e
-        I[N_IMPACTS] = k + 1
-        I[COUNT] += 1
+        N[N_IMPACTS] = k + 1
+        N[COUNT] += 1
         if n > 0:
-            for k in range(I[SAMPLE], j):  # the flight's samples (Flight.state_array: its
+            for k in range(N[SAMPLE], j):  # the flight's samples (Flight.state_array: its
                 # ice increment is 0.0 + dz, the same float as dz but for the sign of a zero)
                 dx, v_k, dz, w_k = _motion(times[k] - t0, neg_sigma, omega_c, y0, p, q, v0_c,
                                            rate, w0_c, r0, quadratic)
                 xs[k], vs[k], zs[k], ws[k] = x0 + dx, v_k, z0 + (0.0 + dz), w_k
-            k = I[N_TARGETS]
+            k = N[N_TARGETS]
             targets[k], values[k] = j, 0.0 + impulse
-            I[N_TARGETS] = k + 1
-            if I[INTERVAL] != j:  # (Solver.begin_step of sample j's interval)
-                I[INTERVAL], I[LIMIT], F[STEP_START] = j, limit, times[j - 1]
-            I[SAMPLE] = j
+            N[N_TARGETS] = k + 1
+            if N[INTERVAL] != j:  # (Solver.begin_step of sample j's interval)
+                N[INTERVAL], N[LIMIT], F[STEP_START] = j, limit, times[j - 1]
+            N[SAMPLE] = j
         else:
             F[IMPULSE] = (F[IMPULSE] + 0.0) + (0.0 + impulse)
         # the next flight, from the contact, its search from 0 (Flight, FlightSearch)
@@ -195,10 +195,10 @@ def bounce_march(F, I, P, times, xs, vs, zs, ws, targets, values, impacts):
         F[TIME_EPS] = TIME_RESOLUTION * (scale if scale > 1.0 else 1.0)
         F[A], F[ROOT_AT] = 0.0, math.nan
         F[PROBED_AT] = F[PF] = F[PDF] = F[PD2] = F[PBOUND] = F[PJERK] = math.nan
-        I[ITERATIONS], I[CREEP] = 0, 0
-        I[EVENTS] += 1
-        if n == 0 and I[STOP_AT_EVENT] != 0 and F[T_START] < t < F[T_END]:
-            I[STATUS] = STOPPED
+        N[ITERATIONS], N[CREEP] = 0, 0
+        N[EVENTS] += 1
+        if n == 0 and N[STOP_AT_EVENT] != 0 and F[T_START] < t < F[T_END]:
+            N[STATUS] = STOPPED
             return
 
 
@@ -241,7 +241,7 @@ class BounceMarch:
         self.solver = solver
         self.kernel = COMPILED if kernel is None else kernel
         self.F = np.zeros(N_FLOATS)
-        self.I = np.zeros(N_INTS, dtype=np.int64)
+        self.N = np.zeros(N_INTS, dtype=np.int64)
         self.P = np.zeros(N_PARAMS)
         self.no_times = np.zeros(1)
         self._params_for: tuple | None = None
@@ -284,7 +284,7 @@ class BounceMarch:
                      float(solver.scene.solver_max_impacts))
 
     def _load(self, seg: Any) -> None:
-        """The flight ``seg`` and its search into F and I."""
+        """The flight ``seg`` and its search into F and N."""
         search = seg.search
         probed = search._probed or flight_search._UNPROBED
         root = search.root
@@ -296,20 +296,20 @@ class BounceMarch:
         self.F[:ROOT_AT + 5] = (seg.t0, seg.x0, seg.v0, seg.z0, seg.w0, seg.start,
                                 search.time_eps, search.a, search._probed_at, *probed,
                                 *root_state)
-        I = self.I
-        I[ITERATIONS], I[CREEP], I[N_IMPACTS], I[N_TARGETS] = search.iterations, search.creep, 0, 0
-        I[EVENTS] = 0
+        N = self.N
+        N[ITERATIONS], N[CREEP], N[N_IMPACTS], N[N_TARGETS] = search.iterations, search.creep, 0, 0
+        N[EVENTS] = 0
 
-    def _flight(self, seg: Any, F: list[float], I: list[int]) -> Any:
+    def _flight(self, seg: Any, F: list[float], N: list[int]) -> Any:
         """The flight the kernel ended on, as the solver's segment: ``seg`` itself if no event
         was taken, else a new one; its search where the kernel left it."""
         solver = self.solver
-        if I[EVENTS]:
+        if N[EVENTS]:
             seg = Flight(solver, F[T0], F[X0], F[V0], F[Z0], F[W0], seg.u, F[START])
             solver.seg = seg
             solver.tau = 0.0
         search = seg.search
-        search.a, search.iterations, search.creep = F[A], I[ITERATIONS], I[CREEP]
+        search.a, search.iterations, search.creep = F[A], N[ITERATIONS], N[CREEP]
         search._probed_at = F[PROBED_AT]
         search._probed = tuple(F[PF:PJERK + 1])
         root = F[ROOT_AT]
@@ -337,21 +337,21 @@ class BounceMarch:
         seg = solver.seg
         self._params(seg)
         self._load(seg)
-        F, I = self.F, self.I
+        F, N = self.F, self.N
         F[IMPULSE], F[T_END], F[T_START] = impulse, t_end, t_start
         limit = solver.impact_limit
-        I[COUNT], I[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
-        I[STOP_AT_EVENT], I[N_TIMES] = 1 if stop_at_event else 0, 0
+        N[COUNT], N[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
+        N[STOP_AT_EVENT], N[N_TIMES] = 1 if stop_at_event else 0, 0
         while True:
             no = self.no_times
-            self.kernel(F, I, self.P, no, no, no, no, no, self.targets, self.values,
+            self.kernel(F, N, self.P, no, no, no, no, no, self.targets, self.values,
                         self.impacts)
-            status = int(I[STATUS])
-            self._impacts(int(I[N_IMPACTS]))
+            status = int(N[STATUS])
+            self._impacts(int(N[N_IMPACTS]))
             if status != FULL:
                 break
-            I[N_IMPACTS] = 0
-        floats, ints = F.tolist(), I.tolist()
+            N[N_IMPACTS] = 0
+        floats, ints = F.tolist(), N.tolist()
         self._flight(seg, floats, ints)
         impulse = floats[IMPULSE]
         return impulse, (floats[T0] if status == STOPPED else None)
@@ -367,23 +367,23 @@ class BounceMarch:
         seg = solver.seg
         self._params(seg)
         self._load(seg)
-        F, I = self.F, self.I
+        F, N = self.F, self.N
         F[STEP_START] = solver.step_start
         limit = solver.impact_limit
-        I[COUNT], I[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
-        I[SAMPLE], I[INTERVAL], I[STOP_AT_EVENT], I[N_TIMES] = i, interval, 0, len(times)
+        N[COUNT], N[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
+        N[SAMPLE], N[INTERVAL], N[STOP_AT_EVENT], N[N_TIMES] = i, interval, 0, len(times)
         while True:
-            self.kernel(F, I, self.P, times, out.x, out.v, out.z, out.w, self.targets,
+            self.kernel(F, N, self.P, times, out.x, out.v, out.z, out.w, self.targets,
                         self.values, self.impacts)
-            self._impacts(int(I[N_IMPACTS]))
-            n_targets = int(I[N_TARGETS])
+            self._impacts(int(N[N_IMPACTS]))
+            n_targets = int(N[N_TARGETS])
             if n_targets:
                 targets.frombytes(self.targets[:n_targets].tobytes())
                 values.frombytes(self.values[:n_targets].tobytes())
-            if int(I[STATUS]) != FULL:
+            if int(N[STATUS]) != FULL:
                 break
-            I[N_IMPACTS] = I[N_TARGETS] = 0
-        floats, ints = F.tolist(), I.tolist()
+            N[N_IMPACTS] = N[N_TARGETS] = 0
+        floats, ints = F.tolist(), N.tolist()
         self._flight(seg, floats, ints)
         limit = ints[LIMIT]
         solver.impact_limit = limit if limit < NO_LIMIT else math.inf

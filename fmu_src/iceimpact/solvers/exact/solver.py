@@ -31,7 +31,7 @@ from ..contact_rules import (
 from ..march import EventMarch
 from . import bounces
 from .flight import DraggedFlight, Flight
-from .sampling import first_sample_after, _SampleGroup, _sampling_kind
+from .sampling import _SampleGroup, _sampling_kind, first_sample_after
 from .segment import MARCHED, _SearchedSegment
 from .sticking import LinearStick, QuadraticStick
 
