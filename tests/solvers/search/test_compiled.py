@@ -11,6 +11,7 @@ import stat
 import subprocess
 import sys
 import types
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -151,20 +152,20 @@ def test_a_damaged_cache_compiles_again_and_is_mended(warm, tmp_path):
     assert after["hits"] == after["kernels"] and after["misses"] == 0
 
 
-@pytest.mark.parametrize("unusable", ["a file", "writable by others"])
-def test_an_unusable_cache_folder_compiles_without_a_cache(warm, tmp_path, unusable):
+def test_an_unusable_cache_folder_compiles_without_a_cache(warm, tmp_path):
     """ICEIMPACT_CACHE_DIR a file, or a folder other users may write (its entries could be
-    anyone's): nothing is cached or read there; every kernel compiles, the same results."""
-    cache = tmp_path / "cache"
-    if unusable == "a file":
-        cache.write_text("")
-    else:
-        shutil.copytree(warm["cache"], cache)
-        os.chmod(cache, 0o777)
-    seen = _probe(warm["source"], cache)
-    assert seen["folders"] == [None] * seen["kernels"]
-    assert seen["misses"] == seen["kernels"] and seen["hits"] == 0
-    assert seen["digest"] == warm["pure"]
+    anyone's): nothing is cached or read there; every kernel compiles, the same results (both
+    processes side by side: each compiles every kernel)."""
+    a_file, shared = tmp_path / "a file", tmp_path / "writable by others"
+    a_file.write_text("")
+    shutil.copytree(warm["cache"], shared)
+    os.chmod(shared, 0o777)
+    with ThreadPoolExecutor(2) as pool:
+        reports = list(pool.map(lambda cache: _probe(warm["source"], cache), (a_file, shared)))
+    for seen in reports:
+        assert seen["folders"] == [None] * seen["kernels"]
+        assert seen["misses"] == seen["kernels"] and seen["hits"] == 0
+        assert seen["digest"] == warm["pure"]
 
 
 # -- the parts, in this process ----------------------------------------------------------------
