@@ -54,7 +54,7 @@ wall_import, cpu_import = time.perf_counter() - wall, time.process_time() - cpu
 wall, cpu = time.perf_counter(), time.process_time()
 result = iceimpact.run(Scene(), %(t_end)r)
 wall_run, cpu_run = time.perf_counter() - wall, time.process_time() - cpu
-from iceimpact.solvers.search import compiled
+from iceimpact import compiled
 from iceimpact.solvers.search.flight_search import COMPILED
 stats = compiled.cache_stats() if COMPILED is not None else {"hits": 0, "misses": 0}
 print(json.dumps({"import_cpu": cpu_import, "import_wall": wall_import, "run_cpu": cpu_run,

@@ -233,7 +233,7 @@ def _aliases_removed() -> dict:
 
 
 #: In the host's environment, "1" lets the FMU's core compile its kernels where the host's
-#: Python has numba (solvers/search/compiled.py). Not the default: numba's machine code is
+#: Python has numba (iceimpact/compiled.py). Not the default: numba's machine code is
 #: cached per user and found again by every fresh extraction of the same FMU, but importing
 #: numba and readying its compiler still costs about 0.3 s of CPU and 120 MB per host process,
 #: more than the kernels save in an FMU run (docs/explanation/speed.md#start-up-and-numbas-cache).

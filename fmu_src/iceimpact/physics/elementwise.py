@@ -16,8 +16,7 @@ every CPU.
 Where numba is installed (and ``ICEIMPACT_PURE`` unset) the loop over the elements is compiled
 (:func:`_map`): numba's ``math`` functions call the same C library, so each element is the
 same float, at a few ns instead of 45. An array with an element that is not finite goes the
-Python way, so that the refused elements and their warnings stay as described. Not where numba
-vectorises math calls with Intel's SVML (other roundings): there the Python loop runs.
+Python way, so that the refused elements and their warnings stay as described.
 """
 
 from __future__ import annotations
@@ -28,6 +27,8 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+from ..compiled import compile_or_none, entry_point, jit
 
 __all__ = ["cos", "cosh", "exp", "expm1", "log1p", "sin", "sinh"]
 
@@ -44,13 +45,8 @@ def _map(x: np.ndarray, out: np.ndarray) -> bool:
     return finite
 
 
-def _compile(numba: Any) -> dict[str, Callable[[np.ndarray, np.ndarray], bool]] | None:
-    """:func:`_map` compiled for each function by name, or None where numba would vectorise
-    the loop's math calls with Intel's SVML (other roundings than the C library's)."""
-    from ..solvers.search.compiled import entry_point, jit
-
-    if getattr(numba.config, "USING_SVML", False):
-        return None
+def _compile(numba: Any) -> dict[str, Callable[[np.ndarray, np.ndarray], bool]]:
+    """:func:`_map` compiled for each function by name."""
     f8 = numba.float64[::1]
     loops = {}
     for name in __all__:
@@ -60,13 +56,7 @@ def _compile(numba: Any) -> dict[str, Callable[[np.ndarray, np.ndarray], bool]] 
     return loops
 
 
-def _compiled() -> Any:
-    from ..solvers.search.compiled import compile_or_none
-
-    return compile_or_none("the element-wise math functions", _compile)
-
-
-_COMPILED = _compiled()
+_COMPILED = compile_or_none("the element-wise math functions", _compile)
 
 
 def _elementwise(scalar: Callable[[float], float],

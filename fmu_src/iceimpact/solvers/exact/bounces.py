@@ -33,16 +33,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...limits import TIME_RESOLUTION
+from ...compiled import compile_or_none, entry_point, jit
 from ...physics.contact import contact_force, impact, impact_impulse
 from ...physics.ice import linear_flight_constants, quadratic_flight_constants
 from ...physics.structure import under_constants
 from ..contact_rules import bounce_closure, rounding_closing
 from ..search import flight_search
-from ..search.compiled import compile_or_none, entry_point, jit
 from ..search.flight_search import GENERIC, ROOT, _ice_accel, _motion, flight_root
 from .flight import Flight
 from .sampling import first_sample_after
+from .segment import _time_eps
 
 if TYPE_CHECKING:
     from .solver import EventSolver
@@ -190,9 +190,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
         else:
             F[IMPULSE] = (F[IMPULSE] + 0.0) + (0.0 + impulse)
         # the next flight, from the contact, its search from 0 (Flight, FlightSearch)
-        scale = abs(t)
         F[T0], F[X0], F[V0], F[Z0], F[W0], F[START] = t, x, v_plus, x, w_plus, 0.0
-        F[TIME_EPS] = TIME_RESOLUTION * (scale if scale > 1.0 else 1.0)
+        F[TIME_EPS] = _time_eps(t)
         F[A], F[ROOT_AT] = 0.0, math.nan
         F[PROBED_AT] = F[PF] = F[PDF] = F[PD2] = F[PBOUND] = F[PJERK] = math.nan
         N[ITERATIONS], N[CREEP] = 0, 0
@@ -216,6 +215,7 @@ def _compile(numba: Any) -> Any:
         "contact_force": jit(numba, (f8,) * 4, contact_force),
         "bounce_closure": jit(numba, (f8,) * 7 + (numba.boolean,) + (f8,) * 4, bounce_closure),
         "first_sample_after": jit(numba, (f8[::1], i8, f8, f8), first_sample_after),
+        "_time_eps": jit(numba, (f8,), _time_eps),
     }
     array1, array2 = f8[::1], f8[:, ::1]
     kernel = jit(numba, (array1, i8[::1], array1, array1, array1, array1, array1, array1,
@@ -328,19 +328,26 @@ class BounceMarch:
         if solver.record_impacts:
             solver.impacts.extend_rows(self.impacts[:n])
 
+    def _begin(self) -> Any:
+        """The solver's current flight, the scene's constants, the impact count and the budget
+        into the arrays; the flight."""
+        solver = self.solver
+        seg = solver.seg
+        self._params(seg)
+        self._load(seg)
+        limit = solver.impact_limit
+        self.N[COUNT], self.N[LIMIT] = (solver.impact_count,
+                                        limit if limit < NO_LIMIT else NO_LIMIT)
+        return seg
+
     def march(self, t_end: float, stop_at_event: bool, t_start: float,
               impulse: float) -> tuple[float, float | None]:
         """From the solver's current flight, the bounces up to ``t_end`` (EventMarch.march's
         loop, ``impulse`` its sum so far); returns the sum, and the time of the impact that
         ended the march with ``stop_at_event`` (None: the march goes on in Python)."""
-        solver = self.solver
-        seg = solver.seg
-        self._params(seg)
-        self._load(seg)
+        seg = self._begin()
         F, N = self.F, self.N
         F[IMPULSE], F[T_END], F[T_START] = impulse, t_end, t_start
-        limit = solver.impact_limit
-        N[COUNT], N[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
         N[STOP_AT_EVENT], N[N_TIMES] = 1 if stop_at_event else 0, 0
         while True:
             no = self.no_times
@@ -364,13 +371,9 @@ class BounceMarch:
         impulses to ``targets`` and ``values``; returns the sample and the interval the march
         stands at."""
         solver = self.solver
-        seg = solver.seg
-        self._params(seg)
-        self._load(seg)
+        seg = self._begin()
         F, N = self.F, self.N
         F[STEP_START] = solver.step_start
-        limit = solver.impact_limit
-        N[COUNT], N[LIMIT] = solver.impact_count, (limit if limit < NO_LIMIT else NO_LIMIT)
         N[SAMPLE], N[INTERVAL], N[STOP_AT_EVENT], N[N_TIMES] = i, interval, 0, len(times)
         while True:
             self.kernel(F, N, self.P, times, out.x, out.v, out.z, out.w, self.targets,

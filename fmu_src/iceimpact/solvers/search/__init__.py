@@ -10,6 +10,7 @@
 - :mod:`.taylor`: the quadratic-drag sticking phase's Taylor steps (no closed form), with the
   bound on the rest of each step that lets the root search cross it; its recurrence and Horner's
   rule compiled by numba where installed.
-- :mod:`.compiled`: whether the kernels are compiled (numba installed, ``ICEIMPACT_PURE`` unset)
-  and how (no fastmath: the pure functions' floats).
+
+Whether and how the kernels are compiled (numba installed, ``ICEIMPACT_PURE`` unset; no
+fastmath: the pure functions' floats) is :mod:`iceimpact.compiled`'s.
 """

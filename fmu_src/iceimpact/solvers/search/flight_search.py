@@ -32,9 +32,9 @@ import math
 from math import cos, exp, expm1, log1p, nextafter, sin, sqrt
 from typing import Any
 
+from ...compiled import compile_or_none, entry_point, jit
 from ...limits import TIME_RESOLUTION
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
-from .compiled import compile_or_none, entry_point, jit
 from .rootfind import (
     _SUM_NEAR_1_LOW,
     BRACKET_STEPS,
@@ -372,11 +372,11 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
 
 def _compiled():
     """:func:`flight_root` compiled by numba, or None (not installed, or ICEIMPACT_PURE set:
-    :mod:`.compiled`).
+    :mod:`iceimpact.compiled`).
 
     Compiled at import for its one signature (floats, the two counters integers), so that no
     run pays for it; the machine code goes to the kernels' cache in the user's cache folder
-    (:mod:`.compiled`), which later imports load, wherever the source lies."""
+    (:mod:`iceimpact.compiled`), which later imports load, wherever the source lies."""
     return compile_or_none("the flight search",
                            lambda numba: entry_point(compiled_callees(numba)["flight_root"]))
 

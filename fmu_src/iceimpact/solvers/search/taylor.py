@@ -50,10 +50,10 @@ the sample grid are products summed in numpy's pairwise order (:func:`pairwise_s
 
 A step up to the proof that no root lies on it is one function over plain floats, lists and
 arrays (:func:`ordinary_step`; the recurrence and Horner's rule are kernels too), run as Python
-by the pure path and compiled by numba where it is installed (:data:`KERNELS`, :mod:`.compiled`),
-the same floats either way; :func:`run_steps` makes the steps of a sticking phase one after the
-other in one compiled call while they are ordinary, and hands the others back to Python
-(docs/explanation/speed.md).
+by the pure path and compiled by numba where it is installed (:data:`KERNELS`,
+:mod:`iceimpact.compiled`), the same floats either way; :func:`run_steps` makes the steps of
+a sticking phase one after the other in one compiled call while they are ordinary, and hands
+the others back to Python (docs/explanation/speed.md).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ from math import fsum as _fsum
 import numpy as np
 from scipy.optimize import brentq
 
-from .compiled import compile_or_none, entry_point, jit
+from ...compiled import compile_or_none, entry_point, jit
 
 #: Order of the Taylor steps (degree of the position polynomial).
 ORDER = 36

@@ -1,5 +1,5 @@
-"""numba for the searches' kernels: whether they are compiled, and how, and where their machine
-code is cached.
+"""numba for the kernels of the exact method and the sampler: whether they are compiled, and
+how, and where their machine code is cached.
 
 A kernel is a function over plain floats and arrays that runs as Python as it is, and compiled
 by numba where numba is installed (the ``fast`` extra) and ``ICEIMPACT_PURE`` is not set in the
@@ -53,12 +53,16 @@ _DISPATCHERS: list[Any] = []
 
 
 def numba_or_none() -> Any:
-    """The numba module, or None where it is not installed or ``ICEIMPACT_PURE`` is set."""
+    """The numba module, or None where it is not installed, ``ICEIMPACT_PURE`` is set, or numba
+    would vectorise loops of math calls with Intel's SVML (other roundings than the C
+    library's: the kernels' loops over samples would no longer give the pure path's floats)."""
     if os.environ.get("ICEIMPACT_PURE", "") not in ("", "0"):
         return None
     try:
         import numba
     except ImportError:
+        return None
+    if getattr(numba.config, "USING_SVML", False):
         return None
     return numba
 

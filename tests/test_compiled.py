@@ -1,4 +1,4 @@
-"""The kernels' cache (solvers/search/compiled.py): in the user's cache folder, never beside the
+"""The kernels' cache (iceimpact/compiled.py): in the user's cache folder, never beside the
 source; found again by an identical source at a new path (a fresh FMU extraction); a damaged
 or unusable cache compiles again; the results those of the pure path, to the bit."""
 
@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from iceimpact.solvers.search import compiled
+from iceimpact import compiled
 
-SRC = Path(__file__).resolve().parents[3] / "fmu_src" / "iceimpact"
+SRC = Path(__file__).resolve().parents[1] / "fmu_src" / "iceimpact"
 
 #: a fresh process: imports the core from sys.argv[1], runs a linear and a quadratic (sticking:
 #: the Taylor kernels) scene, reports numba's cache hits and misses and the results' digest
@@ -28,7 +28,7 @@ sys.path.insert(0, sys.argv[1])
 import numpy as np
 import iceimpact
 from iceimpact import Scene, run
-from iceimpact.solvers.search import compiled
+from iceimpact import compiled
 h = hashlib.sha256()
 for fields, t_end in (({}, 30.0), ({"drag_model": 2, "impact_e": 0.5}, 20.0)):
     r = run(Scene(**fields), t_end, dt=1e-2)
