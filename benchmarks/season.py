@@ -30,9 +30,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from core_speed import extract  # (benchmarks/ is this script's folder on sys.path)
-
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))  # (core_speed: also when loaded from elsewhere)
+from core_speed import extract  # noqa: E402
+
 CASES = ROOT / "examples/season_cases.csv"
 
 #: Illustrative site: flow (ice drift) speeds, m/s, floe masses, kg, and restitution, each with
