@@ -131,6 +131,29 @@ def test_turning_points_reproduce_the_rainflow_package():
         assert d_ours == pytest.approx(d_theirs, rel=1e-12)
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "as-python"])
+def test_the_rainflow_count_is_the_rainflow_packages(compiled):
+    """rainflow_count (the package's algorithm over arrays, compiled where numba is) gives the
+    package's cycles in its order, to the bit: random walks, integer signals full of ties and
+    plateaus, and the shortest series."""
+    from iceimpact.studies import loads
+    count = loads._COUNT if compiled else loads.rainflow_count
+    if count is None:
+        pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
+    rng = np.random.default_rng(23)
+    signals = [np.cumsum(rng.normal(size=n)) for n in (0, 1, 2, 3, 4, 5, 50, 3000)]
+    signals += [rng.integers(-3, 4, size=n).astype(float) for n in (2, 3, 7, 40, 500)]
+    signals += [np.array([1.0, 1.0]), np.array([0.0, 1.0, 1.0]), np.array([2.0, 2.0, 2.0]),
+                np.array([0.0, 1.0, -1.0, 0.0])]
+    for y in signals:
+        want = [row[:3] for row in rainflow.extract_cycles(y.tolist())]
+        ranges, means, counts = np.empty(y.size), np.empty(y.size), np.empty(y.size)
+        n = count(y, ranges, means, counts)
+        got = list(zip(ranges[:n].tolist(), means[:n].tolist(), counts[:n].tolist(),
+                       strict=True))
+        assert got == [tuple(row) for row in want], y
+
+
 def test_degenerate_signals():
     none = rainflow_cycles(np.array([2.0, 2.0, 2.0]))
     assert none.total == 0.0

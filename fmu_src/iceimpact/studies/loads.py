@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from ..compiled import compile_or_none, entry_point, jit
 from ..errors import real_number, value_text
 from .impacts import impact_statistics
 
@@ -145,23 +146,94 @@ def turning_points(y: np.ndarray) -> np.ndarray:
     return np.concatenate((y[:1], y[turn], y[-1:]))
 
 
+def rainflow_count(series, ranges, means, counts):
+    """``rainflow.extract_cycles`` (the ``rainflow`` package's ASTM E1049-85, section 5.4.4) as
+    loops over arrays, for numba: its reversal points of ``series``, then its cycles, in its
+    order, into ``ranges`` (|x1 - x2|), ``means`` (0.5 (x1 + x2)) and ``counts`` (1.0 a full
+    cycle, 0.5 a half cycle), each at least ``series.size`` long; returns the number of cycles.
+    The same operations as the package's, so the same floats."""
+    size = series.size
+    if size < 2:
+        return 0
+    points = np.empty(size)  # the reversals, then the stack points[start:end]
+    end = 1
+    points[0] = series[0]
+    x = series[1]
+    d_last = x - series[0]
+    for index in range(2, size):
+        x_next = series[index]
+        if x_next == x:
+            continue
+        d_next = x_next - x
+        if d_last * d_next < 0.0:
+            points[end] = x
+            end += 1
+        x = x_next
+        d_last = d_next
+    if size > 2:  # (the package yields the last point only after a third one)
+        points[end] = series[size - 1]
+        end += 1
+    reversals = end
+    cycles = 0
+    start = end = 0
+    for p in range(reversals):
+        points[end] = points[p]  # (end <= p: each reversal read before it is overwritten)
+        end += 1
+        while end - start >= 3:
+            x1, x2, x3 = points[end - 3], points[end - 2], points[end - 1]
+            if abs(x3 - x2) < abs(x2 - x1):
+                break
+            if end - start == 3:  # Y holds the starting point: a half cycle
+                ranges[cycles], means[cycles] = abs(x1 - x2), 0.5 * (x1 + x2)
+                counts[cycles] = 0.5
+                start += 1
+            else:  # a full cycle: its peak and valley leave the stack
+                ranges[cycles], means[cycles] = abs(x1 - x2), 0.5 * (x1 + x2)
+                counts[cycles] = 1.0
+                points[end - 3] = x3
+                end -= 2
+            cycles += 1
+    while end - start > 1:  # the residue: half cycles
+        x1, x2 = points[start], points[start + 1]
+        ranges[cycles], means[cycles], counts[cycles] = abs(x1 - x2), 0.5 * (x1 + x2), 0.5
+        cycles += 1
+        start += 1
+    return cycles
+
+
+def _compile_count(numba: Any) -> Any:
+    f8 = numba.float64[::1]
+    return entry_point(jit(numba, numba.int64(f8, f8, f8, f8), rainflow_count))
+
+
+#: :func:`rainflow_count` compiled where numba is, else None (the ``rainflow`` package counts)
+_COUNT = compile_or_none("the rainflow count", _compile_count)
+
+
 def rainflow_cycles(y: np.ndarray, half: float = HALF_CYCLE) -> Cycles:
     """Rainflow cycles of the signal ``y`` (ASTM E1049-85, section 5.4.4, by the ``rainflow``
-    package). Each unclosed cycle of the residue and of the start counts ``half`` (default 0.5,
+    package, or where numba is by :func:`rainflow_count`, its algorithm compiled: the same
+    cycles). Each unclosed cycle of the residue and of the start counts ``half`` (default 0.5,
     MLife's ``UCMult``; 1 counts them as full cycles, 0 drops them). Non-finite values raise
     ValueError."""
-    import rainflow  # only here: the FMU's runtime does not need it
-
     y = np.asarray(y, dtype=float).ravel()
     if not np.all(np.isfinite(y)):
         raise ValueError("rainflow_cycles: the signal must be finite")
     if not 0.0 <= half <= 1.0:
         raise ValueError(f"half = {half!r}: expected a weight in [0, 1]")
-    rows = list(rainflow.extract_cycles(turning_points(y).tolist()))
-    if not rows:
+    points = turning_points(y)
+    if _COUNT is not None:
+        ranges, means, full = np.empty(points.size), np.empty(points.size), np.empty(points.size)
+        count = _COUNT(np.ascontiguousarray(points), ranges, means, full)
+        arr = np.stack((ranges[:count], means[:count], full[:count]), axis=1)
+    else:
+        import rainflow  # only here: the FMU's runtime does not need it
+
+        rows = list(rainflow.extract_cycles(points.tolist()))
+        arr = np.array([row[:3] for row in rows], dtype=float).reshape(-1, 3)
+    if not arr.size:
         empty = np.zeros(0)
         return Cycles(empty, empty.copy(), empty.copy())
-    arr = np.array([row[:3] for row in rows], dtype=float)
     counts = np.where(arr[:, 2] < 1.0, half, 1.0)
     return Cycles(ranges=arr[:, 0], means=arr[:, 1], counts=counts)
 

@@ -351,14 +351,21 @@ def test_the_compiled_kernels_give_the_pure_functions_floats():
         taylor.KERNELS.recurrence(x, v, u, drag, 1.5 * drag, c, k, np.array(order_over),
                                   np.array(reciprocals), rs_c, fs_c)
         assert rs_c.tolist() == rs and fs_c.tolist() == fs
-    tables = rng.normal(size=(ORDER + 1, 5, 3))
-    rows, theta = rng.integers(0, 5, 200), rng.uniform(0.0, 1.0, 200)
-    out = np.empty((200, 3))
-    taylor.KERNELS.horner_table_rows(tables, rows, theta, out)
-    want = [[horner(tables[:, r, j].tolist(), t) for j in range(3)]
-            for r, t in zip(rows.tolist(), theta.tolist(), strict=True)]
+    tables = rng.normal(size=(5, ORDER + 1, 3))  # step, order, column
+    los = np.sort(rng.uniform(0.0, 1.0, 5))
+    hs = rng.uniform(0.05, 0.3, 5)
+    his = np.minimum(los + hs, np.append(los[1:], np.inf))
+    ends = rng.normal(size=(5, 3))
+    tau = np.concatenate(([los[0] - 0.01], np.sort(rng.uniform(0.0, 1.2, 201)), los, his))
+    out = np.empty((tau.size, 3))
+    taylor.KERNELS.step_states(los, his, hs, tables, ends, tau, out)
+    want = []
+    for t in tau.tolist():  # the last step starting at or before t (the first if none)
+        i = max(int(np.searchsorted(los, t, side="right")) - 1, 0)
+        want.append(ends[i].tolist() if t >= his[i] else
+                    [horner(tables[i, :, j].tolist(), (t - los[i]) / hs[i]) for j in range(3)])
     assert out.tolist() == want
-    table = np.ascontiguousarray(tables[:, 0, :])
+    table = np.ascontiguousarray(tables[0])
     assert list(taylor.KERNELS.horner_columns(table, 0.37)) == \
         [horner(table[:, j].tolist(), 0.37) for j in range(3)]
 

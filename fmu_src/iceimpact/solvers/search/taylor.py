@@ -335,12 +335,7 @@ def horner(coeffs: list[float], theta: float) -> float:
 def horner_rows(coeffs: np.ndarray, rows: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """:func:`horner` for many polynomials at once, operation for operation (the same floats):
     ``coeffs[n, i, j]`` the n-th coefficient of polynomial j of table i; the values, a row for
-    each time, of table ``rows[k]`` at ``theta[k]`` (compiled where numba is:
-    :func:`horner_table_rows`)."""
-    if KERNELS is not None:
-        out = np.empty((theta.size, coeffs.shape[2]))
-        KERNELS.horner_table_rows(coeffs, rows, theta, out)
-        return out
+    each time, of table ``rows[k]`` at ``theta[k]``."""
     acc = np.zeros((theta.size, coeffs.shape[2]))
     theta = theta[:, None]
     for n in range(coeffs.shape[0] - 1, -1, -1):
@@ -349,28 +344,51 @@ def horner_rows(coeffs: np.ndarray, rows: np.ndarray, theta: np.ndarray) -> np.n
     return acc
 
 
-def horner_table_rows(coeffs, rows, theta, out):
-    """:func:`horner_rows` as loops, for numba: ``out[k, j]`` the value of polynomial j of
-    table ``rows[k]`` at ``theta[k]``."""
-    top = coeffs.shape[0] - 1
-    width = coeffs.shape[2]
-    for k in range(theta.size):
-        row, t = rows[k], theta[k]
-        j = 0
-        while j + 3 <= width:  # three polynomials side by side: independent chains, each the
-            a0 = a1 = a2 = 0.0  # same operations in the same order as one alone
-            for n in range(top, -1, -1):
-                a0 = a0 * t + coeffs[n, row, j]
-                a1 = a1 * t + coeffs[n, row, j + 1]
-                a2 = a2 * t + coeffs[n, row, j + 2]
-            out[k, j], out[k, j + 1], out[k, j + 2] = a0, a1, a2
-            j += 3
-        while j < width:
-            acc = 0.0
-            for n in range(top, -1, -1):
-                acc = acc * t + coeffs[n, row, j]
-            out[k, j] = acc
+def step_states(los, his, hs, tables, ends, tau, out):
+    """:func:`states_of_steps` as loops, for numba: ``out[k]`` the state (x, v, P) at
+    ``tau[k]`` in the last step i with ``los[i] <= tau[k]`` (step 0 if none): the end state
+    ``ends[i]`` from ``his[i]`` on, else :func:`horner` of the step's table ``tables[i]``
+    (order, column) at theta = (tau - lo) / h. The samples of a step go through Horner's rule
+    together, one coefficient at a time for all of them: a loop numba vectorises, each sample
+    the same operations in the same order as alone."""
+    count = tau.size
+    thetas, xs, vs, ps = np.empty(count), np.empty(count), np.empty(count), np.empty(count)
+    last = los.size - 1
+    top = tables.shape[1] - 1
+    i = 0
+    k = 0
+    while k < count:
+        t = tau[k]
+        while i < last and los[i + 1] <= t:
+            i += 1
+        while i > 0 and los[i] > t:
+            i -= 1
+        if not t < his[i]:
+            out[k, 0], out[k, 1], out[k, 2] = ends[i, 0], ends[i, 1], ends[i, 2]
+            k += 1
+            continue
+        lo, h, hi = los[i], hs[i], his[i]
+        following = los[i + 1] if i < last else math.inf
+        j = k  # samples k..j-1: inside step i
+        while j < count:
+            t = tau[j]
+            if not (t < hi and t < following and (i == 0 or lo <= t)):
+                break
+            thetas[j - k] = (t - lo) / h
             j += 1
+        length = j - k
+        for q in range(length):
+            xs[q] = vs[q] = ps[q] = 0.0
+        for n in range(top, -1, -1):
+            cx, cv, cp = tables[i, n, 0], tables[i, n, 1], tables[i, n, 2]
+            for q in range(length):
+                theta = thetas[q]
+                xs[q] = xs[q] * theta + cx
+                vs[q] = vs[q] * theta + cv
+                ps[q] = ps[q] * theta + cp
+        for q in range(length):
+            out[k + q, 0], out[k + q, 1], out[k + q, 2] = xs[q], vs[q], ps[q]
+        k = j
 
 
 def horner_columns(table, theta):
@@ -465,12 +483,23 @@ class TaylorStep:
 SAMPLE_CHUNK = 2048
 
 
-def states_of_steps(steps: list[TaylorStep], index: np.ndarray, tau: np.ndarray) -> np.ndarray:
+def states_of_steps(steps: list[TaylorStep], tau: np.ndarray) -> np.ndarray:
     """Vectorised :meth:`TaylorStep.state`: rows (x, v, P) at the times tau (s from the segment's
-    anchor, increasing), each in ``steps[index[k]]`` (index nondecreasing, tau >= its lo),
-    evaluated SAMPLE_CHUNK at a time by :func:`horner_rows`: the same floats as
-    :meth:`TaylorStep.state` at each."""
+    anchor, increasing), each in the last of ``steps`` starting at or before it (the first step
+    for a time before them all), the same floats as :meth:`TaylorStep.state` at each. Compiled
+    where numba is (:func:`step_states`), else :func:`horner_rows` over SAMPLE_CHUNK samples at
+    a time."""
+    tau = np.ascontiguousarray(tau, dtype=float)
     out = np.empty((tau.size, 3))
+    if tau.size == 0:
+        return out
+    if KERNELS is not None:
+        KERNELS.step_states(np.array([s.lo for s in steps]), np.array([s.hi for s in steps]),
+                            np.array([s.h for s in steps]), np.stack([s.table for s in steps]),
+                            np.array([s.y_hi for s in steps]), tau, out)
+        return out
+    index = np.searchsorted([s.lo for s in steps], tau, side="right") - 1
+    np.maximum(index, 0, out=index)
     for start in range(0, tau.size, SAMPLE_CHUNK):
         part = slice(start, start + SAMPLE_CHUNK)
         first, last = int(index[part][0]), int(index[part][-1])
@@ -583,9 +612,9 @@ class _Kernels:
         any1 = f8[:]
         recurrence = jit(numba, (*(f8,) * 7, *(array,) * 4), taylor_recurrence)
         self.recurrence = entry_point(recurrence)
-        self.horner_table_rows = entry_point(jit(
-            numba, numba.void(f8[:, :, ::1], i8[::1], array, table), horner_table_rows))
         columns = jit(numba, (table, f8), horner_columns)
+        self.step_states = entry_point(jit(
+            numba, numba.void(array, array, array, cube, table, array, table), step_states))
         self.horner_columns = entry_point(columns)
         bounded = jit(numba, (f8,) * 8, _bounded,
                       _root_of_ratio=jit(numba, (f8,) * 6, _hand_back_ratio))
