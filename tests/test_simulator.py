@@ -58,6 +58,34 @@ def test_a_stepped_run_refuses_a_non_finite_output_in_the_same_words(monkeypatch
     assert match.group(2) == "x, gap, spring_force"  # the step reports k x too
 
 
+@pytest.mark.parametrize("poison, named", [
+    ({"x": math.nan}, "x, gap, spring_force"),
+    ({"w": math.inf}, "w"),
+    ({"x": 1e308, "z": -1e308}, "gap, spring_force"),  # finite states, x - z overflows
+    ({"x": -1e308, "z": 1e308}, "penetration, spring_force"),
+    ({"x": 1e308}, "spring_force"),             # k x overflows
+    ({"impulse": 1e308}, "force"),              # impulse / dt overflows
+])
+def test_a_sampled_run_refuses_a_non_finite_output_naming_it(monkeypatch, poison, named):
+    """run()'s sampled path checks what each sample reports, derived fields included, as a
+    step does (its quick proof of finiteness gives way to the full check)."""
+    original = EventSolver.sample
+
+    def poisoned(self, times, u):
+        out = original(self, times, u)
+        for name, value in poison.items():
+            getattr(out, name)[4] = value
+        return out
+
+    monkeypatch.setattr(EventSolver, "sample", poisoned)
+    with pytest.raises(SolverError) as failed:
+        run(Scene(), 1.0, dt=0.1)
+    match = WORDING.fullmatch(str(failed.value))
+    assert match, str(failed.value)
+    assert match.group(1) == match.group(3) == "0.5"
+    assert match.group(2) == named
+
+
 def test_a_refused_step_leaves_the_simulator_as_it_was(monkeypatch):
     sim = Simulator(Scene(ice_M=800.0))
     sim.advance(0.5)

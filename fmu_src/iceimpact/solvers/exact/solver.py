@@ -374,13 +374,12 @@ class EventSolver(EventMarch):
             add_value(self.pending_impulse)
             self.pending_impulse = 0.0
             i = j
-        impulse = np.zeros(n)
         values_array = np.array(values, dtype=float)
         for group in kinds.values():
             if isinstance(group, _SampleGroup):
                 group.evaluate(times, out, values_array)
-        np.add.at(impulse, np.array(targets, dtype=np.int64), values_array)
-        out.impulse = impulse
+        # (out.impulse holds the sticking phases' inner samples, _sample_steps: no target's)
+        np.add.at(out.impulse, np.array(targets, dtype=np.int64), values_array)
         return out
 
     def _sample_steps(self, seg: QuadraticStick, times: np.ndarray, i: int, j: int,
@@ -388,7 +387,10 @@ class EventSolver(EventMarch):
                       values: array) -> None:
         """Samples i..j-1 in a sticking phase of Taylor steps, from the current position in it
         (and its end at ``tau_event`` before sample j, if it ends): states and the impulse
-        pieces the scalar march adds, in its order, all evaluated at once."""
+        pieces the scalar march adds, in its order, all evaluated at once. The intervals of
+        samples i+1..j-1 lie within the phase: each has its one piece, ``0.0 + piece`` as the
+        sum of the march's pieces gives it, written to ``out.impulse`` at once; sample i's and
+        j's go to ``targets`` and ``values`` (their intervals have other pieces too)."""
         tau = times[i:j] - seg.t0
         ends = tau if tau_event is None else np.append(tau, tau_event)
         tau_all = np.concatenate(([self.tau], ends))
@@ -396,9 +398,14 @@ class EventSolver(EventMarch):
         x, v = y[1:j - i + 1, 0], y[1:j - i + 1, 1]
         out.x[i:j], out.v[i:j], out.z[i:j], out.w[i:j] = x, v, x, v
         out.sticking[i:j] = seg.phase is Phase.STICK
-        targets.frombytes(np.arange(i, j + (tau_event is not None), dtype=np.int64).tobytes())
-        values.frombytes(np.ascontiguousarray(seg.impulses_between(tau_all, y),
-                                              dtype=float).tobytes())
+        pieces = seg.impulses_between(tau_all, y)
+        if j > i:
+            targets.append(i)
+            values.append(float(pieces[0]))
+            np.add(0.0, pieces[1:j - i], out=out.impulse[i + 1:j])
+        if tau_event is not None:
+            targets.append(j)
+            values.append(float(pieces[-1]))
 
     # snapshots ----------------------------------------------------------------------------------
     def checkpoint(self) -> Any:

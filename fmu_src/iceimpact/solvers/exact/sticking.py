@@ -5,7 +5,7 @@ in closed form (:class:`LinearStick`, cf. eq. 27-29) or the quadratic drag by Ta
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
+from bisect import bisect_left, bisect_right
 from collections.abc import Callable
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
@@ -41,6 +41,8 @@ _NO_STATE = (math.nan, math.nan, math.nan)
 _MAX_STALLED_STEPS = 4
 #: a Taylor step's start, the key its segment's list of steps is ordered by
 _step_lo = attrgetter("lo")
+#: and its end: the steps' ends increase too
+_step_hi = attrgetter("hi")
 
 #: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
 #: (those the future can ask for: one, or two at a step boundary).
@@ -431,11 +433,8 @@ class QuadraticStick:
         x, v, _ = self._y(tau)
         # the solver never looks back before its current time: drop steps that end before it
         steps = self.steps
-        if len(steps) > 1 and steps[0].hi < tau:
-            drop = 1
-            while drop < len(steps) - 1 and steps[drop].hi < tau:
-                drop += 1
-            del steps[:drop]
+        if len(steps) > 1 and steps[0].hi < tau:  # (their ends increase: a bisection)
+            del steps[:min(bisect_left(steps, tau, key=_step_hi), len(steps) - 1)]
         return x, v, x, v
 
     def states_at(self, tau: np.ndarray) -> np.ndarray:
