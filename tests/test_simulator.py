@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from iceimpact import ParameterError, Scene, Simulator, SolverError, run
-from iceimpact.solvers.base import State
+from iceimpact.simulator import reported_gap
+from iceimpact.solvers.base import GAP_ROUNDING, State
 from iceimpact.solvers.exact import EventSolver
 
 WORDING = re.compile(r"the run stopped at t = \S+ s \(the step to (\S+) s was refused; the state "
@@ -256,3 +257,19 @@ def test_run_takes_numpy_numbers_as_python_floats():
     result = run(Scene(), np.int64(1), dt=np.float32(0.1))
     assert result.t[-1] == 1.0 and len(result.t) == 11
     assert np.array_equal(result.x, run(Scene(), 1.0, dt=float(np.float32(0.1))).x)
+
+
+def test_the_reported_gap_is_the_same_for_a_float_and_an_array():
+    """A negative x - z is a zero gap, and a penetration from GAP_ROUNDING on; a float and an
+    array give the same values, -0.0, infinities and NaN included."""
+    gaps = [0.3, 0.0, -0.0, -0.5 * GAP_ROUNDING, -GAP_ROUNDING, -2e-3, math.inf, -math.inf,
+            math.nan]
+    gap, penetration = reported_gap(np.array(gaps))
+    for k, x in enumerate(gaps):
+        g, p = reported_gap(x)
+        assert (math.copysign(1.0, gap[k]), math.copysign(1.0, penetration[k])) == \
+            (math.copysign(1.0, g), math.copysign(1.0, p)), x
+        assert (gap[k], penetration[k]) == (g, p) or math.isnan(x)
+    assert gap.tolist()[:6] == [0.3, 0.0, -0.0, 0.0, 0.0, 0.0]
+    assert penetration.tolist()[:6] == [0.0, 0.0, 0.0, 0.0, GAP_ROUNDING, 2e-3]
+    assert math.isnan(gap[-1]) and penetration[-1] == 0.0

@@ -58,8 +58,12 @@ def reported_gap(gap):
     reported as a zero gap, and as a penetration beyond the rounding of contact
     (``GAP_ROUNDING``)."""
     if isinstance(gap, np.ndarray):
-        return (np.where(gap < 0.0, 0.0, gap),
-                np.where(gap <= -GAP_ROUNDING, -gap, 0.0))
+        reported = gap.copy()
+        reported[gap < 0.0] = 0.0
+        penetration = np.zeros_like(gap)
+        inside = gap <= -GAP_ROUNDING  # (rare: a mask, not a full array of -gap)
+        penetration[inside] = -gap[inside]
+        return reported, penetration
     if gap < 0.0:
         return 0.0, (-gap if gap <= -GAP_ROUNDING else 0.0)
     return gap, 0.0
