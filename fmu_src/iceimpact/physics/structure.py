@@ -76,28 +76,33 @@ def _decay_pair(arg: float) -> tuple[float, float]:
     return 1.0 + decay_m1, decay_m1
 
 
+def under_increment(t, neg_sigma, omega, y0, p, q, v0):
+    """``(y(t) - y0, y'(t))`` of the under-damped free response (eq. 9-10) with the constants
+    of :meth:`Oscillator.under_constants`: y = y0 C + p S, v = v0 C - q S, with C - 1 and S
+    each without cancellation. A function over plain floats: the flights' closed form
+    (:func:`under_response`) and the compiled flight search and march call it."""
+    # _decay_pair(neg_sigma * t), written out: evaluated several times per impact
+    arg = neg_sigma * t
+    if arg < -0.7:
+        decay = exp(arg)
+        decay_m1 = decay - 1.0
+    else:
+        decay_m1 = expm1(arg)
+        decay = 1.0 + decay_m1
+    wt = omega * t
+    cos_wt = cos(wt)
+    half = sin(0.5 * wt)
+    s = decay * sin(wt) / omega
+    return y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s, v0 * (decay * cos_wt) - q * s
+
+
 def under_response(neg_sigma: float, omega: float, y0: float, p: float, q: float,
                    v0: float) -> Callable[[float], tuple[float, float]]:
     """The under-damped free response ``t -> (y(t) - y0, y'(t))`` with the constants of
-    :meth:`Oscillator.under_constants` (eq. 9-10): y = y0 C + p S, v = v0 C - q S."""
+    :meth:`Oscillator.under_constants` (eq. 9-10): :func:`under_increment`."""
     def under(t: float, neg_sigma=neg_sigma, omega=omega, y0=y0, p=p, q=q,
               v0=v0) -> tuple[float, float]:
-        # _decay_pair(neg_sigma * t), written out: the free structure's form, evaluated
-        # several times per impact (and again, operation for operation, in
-        # solvers/search/flight_search.py's _motion, on under_constants)
-        arg = neg_sigma * t
-        if arg < -0.7:
-            decay = exp(arg)
-            decay_m1 = decay - 1.0
-        else:
-            decay_m1 = expm1(arg)
-            decay = 1.0 + decay_m1
-        wt = omega * t
-        cos_wt = cos(wt)
-        half = sin(0.5 * wt)
-        s = decay * sin(wt) / omega
-        return (y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s,
-                v0 * (decay * cos_wt) - q * s)
+        return under_increment(t, neg_sigma, omega, y0, p, q, v0)
     return under
 
 
@@ -110,11 +115,68 @@ def under_constants(offset: float, sigma: float, omega: float, omega2: float, x0
     return (-sigma, omega, y0, v0 + sigma * y0, omega2 * y0 + sigma * v0, v0)
 
 
+#: The forms of a free response's increment (:func:`under_increment`, :func:`aperiodic_increment`):
+#: the regime, and for an over-damped one whether it is written on its two exponents (well
+#: over-damped, wo > sigma / 2)
+FORM_UNDER, FORM_CRITICAL, FORM_OVER, FORM_MODES = 0, 1, 2, 3
+
+
+def response_constants(form: int, offset: float, sigma: float, omega: float, omega2: float,
+                       s_slow: float, s_fast: float, x0: float, v0: float) -> tuple[float, ...]:
+    """The eight constants of the free response's increment from the anchor (x0, v0) in
+    ``form``, as :func:`under_increment` (the first six) and :func:`aperiodic_increment` take
+    them: ``(-sigma, omega, y0, p, q, v0, s1,
+    s2)`` with y0 = x0 - offset, p = v0 + sigma y0, q = omega^2 y0 + sigma v0 (the basis
+    functions' form: :func:`under_constants`' six and the over-damped exponents), or, well
+    over-damped, ``(A, B, s1, s2, A s1, B s2, v0, 0)`` (:meth:`Oscillator.modes`). A function
+    over plain floats, which the compiled march of the exact method calls too."""
+    y0 = x0 - offset
+    if form == FORM_MODES:
+        gap = s_slow - s_fast
+        a = (v0 - s_fast * y0) / gap
+        b = (s_slow * y0 - v0) / gap
+        return (a, b, s_slow, s_fast, a * s_slow, b * s_fast, v0, 0.0)
+    return (-sigma, omega, y0, v0 + sigma * y0, omega2 * y0 + sigma * v0, v0, s_slow, s_fast)
+
+
+def aperiodic_increment(t, form, c0, c1, c2, c3, c4, c5, c6, c7):
+    """``(y(t) - y0, y'(t))`` of a critically or over-damped free response (``form``
+    FORM_CRITICAL, FORM_OVER or FORM_MODES) on the constants of :func:`response_constants`: the
+    closed forms :meth:`Oscillator.deviation_increment` returns for these regimes, over plain
+    floats (the compiled flight search and march call it too). The under-damped form is
+    :func:`under_increment`."""
+    if form == FORM_MODES:  # y = A e^{s1 t} + B e^{s2 t}: see Oscillator.modes
+        fast_t = c3 * t
+        slow_m1, fast_m1 = expm1(c2 * t), expm1(fast_t)
+        if fast_t > MODE_VELOCITY_SWITCH:  # v0 plus its increments
+            return c0 * slow_m1 + c1 * fast_m1, c6 + (c4 * slow_m1 + c5 * fast_m1)
+        return c0 * slow_m1 + c1 * fast_m1, c4 * exp(c2 * t) + c5 * exp(fast_t)
+    y0, p, q, v0 = c2, c3, c4, c5
+    if form == FORM_CRITICAL:
+        decay, decay_m1 = _decay_pair(c0 * t)
+        s = t * decay
+        return y0 * decay_m1 + p * s, v0 * decay - q * s
+    wt = c1 * t
+    if wt < 1.0:  # small wo t: sinh/wo without cancellation
+        decay, decay_m1 = _decay_pair(c0 * t)
+        cosh_wt = cosh(wt)
+        half = sinh(0.5 * wt)
+        c = decay * cosh_wt
+        cm1 = decay_m1 * cosh_wt + 2.0 * half * half
+        s = decay * sinh(wt) / c1
+    else:
+        slow, fast = exp(c6 * t), exp(c7 * t)
+        c = 0.5 * (slow + fast)
+        cm1 = c - 1.0
+        s = 0.5 * (slow - fast) / c1
+    return y0 * cm1 + p * s, v0 * c - q * s
+
+
 class Oscillator:
     """Linear damped oscillator ``mass y'' + damping y' + stiffness (x - offset) = 0``."""
 
     __slots__ = ("mass", "damping", "stiffness", "offset", "sigma", "omega2", "regime", "omega",
-                 "_s_fast", "_s_slow", "search_constants")
+                 "_s_fast", "_s_slow", "form", "search_constants")
 
     def __init__(self, mass: float, damping: float, stiffness: float, offset: float = 0.0):
         self.mass = mass
@@ -136,10 +198,13 @@ class Oscillator:
         # over-damped exponents: slow root -wn^2/(sigma+wo) (no cancellation) and fast root
         self._s_slow = -self.omega2 / (self.sigma + self.omega) if self.regime == OVER else 0.0
         self._s_fast = -(self.sigma + self.omega)
-        #: under-damped: (offset, mass, damping, stiffness, omega2) as the compiled flight
-        #: search (solvers/search/flight_search.py) takes them, else None (it does not apply)
-        self.search_constants = ((offset, mass, damping, stiffness, self.omega2)
-                                 if self.regime == UNDER else None)
+        #: the form of its free response's increment (:data:`FORM_UNDER` ...)
+        self.form = (FORM_UNDER if self.regime == UNDER else FORM_CRITICAL
+                     if self.regime == CRITICAL else FORM_MODES if self.two_modes else FORM_OVER)
+        #: (offset, mass, damping, stiffness, omega2, sigma, s1, s2, form) as the compiled
+        #: flight search (solvers/search/flight_search.py) takes them
+        self.search_constants = (offset, mass, damping, stiffness, self.omega2, self.sigma,
+                                 self._s_slow, self._s_fast, self.form)
 
     # basis -----------------------------------------------------------------------------------
     def basis(self, t: float) -> tuple[float, float]:
@@ -239,57 +304,27 @@ class Oscillator:
         search (solvers/search/flight_search.py) takes them in this order."""
         return under_constants(self.offset, self.sigma, self.omega, self.omega2, x0, v0)
 
+    def response_constants(self, x0: float, v0: float) -> tuple[float, ...]:
+        """The eight constants of the free response from the anchor (x0, v0) in its form
+        (:func:`response_constants`), as the compiled flight search takes them."""
+        return response_constants(self.form, self.offset, self.sigma, self.omega, self.omega2,
+                                  self._s_slow, self._s_fast, x0, v0)
+
     def deviation_increment(self, y0: float, v0: float) -> Callable[[float], tuple[float, float]]:
         """:meth:`increment` from the deviation y0 = x0 - offset itself: ``t -> (y(t) - y0,
         y'(t))``. Any free response given by its value and rate serves (the linear sticking
         phase follows its contact force's part ``-b y' - M y''`` so, without the offset)."""
-        regime, omega = self.regime, self.omega
-        if regime == OVER and omega > 0.5 * self.sigma:
-            slow, fast = self._s_slow, self._s_fast
-            a, b = self.modes(y0, v0)
-            a_rate, b_rate = a * slow, b * fast
+        if self.regime == UNDER:
+            sigma = self.sigma  # (y = y0 C + p S, v = v0 C - q S)
+            return under_response(-sigma, self.omega, y0, v0 + sigma * y0,
+                                  self.omega2 * y0 + sigma * v0, v0)
+        form = self.form
+        constants = response_constants(form, 0.0, self.sigma, self.omega, self.omega2,
+                                       self._s_slow, self._s_fast, y0, v0)
 
-            def over_modes(t: float, a=a, b=b, slow=slow, fast=fast, a_rate=a_rate,
-                           b_rate=b_rate, v0=v0) -> tuple[float, float]:
-                fast_t = fast * t
-                slow_m1, fast_m1 = expm1(slow * t), expm1(fast_t)
-                if fast_t > MODE_VELOCITY_SWITCH:  # v0 plus its increments (see modes)
-                    return a * slow_m1 + b * fast_m1, v0 + (a_rate * slow_m1 + b_rate * fast_m1)
-                return (a * slow_m1 + b * fast_m1,
-                        a_rate * exp(slow * t) + b_rate * exp(fast_t))
-            return over_modes
-
-        neg_sigma = -self.sigma
-        p = v0 + self.sigma * y0                   # y = y0 C + p S
-        q = self.omega2 * y0 + self.sigma * v0     # v = v0 C - q S
-        if regime == UNDER:
-            return under_response(neg_sigma, omega, y0, p, q, v0)
-
-        if regime == CRITICAL:
-            def critical(t: float, neg_sigma=neg_sigma, y0=y0, p=p, q=q,
-                         v0=v0) -> tuple[float, float]:
-                decay, decay_m1 = _decay_pair(neg_sigma * t)
-                s = t * decay
-                return y0 * decay_m1 + p * s, v0 * decay - q * s
-            return critical
-
-        def over(t: float, neg_sigma=neg_sigma, omega=omega, s_slow=self._s_slow,
-                 s_fast=self._s_fast, y0=y0, p=p, q=q, v0=v0) -> tuple[float, float]:
-            wt = omega * t
-            if wt < 1.0:  # small wo t: sinh/wo without cancellation
-                decay, decay_m1 = _decay_pair(neg_sigma * t)
-                cosh_wt = cosh(wt)
-                half = sinh(0.5 * wt)
-                c = decay * cosh_wt
-                cm1 = decay_m1 * cosh_wt + 2.0 * half * half
-                s = decay * sinh(wt) / omega
-            else:
-                slow, fast = exp(s_slow * t), exp(s_fast * t)
-                c = 0.5 * (slow + fast)
-                cm1 = c - 1.0
-                s = 0.5 * (slow - fast) / omega
-            return y0 * cm1 + p * s, v0 * c - q * s
-        return over
+        def aperiodic(t: float, form=form, constants=constants) -> tuple[float, float]:
+            return aperiodic_increment(t, form, *constants)
+        return aperiodic
 
     def modes(self, y0, v0):
         """(A, B) of the well over-damped response ``y = A e^{s1 t} + B e^{s2 t}`` from (y0, v0)

@@ -42,6 +42,11 @@ SCENES = {
     "quadratic_A2": ({"drag_model": 2, "ice_A": 2.0}, 60.0),
     "quadratic_heavy_floe": ({"drag_model": 2, "ice_M": 6400.0, "flow_u": 2.0}, 60.0),
     "quadratic_e_half": ({"drag_model": 2, "impact_e": 0.5}, 100.0),
+    # every damping regime of the structure (critical: 4 k m = c^2 exactly; over-damped on its
+    # basis functions, zeta = 1.1, and on its two exponents, zeta = 3)
+    "critical": ({"structure_c": 80000.0}, 60.0),
+    "over_damped": ({"structure_c": 88000.0}, 60.0),
+    "well_over_damped": ({"structure_c": 240000.0, "drag_model": 2}, 60.0),
 }
 
 
@@ -98,39 +103,55 @@ def test_the_closed_forms_on_their_constants_are_the_physics(x0, v0, w0, u, t):
 
 @settings(max_examples=300, deadline=None)
 @given(x0=st.floats(-1.0, 1.0), v0=st.floats(-10.0, 10.0), dz=st.floats(1e-9, 2.0),
-       w0=st.floats(-5.0, 5.0), u=st.floats(-3.0, 3.0), c=st.sampled_from([0.0, 3000.0]),
+       w0=st.floats(-5.0, 5.0), u=st.floats(-3.0, 3.0),
+       c=st.sampled_from([0.0, 3000.0, 80000.0, 88000.0, 240000.0]),
        model=st.sampled_from([1, 2]), t=st.floats(0.0, 50.0))
 def test_the_functions_pieces_are_the_flights(x0, v0, dz, w0, u, c, model, t):
     """The function's written-out pieces give the Flight's own values to the bit, for both
-    drag laws: the motion (the physics' closed forms), the ice's acceleration bounds and the
-    clearance with the ice upstream of the structure's rest position (z < offset; NaN only where
-    the function hands the step back: an undamped structure's drift clearance)."""
-    from iceimpact.physics.structure import under_response
+    drag laws and every damping regime (undamped, under-damped, critical, over-damped on its
+    basis functions and on its two exponents): the motion (the physics' closed forms), the
+    amplitude bounds, the ice's acceleration bounds and the clearance with the ice upstream of
+    the structure's rest position (z < offset; NaN only where the function hands the step back:
+    an undamped structure's drift clearance)."""
+    from iceimpact.physics.structure import FORM_OVER
     scene = Scene(drag_model=model, structure_c=c, ice_A=2.0)
     solver = Simulator(scene).solver
     offset = solver.osc.offset
     flight = Flight(solver, 0.0, offset + x0, v0, offset - dz, w0, u)
     osc, drag = flight.osc, flight.drag
-    xc, zc = osc.under_constants(offset + x0, v0), drag.flight_constants(w0, u)
+    xc, zc = osc.response_constants(offset + x0, v0), drag.flight_constants(w0, u)
     coef, quadratic = drag.law_constants
-    dx, v, dzt, w = flight_search._motion(t, *xc, *zc, quadratic)
-    assert (dx, v) == under_response(*xc)(t) and (dzt, w) == drag.increment(w0, u)(t)
+    dx, v, dzt, w = flight_search._motion(t, osc.form, xc, *zc, quadratic)
+    assert (dx, v) == osc.increment(offset + x0, v0)(t) and (dzt, w) == drag.increment(w0, u)(t)
     assert flight_search._ice_accel(w0, u, coef, quadratic) == drag.accel_bounds(w0, u)
+    over = int(osc.form >= FORM_OVER)
+    s_slow, s_fast = osc.exponents
+    a, j, s = osc.derivatives(offset + x0, v0)
+    _, a_bound, j_bound = osc.bounds(offset + x0, v0)
+    if over:  # (the energy form of the others is written out in flight_root)
+        for (y, ydot), want in (((a, j), a_bound), ((j, s), j_bound)):
+            got = flight_search._amplitude(y, ydot, osc.omega2, over, s_slow, s_fast)
+            # NaN: math.hypot's scales, where the function hands the step to RootSearch
+            assert got == want or (got != got and not 1e-140 < math.sqrt(
+                y * y + ydot * ydot / osc.omega2) < 1e140)
     cleared = flight_search._clearance(offset + x0, v0, offset - dz, w0, offset, osc.omega2,
-                                       xc[0], u, coef, quadratic)
+                                       osc.sigma, over, s_slow, s_fast, u, coef, quadratic)
     if cleared == cleared:
         assert cleared == flight.clearance(0.0)
     else:  # an undamped structure, or an amplitude bound at the scales of math.hypot's form
         assert c == 0.0 or not 1e-140 < math.hypot(x0, v0 / math.sqrt(osc.omega2)) < 1e140
 
 
-@pytest.mark.parametrize("name", ["figure2", "heavy_floe", "damped", "quadratic_A2"])
-def test_the_function_makes_nearly_every_search(name, pure_function):
-    """The clearance with the ice upstream, the quadratic drag and a bracket's last float are
-    the function's own: of some hundreds of flights at most two hand a step to RootSearch."""
+@pytest.mark.parametrize("name, roots", [
+    ("figure2", 100), ("heavy_floe", 100), ("damped", 100), ("quadratic_A2", 100),
+    ("critical", 40), ("over_damped", 40), ("well_over_damped", 15)])  # (then sticking)
+def test_the_function_makes_nearly_every_search(name, roots, pure_function):
+    """The clearance with the ice upstream, the quadratic drag, the over-damped amplitude
+    bounds and a bracket's last float are the function's own: of its flights at most two hand
+    a step to RootSearch."""
     fields, t_end = SCENES[name]
     run(Scene(**fields), t_end, dt=1e-2)
-    assert pure_function.outcomes[ROOT] > 100
+    assert pure_function.outcomes[ROOT] > roots
     assert pure_function.outcomes[GENERIC] <= 2
 
 

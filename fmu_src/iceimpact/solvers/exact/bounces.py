@@ -1,8 +1,8 @@
 """The exact method's march of bounces, compiled: flight after flight, impact after impact, in one
 call, with no Python call per impact.
 
-Most of a run of the exact method (method 1) is bounces: a flight (structure on its under-damped
-closed form, eq. 9-10; ice on its drag law, eq. 6-7 or 31-33) ends in an impact (eq. 16-17)
+Most of a run of the exact method (method 1) is bounces: a flight (structure on its closed form in
+its damping regime, eq. 9-10; ice on its drag law, eq. 6-7 or 31-33) ends in an impact (eq. 16-17)
 after which the bodies part, and the next flight starts at the contact. :func:`bounce_march`
 makes those steps on plain floats: the flight's root search (:func:`~iceimpact.solvers.search.
 flight_search.flight_root`), the contact rules' decisions (:func:`~iceimpact.solvers.
@@ -36,7 +36,7 @@ import numpy as np
 from ...compiled import compile_or_none, entry_point, jit
 from ...physics.contact import contact_force, impact, impact_impulse
 from ...physics.ice import linear_flight_constants, quadratic_flight_constants
-from ...physics.structure import under_constants
+from ...physics.structure import response_constants
 from ..contact_rules import bounce_closure, rounding_closing
 from ..search import flight_search
 from ..search.flight_search import GENERIC, ROOT, _ice_accel, _motion, flight_root
@@ -64,8 +64,9 @@ N_INTS = 12
 # on), the flow speed, the ice's drag law, the contact rules'.
 (P_OFFSET, P_MASS, P_DAMPING, P_STIFFNESS, P_OMEGA2, P_SIGMA, P_OMEGA, P_U, P_COEF,
  P_QUADRATIC, P_m, P_M, P_MU, P_OMEGA_N, P_E, P_CHATTER, P_FOLLOW_ZENO, P_BUDGET,
- P_TIME_RESOLUTION, P_GAP_RELATIVE, P_GAP_ABSOLUTE, P_MAX_IMPACTS) = range(22)
-N_PARAMS = 22
+ P_TIME_RESOLUTION, P_GAP_RELATIVE, P_GAP_ABSOLUTE, P_MAX_IMPACTS, P_S_SLOW, P_S_FAST,
+ P_FORM) = range(25)
+N_PARAMS = 25
 
 #: The outcomes: the flight reaches the end with no event before it; its next event is
 #: Python's to take; an impact ended the march (stop_at_event); the records are full (the
@@ -99,13 +100,13 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
     time_resolution = P[P_TIME_RESOLUTION]
     gap_relative, gap_absolute = P[P_GAP_RELATIVE], P[P_GAP_ABSOLUTE]
     max_impacts = int(P[P_MAX_IMPACTS])
+    s_slow, s_fast, form = P[P_S_SLOW], P[P_S_FAST], int(P[P_FORM])
     n = N[N_TIMES]
     while True:
         t0, x0, v0, z0, w0 = F[T0], F[X0], F[V0], F[Z0], F[W0]
         horizon = (times[n - 1] if n > 0 else F[T_END]) - t0
         # the flight's constants (Flight.kernel_constants' order)
-        neg_sigma, omega_c, y0, p, q, v0_c = under_constants(offset, sigma, omega, omega2, x0,
-                                                             v0)
+        sk = response_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0)
         if quadratic:
             rate, w0_c, r0 = quadratic_flight_constants(coef, w0, u)
         else:
@@ -114,8 +115,9 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
             (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
              w) = flight_root(horizon, F[A], N[ITERATIONS], N[CREEP], F[PROBED_AT], F[PF],
                               F[PDF], F[PD2], F[PBOUND], F[PJERK], F[TIME_EPS], x0 - z0, x0, z0,
-                              offset, mass, damping, stiffness, omega2, neg_sigma, omega_c, y0,
-                              p, q, v0_c, rate, w0_c, r0, u, coef, quadratic)
+                              offset, mass, damping, stiffness, omega2, sigma, s_slow, s_fast,
+                              form, sk[0], sk[1], sk[2], sk[3], sk[4], sk[5], sk[6], sk[7],
+                              rate, w0_c, r0, u, coef, quadratic)
             if a != a or (outcome == ROOT and root != root):
                 N[STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
                 return
@@ -178,8 +180,7 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
         if n > 0:
             for k in range(N[SAMPLE], j):  # the flight's samples (Flight.state_array: its
                 # ice increment is 0.0 + dz, the same float as dz but for the sign of a zero)
-                dx, v_k, dz, w_k = _motion(times[k] - t0, neg_sigma, omega_c, y0, p, q, v0_c,
-                                           rate, w0_c, r0, quadratic)
+                dx, v_k, dz, w_k = _motion(times[k] - t0, form, sk, rate, w0_c, r0, quadratic)
                 xs[k], vs[k], zs[k], ws[k] = x0 + dx, v_k, z0 + (0.0 + dz), w_k
             k = N[N_TARGETS]
             targets[k], values[k] = j, 0.0 + impulse
@@ -206,7 +207,7 @@ def _compile(numba: Any) -> Any:
     f8, i8 = numba.float64, numba.int64
     callees = flight_search.compiled_callees(numba)
     scalars = {
-        "under_constants": jit(numba, (f8,) * 6, under_constants),
+        "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants),
         "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
         "quadratic_flight_constants": jit(numba, (f8,) * 3, quadratic_flight_constants),
         "rounding_closing": jit(numba, (f8,) * 6, rounding_closing),
@@ -261,8 +262,8 @@ class BounceMarch:
 
     def takes(self, seg: Any) -> bool:
         """The kernel can go on from this segment: a flight whose search is the compiled one's
-        (an under-damped structure without the quadratic Morison drag), not handed to
-        RootSearch, and no Zeno tail running."""
+        (the built-in structure, in any damping regime, without the quadratic Morison drag), not
+        handed to RootSearch, and no Zeno tail running."""
         return (type(seg) is Flight and seg.kernel_constants is not None
                 and not seg.search.handed_back and self.solver.zeno_end is None)
 
@@ -281,7 +282,8 @@ class BounceMarch:
                      osc.omega, seg.u, coef, float(quadratic), rules.m, rules.M, rules.mu,
                      rules.omega_n, e, rules.chatter_time, float(rules.follow_zeno),
                      rules.budget_bounce(e), rules.time_resolution, relative, absolute,
-                     float(solver.scene.solver_max_impacts))
+                     float(solver.scene.solver_max_impacts), osc._s_slow, osc._s_fast,
+                     float(osc.form))
 
     def _load(self, seg: Any) -> None:
         """The flight ``seg`` and its search into F and N."""

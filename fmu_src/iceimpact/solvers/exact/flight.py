@@ -65,21 +65,21 @@ class Flight(_SearchedSegment):
         # the anchor itself: no increments, the anchor's velocities (the search starts there)
         self._last: tuple[float, float, float, float, float] = (0.0, 0.0, v0, 0.0, w0)
         # each body's closed form from the anchor, its constants computed once. The common
-        # flight (an under-damped Oscillator, not a structure from outside or under the
-        # quadratic Morison drag) has its search in one function (flight_search), which
+        # flight (an Oscillator, not a structure from outside or under the quadratic Morison
+        # drag) has its search in one function (flight_search), which
         # evaluates the same closed forms on the same constants.
         # The Python closed forms of such a flight are built only when Python evaluates it
         # (most flights are searched and ended by the compiled function alone).
-        if self._ONE_FUNCTION and type(osc) is Oscillator and osc.search_constants is not None:
+        if self._ONE_FUNCTION and type(osc) is Oscillator:
             self.kernel_constants = (x0 - z0, x0, z0, *osc.search_constants,
-                                     *osc.under_constants(x0, v0), *drag.flight_constants(w0, u),
-                                     u, *drag.law_constants)
+                                     *osc.response_constants(x0, v0),
+                                     *drag.flight_constants(w0, u), u, *drag.law_constants)
             self._x_motion = None
             self.search = FlightSearch(start, time_eps)
         else:
             # (the under-damped form from its constants: osc.increment's, two calls fewer)
             self._x_motion = (under_response(*osc.under_constants(x0, v0))
-                              if type(osc) is Oscillator and osc.search_constants is not None
+                              if type(osc) is Oscillator and osc.regime == UNDER
                               else osc.increment(x0, v0))
             self._z_motion = drag.response(*drag.flight_constants(w0, u))
             self.kernel_constants = None
@@ -100,7 +100,9 @@ class Flight(_SearchedSegment):
         yet built: Python evaluates its motion (a state between events, a step handed back;
         every evaluation of the motion asks)."""
         if self._x_motion is None:
-            self._x_motion = under_response(*self.osc.under_constants(self.x0, self.v0))
+            osc = self.osc
+            self._x_motion = (under_response(*osc.under_constants(self.x0, self.v0))
+                              if osc.regime == UNDER else osc.increment(self.x0, self.v0))
             self._z_motion = self.drag.response(*self.drag.flight_constants(self.w0, self.u))
 
     def _motion(self, tau: float) -> tuple[float, float, float, float, float]:

@@ -1,6 +1,7 @@
 """The root search of a flight's gap in one function: :class:`~.rootfind.RootSearch`'s common
-steps, specialised to an under-damped structure (eq. 9-10) and the ice under either drag law
-(eq. 6-7, 31-33), compiled by numba when it is installed (the ``fast`` extra).
+steps, specialised to the free structure in every damping regime (eq. 9-10 and the critically
+and over-damped forms) and the ice under either drag law (eq. 6-7, 31-33), compiled by numba when
+it is installed (the ``fast`` extra).
 
 A flight of Figure 2 spends most of its time in its root search: two probes of the gap and its
 bounds, a Taylor stretch, a monotone stretch and one or two Newton points, some 80 calls of small
@@ -9,14 +10,15 @@ and bounds written out, so that it compiles as one function; the solver calls it
 it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.exact`).
 
 Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
-(``Oscillator.deviation_increment``'s under-damped form, the drag laws' ``increment`` and
-``accel_bounds``, ``bounds``, ``Flight.probe``, ``gap_and_rate``, ``clearance``), operation for
-operation, with RootSearch's constants, so the points it visits and the root it returns are
-RootSearch's to the bit (tests/solvers/search/test_flight_search.py checks both against each
-other, and the runs with and without numba). Where a step leaves the common path (a probe
-to rescale, the drift clearance of an undamped structure, a degenerate or tangent start, a
-crossing at the frontier by rounding) it returns the frontier as it was before that step, and
-RootSearch makes that step and the rest of the search.
+(``Oscillator.deviation_increment``'s forms, ``aperiodic_increment``, the drag laws'
+``increment`` and ``accel_bounds``, ``bounds`` and ``amplitude_bound``, ``Flight.probe``,
+``gap_and_rate``, ``clearance``), operation for operation, with RootSearch's constants, so the
+points it visits and the root it returns are RootSearch's to the bit
+(tests/solvers/search/test_flight_search.py checks both against each other, and the runs with
+and without numba). Where a step leaves the common path (a probe to rescale, an amplitude bound
+at the scales of its ``math.hypot`` form, the drift clearance of an undamped structure, a
+degenerate or tangent start, a crossing at the frontier by rounding) it returns the frontier as
+it was before that step, and RootSearch makes that step and the rest of the search.
 
 numba compiles it without ``fastmath`` (no contraction of a product and a sum into one fused
 operation, no reordering), and its ``math`` functions call the same C library as CPython's, so the
@@ -29,11 +31,19 @@ results are the same either way.
 from __future__ import annotations
 
 import math
-from math import cos, exp, expm1, log1p, nextafter, sin, sqrt
+from math import expm1, log1p, nextafter, sqrt
 from typing import Any
 
 from ...compiled import compile_or_none, entry_point, jit
 from ...limits import TIME_RESOLUTION
+from ...physics.structure import (
+    FORM_MODES,
+    FORM_OVER,
+    FORM_UNDER,
+    _decay_pair,
+    aperiodic_increment,
+    under_increment,
+)
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
 from .rootfind import (
     _SUM_NEAR_1_LOW,
@@ -52,23 +62,16 @@ from .rootfind import (
 PASSED, ROOT, GENERIC = 0, 1, 2
 
 
-def _motion(t, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic):
-    """(x - x0, v, z - z0, w) at t: ``Oscillator.deviation_increment``'s under-damped form and
-    the ice's increment (``LinearDrag.increment``, rate kappa, or ``QuadraticDrag.increment``,
-    rate beta |r0|), written out."""
-    arg = neg_sigma * t
-    if arg < -0.7:
-        decay = exp(arg)
-        decay_m1 = decay - 1.0
+def _motion(t, form, k, rate, w0, r0, quadratic):
+    """(x - x0, v, z - z0, w) at t: the structure's free response in its form on the
+    constants k of ``response_constants`` (``Oscillator.deviation_increment``'s:
+    ``under_increment`` or ``aperiodic_increment``) and the ice's
+    increment (``LinearDrag.increment``, rate kappa, or ``QuadraticDrag.increment``, rate
+    beta |r0|), written out."""
+    if form == FORM_UNDER:
+        dx, v = under_increment(t, k[0], k[1], k[2], k[3], k[4], k[5])
     else:
-        decay_m1 = expm1(arg)
-        decay = 1.0 + decay_m1
-    wt = omega * t
-    cos_wt = cos(wt)
-    half = sin(0.5 * wt)
-    s = decay * sin(wt) / omega
-    dx = y0 * (decay_m1 * cos_wt - 2.0 * half * half) + p * s
-    v = v0 * (decay * cos_wt) - q * s
+        dx, v = aperiodic_increment(t, form, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7])
     x = rate * t
     if quadratic:
         if x < 1e-3:  # series, truncation ~ y^6 / 7
@@ -97,13 +100,26 @@ def _ice_accel(w, u, coef, quadratic):
     return a, size, coef * size
 
 
-def _clearance(x, v, z, w, offset, omega2, neg_sigma, u, coef, quadratic):
+def _amplitude(y, ydot, omega2, over, s_slow, s_fast):
+    """``Oscillator.amplitude_bound``, written out: the energy bound, and over-damped (``over``
+    1, exponents s1, s2) the smaller of it and |A| + |B|; NaN where its ``math.hypot`` form
+    would be asked (RootSearch's)."""
+    energy = sqrt(y * y + ydot * ydot / omega2)
+    if not 1e-140 < energy < 1e140 and not (y == 0.0 and ydot == 0.0):
+        return math.nan
+    if not over:
+        return energy
+    modes = (abs(ydot - s_fast * y) + abs(s_slow * y - ydot)) / (s_slow - s_fast)
+    return min(energy, modes * (1.0 + 1e-15))
+
+
+def _clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u, coef, quadratic):
     """``Flight.clearance`` at a point where the ice is upstream of the structure's rest
-    position (z < offset), written out for an under-damped oscillator; NaN where the drift
-    clearance or a hypot-scaled amplitude bound would be asked (RootSearch's)."""
-    y = x - offset
-    reach = sqrt(y * y + v * v / omega2)  # Oscillator.amplitude_bound
-    if not 1e-140 < reach < 1e140 and not (y == 0.0 and v == 0.0):
+    position (z < offset), written out for the oscillator (damping rate sigma; ``over`` and the
+    exponents s1, s2 as :func:`_amplitude` takes them); NaN where the drift clearance or a
+    hypot-scaled amplitude bound would be asked (RootSearch's)."""
+    reach = _amplitude(x - offset, v, omega2, over, s_slow, s_fast)
+    if reach != reach:
         return math.nan  # (its math.hypot form: RootSearch's)
     lowest = offset - reach - z
     rounding = GAP_ULPS * (abs(x) + abs(z) + reach + abs(offset))
@@ -120,7 +136,7 @@ def _clearance(x, v, z, w, offset, omega2, neg_sigma, u, coef, quadratic):
             if speed == 0.0:
                 return math.inf
             return _accel_clearance(w, 0.0, u, coef, quadratic, omega2)
-        if neg_sigma == 0.0:
+        if sigma == 0.0:
             return math.nan  # (undamped: Flight._drift_clearance may prove periods)
         return 0.0
     if speed == 0.0:
@@ -147,8 +163,7 @@ def _accel_clearance(w, margin, u, coef, quadratic, omega2):
     return root
 
 
-def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, neg_sigma, omega, y0, p, q, v0, rate, w0,
-               r0, quadratic):
+def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, form, k, rate, w0, r0, quadratic):
     """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t, f'(t) = df_t, the
     motion there ``motion``), its bracket [lo, hi] (f(lo) >= 0 > f(hi)). Returns the root, and
     the last point evaluated with its motion (the state at the root when it is that point)."""
@@ -162,8 +177,7 @@ def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, neg_sigma, omega, y0, p, q, v
                     return t, at, motion
                 after = nextafter(t, math.inf)
                 if after < hi:
-                    at, motion = after, _motion(after, neg_sigma, omega, y0, p, q, v0, rate, w0,
-                                                r0, quadratic)
+                    at, motion = after, _motion(after, form, k, rate, w0, r0, quadratic)
                     if gap0 + (motion[0] - motion[2]) <= 0.0:
                         return after, at, motion
                     lo = after
@@ -173,7 +187,7 @@ def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, neg_sigma, omega, y0, p, q, v
         if converged or not lo < nxt < hi:
             return (t if converged else nxt), at, motion
         t = at = nxt
-        motion = _motion(t, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+        motion = _motion(t, form, k, rate, w0, r0, quadratic)
         dx, v, dz, w = motion
         f_t, df_t = gap0 + (dx - dz), v - w
         if f_t < 0.0:
@@ -186,12 +200,14 @@ def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, neg_sigma, omega, y0, p, q, v
 
 
 def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
-                time_eps, gap0, x0, z0, offset, mass, damping, stiffness, omega2,
-                neg_sigma, omega, y0, p, q, v0, rate, w0, r0, u, coef, quadratic):
+                time_eps, gap0, x0, z0, offset, mass, damping, stiffness, omega2, sigma,
+                s_slow, s_fast, form, c0, c1, c2, c3, c4, c5, c6, c7, rate, w0, r0, u, coef,
+                quadratic):
     """RootSearch's steps from the frontier a (its probe there, if taken: ``probed_at`` and
     the five values) while a <= horizon, for the gap of a flight: structure from (x0, v0) on the
-    under-damped oscillator (mass, damping, stiffness, offset; its increment's constants
-    neg_sigma, omega, y0, p, q, v0), ice from velocity w0 under its drag law (``quadratic`` 0:
+    oscillator (mass, damping, stiffness, offset, omega2, sigma and the over-damped exponents
+    s1, s2: ``Oscillator.search_constants``), its free response in ``form`` on the constants
+    c0..c7 (``response_constants``), ice from velocity w0 under its drag law (``quadratic`` 0:
     the linear drag, coef = rate = kappa; 1: the quadratic drag, coef = beta, rate = beta |r0|;
     r0 = w0 - u), gap0 = x0 - z0.
 
@@ -202,11 +218,13 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
     The closed forms are evaluated where :class:`~iceimpact.solvers.exact.Flight` evaluates
     them, no more: the last point evaluated and its motion are kept (``at``, ``motion``), first
     the anchor (no increments, the anchor's velocities), as Flight keeps its last point."""
-    at, motion = 0.0, (0.0, v0, 0.0, w0)
+    k = (c0, c1, c2, c3, c4, c5, c6, c7)
+    over = 1 if form >= FORM_OVER else 0
+    at, motion = 0.0, (0.0, c6 if form == FORM_MODES else c5, 0.0, w0)
     outcome = PASSED
     while a <= horizon:
         if a != at:  # (the anchor, a sign test's end and a Newton point are kept)
-            at, motion = a, _motion(a, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+            at, motion = a, _motion(a, form, k, rate, w0, r0, quadratic)
         dx, v, dz, w = motion
         if a == probed_at:
             f, df, d2, bound, jerk = pf, pdf, pd2, pbound, pjerk
@@ -219,8 +237,14 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             f = gap0 + (dx - dz)
             df = v - w
             d2 = a_x - a_z
-            bound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
-            jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
+            if over:  # (Oscillator.bounds: the amplitude bound, NaN at hypot's scales)
+                bound = _amplitude(a_x, j_x, omega2, over, s_slow, s_fast) + size
+                jerk = _amplitude(j_x, s_x, omega2, over, s_slow, s_fast) + j_z
+                if bound != bound or jerk != jerk:
+                    break  # (RootSearch's probe)
+            else:
+                bound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
+                jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
         if f < 0.0 or (f == 0.0 and df < 0.0):
             return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                     dx, v, dz, w)
@@ -236,8 +260,8 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         disc = sqrt(df * df + 2.0 * bound * f)
         h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
         if not z0 + dz >= offset:  # Flight.clearance (0 with the ice at or past x = offset)
-            cleared = _clearance(x0 + dx, v, z0 + dz, w, offset, omega2, neg_sigma, u, coef,
-                                 quadratic)
+            cleared = _clearance(x0 + dx, v, z0 + dz, w, offset, omega2, sigma, over, s_slow,
+                                 s_fast, u, coef, quadratic)
             if cleared != cleared:
                 break  # (a clearance RootSearch's Flight computes)
             if cleared > h_free:
@@ -281,15 +305,13 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                         if step <= ROOT_XTOL + ROOT_RTOL * (t if t >= 0.0 else -t):
                             found = t
                             break
-                        at, motion = nxt, _motion(nxt, neg_sigma, omega, y0, p, q, v0, rate,
-                                                  w0, r0, quadratic)
+                        at, motion = nxt, _motion(nxt, form, k, rate, w0, r0, quadratic)
                         dx, v, dz, w = motion
                         f_n = gap0 + (dx - dz)
                         df_n = v - w
                         if f_n < 0.0:
                             found, at, motion = _bracketed(t, nxt, nxt, f_n, df_n, motion, gap0,
-                                                           neg_sigma, omega, y0, p, q, v0, rate,
-                                                           w0, r0, quadratic)
+                                                           form, k, rate, w0, r0, quadratic)
                             stalled = found != found
                             break
                         if f_n == 0.0:
@@ -300,7 +322,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                     if stalled:
                         break  # (a NaN from the bracket: RootSearch makes the step)
                     if found != found:  # no root in the descent: the sign test at b decides
-                        at, motion = b, _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+                        at, motion = b, _motion(b, form, k, rate, w0, r0,
                                                 quadratic)
                         dx, v, dz, w = motion
                         f_b = gap0 + (dx - dz)
@@ -311,12 +333,11 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                             continue
                         # exactly one crossing in (t, b)
                         found, at, motion = _bracketed(t, b, b, f_b, v - w, motion, gap0,
-                                                       neg_sigma, omega, y0, p, q, v0, rate, w0,
-                                                       r0, quadratic)
+                                                       form, k, rate, w0, r0, quadratic)
                         if found != found:
                             break  # (RootSearch's, as a NaN from the bracket above)
                     if found != at:  # (the state at the root: the last point evaluated, or anew)
-                        motion = _motion(found, neg_sigma, omega, y0, p, q, v0, rate, w0, r0,
+                        motion = _motion(found, form, k, rate, w0, r0,
                                          quadratic)
                     dx, v, dz, w = motion
                     return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
@@ -328,7 +349,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             break  # (a tangent or degenerate start: RootSearch's creep)
         b = a + h_free
         # the sign test at b by the full probe, which the next step starts from
-        at, motion = b, _motion(b, neg_sigma, omega, y0, p, q, v0, rate, w0, r0, quadratic)
+        at, motion = b, _motion(b, form, k, rate, w0, r0, quadratic)
         dx, v, dz, w = motion
         f_b = gap0 + (dx - dz)
         if f_b < 0.0:
@@ -337,10 +358,17 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         j_x = -(damping * a_x + stiffness * v) / mass
         s_x = -(damping * j_x + stiffness * a_x) / mass
         a_z, size, j_z = _ice_accel(w, u, coef, quadratic)
+        if over:
+            bound_b = _amplitude(a_x, j_x, omega2, over, s_slow, s_fast) + size
+            jerk_b = _amplitude(j_x, s_x, omega2, over, s_slow, s_fast) + j_z
+            if bound_b != bound_b or jerk_b != jerk_b:
+                break  # (RootSearch's probe at b)
+        else:
+            bound_b = sqrt(a_x * a_x + j_x * j_x / omega2) + size
+            jerk_b = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
         a = probed_at = b
         pf, pdf, pd2 = f_b, v - w, a_x - a_z
-        pbound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
-        pjerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
+        pbound, pjerk = bound_b, jerk_b
         iterations += 1
         creep = 0
         outcome = PASSED
@@ -356,16 +384,23 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
     once (a compiled caller, such as the exact method's march of bounces, calls them)."""
     if not _DISPATCHERS:
         f8, i8 = numba.float64, numba.int64
-        motion = jit(numba, (f8,) * 10 + (i8,), _motion)
+        k8 = numba.types.UniTuple(f8, 8)
+        decay_pair = jit(numba, (f8,), _decay_pair)
+        aperiodic = jit(numba, (f8, i8) + (f8,) * 8, aperiodic_increment, _decay_pair=decay_pair)
+        under = jit(numba, (f8,) * 7, under_increment)
+        motion = jit(numba, (f8, i8, k8, f8, f8, f8, i8), _motion,
+                     aperiodic_increment=aperiodic, under_increment=under)
         ice_accel = jit(numba, (f8, f8, f8, i8), _ice_accel)
         accel_clearance = jit(numba, (f8, f8, f8, f8, i8, f8), _accel_clearance,
                               _ice_accel=ice_accel)
-        clearance = jit(numba, (f8,) * 9 + (i8,), _clearance, _accel_clearance=accel_clearance)
-        bracketed = jit(numba, (f8,) * 5 + (numba.types.UniTuple(f8, 4),) + (f8,) * 10 + (i8,),
-                        _bracketed, _motion=motion)
-        root = jit(numba, (f8, f8, i8, i8) + (f8,) * 26 + (i8,), flight_root,
-                   _motion=motion, _ice_accel=ice_accel, _clearance=clearance,
-                   _bracketed=bracketed)
+        amplitude = jit(numba, (f8, f8, f8, i8, f8, f8), _amplitude)
+        clearance = jit(numba, (f8,) * 7 + (i8,) + (f8,) * 4 + (i8,), _clearance,
+                        _accel_clearance=accel_clearance, _amplitude=amplitude)
+        bracketed = jit(numba, (f8,) * 5 + (numba.types.UniTuple(f8, 4), f8, i8, k8, f8, f8, f8,
+                                              i8), _bracketed, _motion=motion)
+        root = jit(numba, (f8, f8, i8, i8) + (f8,) * 18 + (i8,) + (f8,) * 13 + (i8,),
+                   flight_root, _motion=motion, _ice_accel=ice_accel, _clearance=clearance,
+                   _bracketed=bracketed, _amplitude=amplitude)
         _DISPATCHERS.update(flight_root=root, _ice_accel=ice_accel, _motion=motion)
     return _DISPATCHERS
 
@@ -388,7 +423,8 @@ _UNPROBED = (math.nan,) * 5
 
 
 class FlightSearch(RootSearch):
-    """The root search of a flight's gap (structure under-damped, ice under either drag law):
+    """The root search of a flight's gap (the free structure in any damping regime, the ice
+    under either drag law):
     RootSearch, whose common steps :func:`flight_root` makes. The signal is the
     :class:`~iceimpact.solvers.exact.Flight` itself (its anchor, its oscillator and the
     constants of its closed forms)."""
@@ -417,10 +453,10 @@ class FlightSearch(RootSearch):
             return None
         if self.handed_back:
             return RootSearch.next_root_of(self, horizon, signal)
-        # the flight's constants (Flight.kernel_constants): gap0, x0, z0, the oscillator
-        # (offset, mass, damping, stiffness, omega2), its closed form's (neg_sigma, omega, y0,
-        # p, q, v0: Oscillator.under_constants), the ice's (rate, w0, r0: the drag's
-        # flight_constants), u, the drag law (coefficient, quadratic: its law_constants)
+        # the flight's constants (Flight.kernel_constants): gap0, x0, z0, the oscillator's
+        # (Oscillator.search_constants), its free response's (response_constants), the ice's
+        # (rate, w0, r0: the drag's flight_constants), u, the drag law (coefficient,
+        # quadratic: its law_constants)
         (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
          w) = self.kernel(horizon, self.a, self.iterations, self.creep, self._probed_at,
                           *(self._probed or _UNPROBED), self.time_eps, *signal.kernel_constants)
