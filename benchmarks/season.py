@@ -12,6 +12,12 @@ actually got). Each configuration runs once (a season is minutes); the results m
 between worker counts and between the two cores. From the simulated hours a 1,000-hour season's
 time on the same workers is estimated. Prints a table and writes JSON.
 
+Each process runs the season as ``iceimpact loads`` does: where the core has
+``iceimpact.sweep.backends.keep_freed_memory`` (the pool's workers and the command line call
+it), it is called first (``keeps_freed_memory`` in the JSON); a core without it runs with the C
+library's defaults. To compare the cores with malloc tuned for both, set
+``MALLOC_TRIM_THRESHOLD_`` and ``MALLOC_MMAP_THRESHOLD_`` in the environment.
+
     python benchmarks/season.py                       # 150 runs of 600 s, workers 1 and 2
     python benchmarks/season.py --base f7f01da        # and the same with that commit's core
     python benchmarks/season.py --workers 2 --t-end 60 --out /tmp/season.json   # quick look
@@ -73,6 +79,10 @@ def cpu():
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 cases, t_end, transient, life, workers = sys.argv[1], *map(float, sys.argv[2:5]), int(sys.argv[5])
+# as the command line (iceimpact loads) runs a season, where the core has it
+from iceimpact.sweep import backends
+keep = getattr(backends, "keep_freed_memory", None)
+kept = bool(keep()) if keep is not None else False
 table = load_cases(cases, t_end=t_end, transient=transient)
 c0, t0 = cpu(), time.perf_counter()
 rows, summary = run_season(table, life, workers=workers, progress=False)
@@ -80,7 +90,7 @@ wall, used = time.perf_counter() - t0, cpu() - c0
 strip = json.dumps([{k: v for k, v in r.items() if k != "wall_s"} for r in rows])
 run_walls = sorted(r["wall_s"] for r in rows)
 digest = hashlib.sha256(strip.encode()).hexdigest()
-print(json.dumps({"wall_s": wall, "cpu_s": used, "digest": digest,
+print(json.dumps({"wall_s": wall, "cpu_s": used, "digest": digest, "keeps_freed_memory": kept,
                   "runs": table.n_runs, "cases": len(table.cases), "t_end_s": table.t_end,
                   "dt_s": table.dt, "repetitions": table.cases[0].repetitions,
                   "sum_run_wall_s": sum(run_walls), "longest_run_s": run_walls[-1],

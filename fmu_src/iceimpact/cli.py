@@ -349,8 +349,9 @@ def _resumable(parser: argparse.ArgumentParser, table: Any,
     (None, the exit status); a SweepError is an argument error (exit status 2)."""
     from concurrent.futures.process import BrokenProcessPool
 
-    from .sweep import SweepError
+    from .sweep import SweepError, backends
 
+    backends.keep_freed_memory()  # (this process runs many scenes, the serial ones)
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         return run(), None

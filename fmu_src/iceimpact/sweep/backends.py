@@ -31,6 +31,11 @@ MAX_CHUNK = 8
 WATCHDOG_PERIOD = 0.25
 
 _PR_SET_PDEATHSIG = 1
+#: glibc's mallopt parameters (malloc.h) and the values :func:`keep_freed_memory` sets: arrays up
+#: to 32 MB (glibc's largest mmap threshold) from malloc's heap, and freed heap memory kept
+#: until 1 GB of it lies free at its top
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_MMAP_THRESHOLD, _TRIM_THRESHOLD = 32 * 1024 * 1024, 1024 * 1024 * 1024
 
 
 def chunks(todo: Sequence[int], points: Sequence[tuple[Any, ...]], workers: int,
@@ -47,6 +52,29 @@ def chunks(todo: Sequence[int], points: Sequence[tuple[Any, ...]], workers: int,
 def serial(tasks: Sequence[Task]) -> Iterator[list[dict[str, Any]]]:
     for task in tasks:
         yield run_chunk(task)
+
+
+def keep_freed_memory() -> bool:
+    """Have glibc's malloc keep the memory this process frees for its next allocations, instead
+    of giving it back to the kernel: arrays of up to 32 MB come from its heap, and the heap is
+    not trimmed. A run allocates its output arrays afresh (a 600-s run sampled at 2 ms, some
+    forty arrays of 2.4 MB), and every page given back and asked for again is a page fault:
+    about a third of a season's CPU time without this (``benchmarks/season.py``,
+    docs/explanation/speed.md). The process then keeps its peak memory until it ends, so this
+    is for processes that run many scenes: the pool's workers and the command line's sweeps
+    and seasons call it, and a script of many runs can. Returns whether it applied (False
+    where the C library is not glibc)."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        mallopt = libc.mallopt
+        libc.gnu_get_libc_version  # noqa: B018 (glibc's: musl's mallopt does nothing)
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
+    return bool(mallopt(_M_MMAP_THRESHOLD, _MMAP_THRESHOLD)
+                and mallopt(_M_TRIM_THRESHOLD, _TRIM_THRESHOLD))
 
 
 def _set_parent_death_signal() -> bool:
@@ -74,6 +102,7 @@ def init_worker(parent_pid: int) -> None:
     with its parent (see the module docstring); ``parent_pid`` is the sweep's process."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    keep_freed_memory()  # (a worker runs many scenes, and ends with the sweep)
     ppid = os.getppid()
     if ppid == parent_pid and _set_parent_death_signal():
         if os.getppid() != parent_pid:  # the parent died before the request took effect
