@@ -9,6 +9,8 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from ...errors import SolverError
 from ...limits import TIME_RESOLUTION
 from ...physics.ice import downstream_speed_bound
@@ -22,8 +24,8 @@ from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
 from ..contact_rules import Phase
 from ..search.flight_search import FlightSearch
 from ..search.rootfind import RootSearch
-from ..search.taylor import StickingTaylor, TaylorStep
-from .segment import MARCHED, _floats, _SearchedSegment
+from ..search.taylor import StickingTaylor, TaylorStep, states_of_steps
+from .segment import STEPPED, _floats, _SearchedSegment
 
 if TYPE_CHECKING:
     from .solver import EventSolver
@@ -343,7 +345,7 @@ class DraggedFlight(Flight):
 
     FRONTIER_ONLY = False  # its Taylor steps are added while marching
     _ONE_FUNCTION = False  # (its motion is integrated)
-    SAMPLING = MARCHED     # no closed form: stepped to each sample
+    SAMPLING = STEPPED     # its Taylor steps' polynomials at all its samples (states_at)
     clearance = None       # no closed-form envelope of the structure's motion (RootSearch's
                            # signal takes None for "none")
 
@@ -401,6 +403,24 @@ class DraggedFlight(Flight):
         while len(self.steps) > 1 and self.steps[0].hi < tau:
             self.steps.pop(0)
         return self.x0 + dx, v, self.z0 + dz, w
+
+    def states_at(self, tau: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Vectorised :meth:`state` at the times tau (s from the anchor, increasing, up to the
+        next event at most): x, v, z, w, the same floats. The structure's Taylor steps up to the
+        last time are made as :meth:`_structure` makes them, and evaluated at all the times at
+        once (:func:`~iceimpact.solvers.search.taylor.states_of_steps`); the ice's closed form
+        is its scalar one at each."""
+        x0 = self.x0
+        dx, v = np.zeros(tau.size), np.full(tau.size, self.v0)  # (tau <= 0: the anchor)
+        later = tau > 0.0
+        if later.any():
+            times = tau[later]
+            self._structure(float(times[-1]))  # (the steps up to it)
+            y = states_of_steps(self.steps, times)
+            dx[later], v[later] = y[:, 0] - x0, y[:, 1]
+        z_motion = self._z_motion
+        dz, w = np.array([z_motion(t) for t in tau.tolist()]).reshape(-1, 2).T
+        return x0 + dx, v, self.z0 + dz, w
 
     def gap(self, tau: float) -> float:
         dx, _ = self._structure(tau)

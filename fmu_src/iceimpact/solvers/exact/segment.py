@@ -38,8 +38,8 @@ class _SearchedSegment:
     Its ``anchor``, ``state_array``, ``impulse_array`` and ``PUSHES`` let
     :meth:`EventSolver.sample` evaluate all the samples in segments of one kind at once; any
     segment kind that gives them joins that vectorised pass (a segment of Taylor steps gives
-    ``states_at`` and ``impulses_between`` instead, evaluated per segment), the others are
-    sampled step by step."""
+    ``states_at``, and in contact ``impulses_between``, instead, evaluated per segment), the
+    others are sampled step by step."""
 
     __slots__ = ()
     ANCHOR: tuple[str, ...] = ()

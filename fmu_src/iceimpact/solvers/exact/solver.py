@@ -282,10 +282,11 @@ class EventSolver(EventMarch):
 
         The march visits the same segments and events; the states at the sample times and the
         contact impulses are then evaluated per kind of segment in one vectorised pass of the
-        closed forms (equal to the scalar ones to rounding). A quadratic-drag sticking phase,
-        which has no closed form, evaluates its Taylor steps' polynomials at all its samples at
-        once (:meth:`QuadraticStick.states_at`, equal to :meth:`QuadraticStick.state` to
-        rounding); a segment with neither is marched sample by sample. Each sample interval
+        closed forms (equal to the scalar ones to rounding). A quadratic-drag sticking phase
+        and a flight under the quadratic Morison drag, which have no closed form, evaluate
+        their Taylor steps' polynomials at all their samples at once
+        (:meth:`QuadraticStick.states_at`, :meth:`DraggedFlight.states_at`, the same floats as
+        their ``state``); a segment with neither is marched sample by sample. Each sample interval
         has its own impact budget (solver.max_impacts), as each step of a Simulator has."""
         try:
             return self._sample(times, u)
@@ -382,16 +383,22 @@ class EventSolver(EventMarch):
         np.add.at(out.impulse, np.array(targets, dtype=np.int64), values_array)
         return out
 
-    def _sample_steps(self, seg: QuadraticStick, times: np.ndarray, i: int, j: int,
+    def _sample_steps(self, seg: Any, times: np.ndarray, i: int, j: int,
                       tau_event: float | None, out: Samples, targets: array,
                       values: array) -> None:
-        """Samples i..j-1 in a sticking phase of Taylor steps, from the current position in it
-        (and its end at ``tau_event`` before sample j, if it ends): states and the impulse
-        pieces the scalar march adds, in its order, all evaluated at once. The intervals of
+        """Samples i..j-1 in a segment of Taylor steps, from the current position in it (and
+        its end at ``tau_event`` before sample j, if it ends): states and, in a sticking phase,
+        the impulse pieces the scalar march adds, in its order, all evaluated at once (a
+        flight has no contact force: no pieces). The intervals of
         samples i+1..j-1 lie within the phase: each has its one piece, ``0.0 + piece`` as the
         sum of the march's pieces gives it, written to ``out.impulse`` at once; sample i's and
         j's go to ``targets`` and ``values`` (their intervals have other pieces too)."""
         tau = times[i:j] - seg.t0
+        if seg.phase is Phase.FLIGHT:  # a flight in Taylor steps (DraggedFlight): no contact
+            # force, so each interval's impulse is 0.0 but for its events' (the loop adds them)
+            if j > i:
+                out.x[i:j], out.v[i:j], out.z[i:j], out.w[i:j] = seg.states_at(tau)
+            return
         ends = tau if tau_event is None else np.append(tau, tau_event)
         tau_all = np.concatenate(([self.tau], ends))
         y = seg.states_at(tau_all)

@@ -5,7 +5,7 @@ in closed form (:class:`LinearStick`, cf. eq. 27-29) or the quadratic drag by Ta
 from __future__ import annotations
 
 import math
-from bisect import bisect_left, bisect_right
+from bisect import bisect_left
 from collections.abc import Callable
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
@@ -39,9 +39,7 @@ if TYPE_CHECKING:
 _NO_STATE = (math.nan, math.nan, math.nan)
 #: Taylor steps in a row that do not advance the time before a sticking phase is given up.
 _MAX_STALLED_STEPS = 4
-#: a Taylor step's start, the key its segment's list of steps is ordered by
-_step_lo = attrgetter("lo")
-#: and its end: the steps' ends increase too
+#: a Taylor step's end, the key its segment's list of steps is ordered by (as by its start)
 _step_hi = attrgetter("hi")
 
 #: At most this many Taylor steps of a quadratic-drag sticking phase are saved in a snapshot
@@ -441,15 +439,9 @@ class QuadraticStick:
         """Vectorised :meth:`_y`: rows (x, v, P) at the times tau (s from the anchor,
         increasing, within the steps reached: :meth:`next_event` was asked up to the last one),
         each in the last step starting at or before it, as :meth:`_y` picks it; all evaluated
-        at once (:func:`~iceimpact.solvers.search.taylor.states_of_steps`, over the steps
-        from the one holding tau[0] to the one holding tau[-1]), the same floats as
+        at once (:func:`~iceimpact.solvers.search.taylor.states_of_steps`), the same floats as
         :meth:`_y`'s."""
-        steps = self.steps
-        if tau.size == 0:
-            return np.empty((0, 3))
-        first = max(bisect_right(steps, tau[0], key=_step_lo) - 1, 0)
-        last = max(bisect_right(steps, tau[-1], key=_step_lo), first + 1)
-        return states_of_steps(steps[first:last], tau)
+        return states_of_steps(self.steps, tau)
 
     def impulses_between(self, tau: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Vectorised :meth:`impulse` over the pieces tau[k]..tau[k+1], from the states ``y``

@@ -60,7 +60,9 @@ from __future__ import annotations
 
 import enum
 import math
+from bisect import bisect_right
 from math import fsum as _fsum
+from operator import attrgetter
 
 import numpy as np
 from scipy.optimize import brentq
@@ -479,6 +481,8 @@ class TaylorStep:
         return [horner(x, theta), horner(v, theta), horner(p, theta)]
 
 
+#: a step's start, the key a list of steps is ordered by
+_step_lo = attrgetter("lo")
 #: Samples evaluated together by :func:`states_of_steps` (their temporaries stay in cache)
 SAMPLE_CHUNK = 2048
 
@@ -493,6 +497,9 @@ def states_of_steps(steps: list[TaylorStep], tau: np.ndarray) -> np.ndarray:
     out = np.empty((tau.size, 3))
     if tau.size == 0:
         return out
+    # the steps from the one holding tau[0] to the one holding tau[-1]
+    first = max(bisect_right(steps, float(tau[0]), key=_step_lo) - 1, 0)
+    steps = steps[first:max(bisect_right(steps, float(tau[-1]), key=_step_lo), first + 1)]
     if KERNELS is not None:
         KERNELS.step_states(np.array([s.lo for s in steps]), np.array([s.hi for s in steps]),
                             np.array([s.h for s in steps]), np.stack([s.table for s in steps]),
