@@ -240,3 +240,20 @@ def test_older_entries_of_a_kernel_are_pruned(tmp_path):
     left = sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("mod.kernel-"))
     assert left == [f"mod.kernel-{i:024d}" for i in range(2, 10)]
     assert len([p for p in tmp_path.iterdir() if p.name.startswith("mod.kernel_two-")]) == 10
+
+
+def test_every_kernel_compiles_where_numba_is():
+    """Where numba is installed (and ICEIMPACT_PURE unset) every module's kernels compile: a
+    kernel numba refuses falls back to the pure path with only a warning, and its tests of
+    compiled against pure would be skipped, not failed."""
+    from iceimpact.compiled import numba_or_none
+    if numba_or_none() is None:
+        pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
+    from iceimpact.physics import elementwise
+    from iceimpact.solvers.exact import bounces
+    from iceimpact.solvers.search import flight_search, taylor
+    from iceimpact.studies import loads
+    compiled = {"bounces": bounces.COMPILED, "flight_search": flight_search.COMPILED,
+                "taylor": taylor.KERNELS, "elementwise": elementwise._COMPILED,
+                "loads": loads._COUNT}
+    assert [name for name, kernel in compiled.items() if kernel is None] == []

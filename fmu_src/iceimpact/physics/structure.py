@@ -136,7 +136,8 @@ def response_constants(form: int, offset: float, sigma: float, omega: float, ome
         a = (v0 - s_fast * y0) / gap
         b = (s_slow * y0 - v0) / gap
         return (a, b, s_slow, s_fast, a * s_slow, b * s_fast, v0, 0.0)
-    return (-sigma, omega, y0, v0 + sigma * y0, omega2 * y0 + sigma * v0, v0, s_slow, s_fast)
+    neg_sigma, omega, y0, p, q, v0 = under_constants(offset, sigma, omega, omega2, x0, v0)
+    return (neg_sigma, omega, y0, p, q, v0, s_slow, s_fast)
 
 
 def aperiodic_increment(t, form, c0, c1, c2, c3, c4, c5, c6, c7):
@@ -314,10 +315,9 @@ class Oscillator:
         """:meth:`increment` from the deviation y0 = x0 - offset itself: ``t -> (y(t) - y0,
         y'(t))``. Any free response given by its value and rate serves (the linear sticking
         phase follows its contact force's part ``-b y' - M y''`` so, without the offset)."""
-        if self.regime == UNDER:
-            sigma = self.sigma  # (y = y0 C + p S, v = v0 C - q S)
-            return under_response(-sigma, self.omega, y0, v0 + sigma * y0,
-                                  self.omega2 * y0 + sigma * v0, v0)
+        if self.regime == UNDER:  # (y0 - 0.0 is y0, a zero's sign included)
+            return under_response(*under_constants(0.0, self.sigma, self.omega, self.omega2,
+                                                   y0, v0))
         form = self.form
         constants = response_constants(form, 0.0, self.sigma, self.omega, self.omega2,
                                        self._s_slow, self._s_fast, y0, v0)

@@ -36,7 +36,7 @@ import numpy as np
 from ...compiled import compile_or_none, entry_point, jit
 from ...physics.contact import contact_force, impact, impact_impulse
 from ...physics.ice import linear_flight_constants, quadratic_flight_constants
-from ...physics.structure import response_constants
+from ...physics.structure import response_constants, under_constants
 from ..contact_rules import bounce_closure, rounding_closing
 from ..search import flight_search
 from ..search.flight_search import GENERIC, ROOT, _ice_accel, _motion, flight_root
@@ -207,7 +207,8 @@ def _compile(numba: Any) -> Any:
     f8, i8 = numba.float64, numba.int64
     callees = flight_search.compiled_callees(numba)
     scalars = {
-        "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants),
+        "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants,
+                                  under_constants=jit(numba, (f8,) * 6, under_constants)),
         "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
         "quadratic_flight_constants": jit(numba, (f8,) * 3, quadratic_flight_constants),
         "rounding_closing": jit(numba, (f8,) * 6, rounding_closing),

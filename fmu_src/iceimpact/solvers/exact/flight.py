@@ -36,6 +36,15 @@ if TYPE_CHECKING:
 DRIFT_PHASE_LIMIT = 2.0 ** 46
 
 
+def _structure_motion(osc: Any, x0: float, v0: float) -> Callable[[float], tuple[float, float]]:
+    """The structure's closed form from the anchor (x0, v0), ``t -> (x - x0, v)``: an
+    under-damped Oscillator's from its constants (``osc.increment``'s, two calls fewer), else
+    ``osc.increment``."""
+    if type(osc) is Oscillator and osc.regime == UNDER:
+        return under_response(*osc.under_constants(x0, v0))
+    return osc.increment(x0, v0)
+
+
 class Flight(_SearchedSegment):
     """Both bodies free: structure on its oscillator, ice on its drag law, from one anchor."""
 
@@ -79,10 +88,7 @@ class Flight(_SearchedSegment):
             self._x_motion = None
             self.search = FlightSearch(start, time_eps)
         else:
-            # (the under-damped form from its constants: osc.increment's, two calls fewer)
-            self._x_motion = (under_response(*osc.under_constants(x0, v0))
-                              if type(osc) is Oscillator and osc.regime == UNDER
-                              else osc.increment(x0, v0))
+            self._x_motion = _structure_motion(osc, x0, v0)
             self._z_motion = drag.response(*drag.flight_constants(w0, u))
             self.kernel_constants = None
             self.search = RootSearch(start, time_eps)
@@ -102,9 +108,7 @@ class Flight(_SearchedSegment):
         yet built: Python evaluates its motion (a state between events, a step handed back;
         every evaluation of the motion asks)."""
         if self._x_motion is None:
-            osc = self.osc
-            self._x_motion = (under_response(*osc.under_constants(self.x0, self.v0))
-                              if osc.regime == UNDER else osc.increment(self.x0, self.v0))
+            self._x_motion = _structure_motion(self.osc, self.x0, self.v0)
             self._z_motion = self.drag.response(*self.drag.flight_constants(self.w0, self.u))
 
     def _motion(self, tau: float) -> tuple[float, float, float, float, float]:

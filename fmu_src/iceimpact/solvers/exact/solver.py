@@ -387,12 +387,12 @@ class EventSolver(EventMarch):
                       tau_event: float | None, out: Samples, targets: array,
                       values: array) -> None:
         """Samples i..j-1 in a segment of Taylor steps, from the current position in it (and
-        its end at ``tau_event`` before sample j, if it ends): states and, in a sticking phase,
-        the impulse pieces the scalar march adds, in its order, all evaluated at once (a
-        flight has no contact force: no pieces). The intervals of
-        samples i+1..j-1 lie within the phase: each has its one piece, ``0.0 + piece`` as the
-        sum of the march's pieces gives it, written to ``out.impulse`` at once; sample i's and
-        j's go to ``targets`` and ``values`` (their intervals have other pieces too)."""
+        its end at ``tau_event`` before sample j, if it ends), all evaluated at once: the
+        states and, in a sticking phase, the impulse pieces the scalar march adds, in its order
+        (a flight has no contact force: no pieces). The intervals of samples i+1..j-1 lie
+        within the phase: each has its one piece, ``0.0 + piece`` as the sum of the march's
+        pieces gives it, written to ``out.impulse`` at once; sample i's and j's go to
+        ``targets`` and ``values`` (their intervals have other pieces too)."""
         tau = times[i:j] - seg.t0
         if seg.phase is Phase.FLIGHT:  # a flight in Taylor steps (DraggedFlight): no contact
             # force, so each interval's impulse is 0.0 but for its events' (the loop adds them)
