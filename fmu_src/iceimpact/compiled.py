@@ -67,13 +67,21 @@ def numba_or_none() -> Any:
     return numba
 
 
+def rebound(function: Callable, **callees: Any) -> Callable:
+    """A copy of ``function`` whose calls of the names in ``callees`` call those instead (its
+    module's names keep theirs): one source run on other functions, as :func:`jit` compiles
+    it."""
+    copy = types.FunctionType(function.__code__, {**function.__globals__, **callees},
+                              function.__name__)
+    copy.__qualname__ = function.__qualname__
+    return copy
+
+
 def jit(numba: Any, signature: Any, function: Callable, **callees: Any) -> Any:
     """``function`` compiled for its one signature (at once, its machine code cached in
     :func:`cache_root` for later imports), the functions it calls by the names in ``callees``
     replaced by their compiled forms (the module's names keep the pure ones)."""
-    copy = types.FunctionType(function.__code__, {**function.__globals__, **callees},
-                              function.__name__)
-    copy.__qualname__ = function.__qualname__
+    copy = rebound(function, **callees)
     key = cache_key(numba, copy, signature)
     setattr(copy, _KEY, key)
     dispatcher = numba.njit(**_OPTIONS)(copy)

@@ -481,6 +481,32 @@ def morison_oscillator(mass: float, damping: float, stiffness: float, drag_b: fl
     return Oscillator(mass, damping + drag_b, stiffness, offset=drag_b * u / stiffness)
 
 
+def dragged_acceleration(x: float, v: float, u: float, mass: float, damping: float,
+                         stiffness: float, drag_B: float) -> float:
+    """The acceleration (m/s^2) of the structure under the quadratic Morison drag
+    (:class:`DraggedStructure`) at state (x, v) in a flow of speed u: ``(F_s - damping v -
+    stiffness x) / mass``, F_s the drag law's force on velocity v, ``-B_s |v - u| (v - u)``
+    (``QuadraticDrag.force``). Plain floats: the compiled flight search calls it too."""
+    r = v - u
+    force = -drag_B * abs(r) * r
+    return (force - damping * v - stiffness * x) / mass
+
+
+def dragged_bounds(x: float, v: float, u: float, mass: float, damping: float,
+                   stiffness: float, omega2: float,
+                   drag_B: float) -> tuple[float, float, float]:
+    """(acceleration, bound on its magnitude, bound on the jerk's) for all later times from
+    state (x, v) of the structure under the quadratic Morison drag, omega2 = stiffness / mass:
+    the bounds :class:`DraggedStructure` derives. Plain floats: the compiled flight search
+    calls it too."""
+    a = dragged_acceleration(x, v, u, mass, damping, stiffness, drag_B)
+    accel_max = math.sqrt(a * a + omega2 * v * v)
+    speed_max = math.sqrt(v * v + a * a / omega2)
+    drag_rate_max = 2.0 * drag_B * (abs(u) + speed_max)  # |dF_s/dv|, kg/s
+    jerk_max = ((damping + drag_rate_max) * accel_max + stiffness * speed_max) / mass
+    return a, accel_max, jerk_max
+
+
 class DraggedStructure:
     """The structure under the quadratic Morison drag (docs/explanation/morison.md), which has no
     closed form:
@@ -503,15 +529,12 @@ class DraggedStructure:
         self.omega2 = stiffness / mass
 
     def acceleration(self, x: float, v: float, u: float) -> float:
-        """x'' from the equation of motion, m/s^2."""
-        return (self.drag.force(v, u) - self.damping * v - self.stiffness * x) / self.mass
+        """x'' from the equation of motion, m/s^2 (:func:`dragged_acceleration`)."""
+        return dragged_acceleration(x, v, u, self.mass, self.damping, self.stiffness,
+                                    self.drag.B)
 
     def bounds(self, x: float, v: float, u: float) -> tuple[float, float, float]:
-        """(x'', bound on |x''|, bound on |x'''|) for all later times from state (x, v)."""
-        a = self.acceleration(x, v, u)
-        accel_max = math.sqrt(a * a + self.omega2 * v * v)
-        speed_max = math.sqrt(v * v + a * a / self.omega2)
-        drag_rate_max = 2.0 * self.drag.B * (abs(u) + speed_max)  # |dF_s/dv|, kg/s
-        jerk_max = ((self.damping + drag_rate_max) * accel_max
-                    + self.stiffness * speed_max) / self.mass
-        return a, accel_max, jerk_max
+        """(x'', bound on |x''|, bound on |x'''|) for all later times from state (x, v)
+        (:func:`dragged_bounds`)."""
+        return dragged_bounds(x, v, u, self.mass, self.damping, self.stiffness, self.omega2,
+                              self.drag.B)

@@ -121,14 +121,19 @@ def test_the_functions_pieces_are_the_flights(x0, v0, dz, w0, u, c, model, t):
     osc, drag = flight.osc, flight.drag
     xc, zc = osc.response_constants(offset + x0, v0), drag.flight_constants(w0, u)
     coef, quadratic = drag.law_constants
-    dx, v, dzt, w = flight_search._motion(t, osc.form, xc, *zc, quadratic)
+    dx, v, dzt, w = flight_search._motion(t, osc.form, xc, *zc, quadratic, 0)
     assert (dx, v) == osc.increment(offset + x0, v0)(t) and (dzt, w) == drag.increment(w0, u)(t)
     assert flight_search._ice_accel(w0, u, coef, quadratic) == drag.accel_bounds(w0, u)
     over = int(osc.form >= FORM_OVER)
     s_slow, s_fast = osc.exponents
     a, j, s = osc.derivatives(offset + x0, v0)
     _, a_bound, j_bound = osc.bounds(offset + x0, v0)
-    if over:  # (the energy form of the others is written out in flight_root)
+    probed = flight_search._structure_probe(offset + x0, v0, offset, osc.mass, osc.damping,
+                                            osc.stiffness, osc.omega2, over, s_slow, s_fast, u,
+                                            0)
+    # (NaN: math.hypot's scales of the over-damped bounds, below)
+    assert probed == osc.bounds(offset + x0, v0) or (over and math.isnan(sum(probed[1:])))
+    if over:
         for (y, ydot), want in (((a, j), a_bound), ((j, s), j_bound)):
             got = flight_search._amplitude(y, ydot, osc.omega2, over, s_slow, s_fast)
             # NaN: math.hypot's scales, where the function hands the step to RootSearch

@@ -33,14 +33,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...compiled import compile_or_none, entry_point, jit
+from ...compiled import compile_or_none, entry_point, jit, rebound
 from ...physics.contact import contact_force, impact, impact_impulse
 from ...physics.ice import linear_flight_constants, quadratic_flight_constants
 from ...physics.structure import response_constants, under_constants
 from ..contact_rules import bounce_closure, rounding_closing
-from ..search import flight_search
-from ..search.flight_search import GENERIC, ROOT, _ice_accel, _motion, flight_root
-from .flight import Flight
+from ..search import dragged, flight_search, taylor
+from ..search.flight_search import GENERIC, ROOT, _bracketed, _ice_accel, _motion, flight_root
+from ..search.taylor import HandBack
+from .flight import DraggedFlight, Flight
 from .sampling import first_sample_after
 from .segment import _time_eps
 
@@ -65,8 +66,8 @@ N_INTS = 12
 (P_OFFSET, P_MASS, P_DAMPING, P_STIFFNESS, P_OMEGA2, P_SIGMA, P_OMEGA, P_U, P_COEF,
  P_QUADRATIC, P_m, P_M, P_MU, P_OMEGA_N, P_E, P_CHATTER, P_FOLLOW_ZENO, P_BUDGET,
  P_TIME_RESOLUTION, P_GAP_RELATIVE, P_GAP_ABSOLUTE, P_MAX_IMPACTS, P_S_SLOW, P_S_FAST,
- P_FORM) = range(25)
-N_PARAMS = 25
+ P_FORM, P_MAX_STEP) = range(26)
+N_PARAMS = 26
 
 #: The outcomes: the flight reaches the end with no event before it; its next event is
 #: Python's to take; an impact ended the march (stop_at_event); the records are full (the
@@ -80,7 +81,29 @@ NO_LIMIT = 2 ** 62
 CAPACITY = 1024
 
 
-def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
+def _flight_sample(tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, integrated):
+    """A flight's state (x, v, z, w) at the sample tau (s from its anchor): the flight
+    search's closed forms, the floats of ``Flight.state_array`` (its ice increment is
+    0.0 + dz, the same float as dz but for the sign of a zero)."""
+    dx, v, dz, w = _motion(tau, form, k, rate, w0_c, r0, quadratic, integrated)
+    return x0 + dx, v, z0 + (0.0 + dz), w
+
+
+def _structure_accel(x, v, offset, mass, damping, stiffness, u, integrated):
+    """The structure's acceleration at (x, v): ``Oscillator.acceleration``."""
+    return -(damping * v + stiffness * (x - offset)) / mass
+
+
+def _new_flight(integrated, x0, v0):
+    """A flight starts from (x0, v0): nothing to reset for a closed form."""
+
+
+def _failed(integrated):
+    """Whether the structure's motion could not be made (never, for a closed form)."""
+    return False
+
+
+def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integrated):
     """March bounces from the flight in F (see the layout above) until something else comes.
 
     A march to ``F[T_END]`` (``N[N_TIMES]`` = 0) adds each impact's impulse to ``F[IMPULSE]``
@@ -90,7 +113,12 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
     (``xs``, ``vs``, ``zs``, ``ws``: the flight search's closed forms, the same floats as the
     sampler's array closed forms, ``Flight.state_array``), per impact its sample and impulse
     (``targets``, ``values``), and runs each sample interval's impact budget. Every impact goes
-    to ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``N[STATUS]`` says why it returned."""
+    to ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``N[STATUS]`` says why it returned.
+
+    ``integrated`` is the structure's Taylor steps where it has no closed form: the march is
+    then compiled with the motion, samples and acceleration of :mod:`~iceimpact.solvers.search.
+    dragged` (its ``_flight_sample``, ``_structure_accel``, ``_new_flight``, ``_failed``) in
+    place of this module's; unused here."""
     offset, mass, damping = P[P_OFFSET], P[P_MASS], P[P_DAMPING]
     stiffness, omega2 = P[P_STIFFNESS], P[P_OMEGA2]
     sigma, omega, u, coef = P[P_SIGMA], P[P_OMEGA], P[P_U], P[P_COEF]
@@ -101,6 +129,7 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
     gap_relative, gap_absolute = P[P_GAP_RELATIVE], P[P_GAP_ABSOLUTE]
     max_impacts = int(P[P_MAX_IMPACTS])
     s_slow, s_fast, form = P[P_S_SLOW], P[P_S_FAST], int(P[P_FORM])
+    max_step = P[P_MAX_STEP]
     n = N[N_TIMES]
     while True:
         t0, x0, v0, z0, w0 = F[T0], F[X0], F[V0], F[Z0], F[W0]
@@ -117,8 +146,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
                               F[PDF], F[PD2], F[PBOUND], F[PJERK], F[TIME_EPS], x0 - z0, x0, z0,
                               offset, mass, damping, stiffness, omega2, sigma, s_slow, s_fast,
                               form, sk[0], sk[1], sk[2], sk[3], sk[4], sk[5], sk[6], sk[7],
-                              rate, w0_c, r0, u, coef, quadratic)
-            if a != a or (outcome == ROOT and root != root):
+                              rate, w0_c, r0, u, coef, quadratic, max_step, integrated)
+            if a != a or (outcome == ROOT and root != root) or _failed(integrated):
                 N[STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
                 return
             F[A], N[ITERATIONS], N[CREEP] = a, iterations, creep
@@ -152,7 +181,7 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
             N[STATUS] = EVENT
             return
         v_plus, w_plus = impact(v, w, m, M, e)
-        a_x = -(damping * v_plus + stiffness * (x - offset)) / mass  # Oscillator.acceleration
+        a_x = _structure_accel(x, v_plus, offset, mass, damping, stiffness, u, integrated)
         lam = contact_force(a_x, _ice_accel(w_plus, u, coef, quadratic)[0], m, M)
         close, _ = bounce_closure(t, x, e, lam, v_plus - w_plus, mu, chatter, follow_zeno,
                                   budget, time_resolution, gap_relative, gap_absolute)
@@ -178,10 +207,10 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
         N[N_IMPACTS] = k + 1
         N[COUNT] += 1
         if n > 0:
-            for k in range(N[SAMPLE], j):  # the flight's samples (Flight.state_array: its
-                # ice increment is 0.0 + dz, the same float as dz but for the sign of a zero)
-                dx, v_k, dz, w_k = _motion(times[k] - t0, form, sk, rate, w0_c, r0, quadratic)
-                xs[k], vs[k], zs[k], ws[k] = x0 + dx, v_k, z0 + (0.0 + dz), w_k
+            for k in range(N[SAMPLE], j):  # the flight's samples
+                xs[k], vs[k], zs[k], ws[k] = _flight_sample(times[k] - t0, x0, v0, z0, w0, form,
+                                                            sk, rate, w0_c, r0, quadratic,
+                                                            integrated)
             k = N[N_TARGETS]
             targets[k], values[k] = j, 0.0 + impulse
             N[N_TARGETS] = k + 1
@@ -192,6 +221,7 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
             F[IMPULSE] = (F[IMPULSE] + 0.0) + (0.0 + impulse)
         # the next flight, from the contact, its search from 0 (Flight, FlightSearch)
         F[T0], F[X0], F[V0], F[Z0], F[W0], F[START] = t, x, v_plus, x, w_plus, 0.0
+        _new_flight(integrated, x, v_plus)
         F[TIME_EPS] = _time_eps(t)
         F[A], F[ROOT_AT] = 0.0, math.nan
         F[PROBED_AT] = F[PF] = F[PDF] = F[PD2] = F[PBOUND] = F[PJERK] = math.nan
@@ -202,28 +232,52 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts):
             return
 
 
+_SCALARS: dict[str, Any] = {}
+
+
+def _scalars(numba: Any) -> dict[str, Any]:
+    """The compiled rules the march calls (either structure's), compiled once."""
+    if not _SCALARS:
+        f8, i8 = numba.float64, numba.int64
+        _SCALARS.update({
+            "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants,
+                                      under_constants=jit(numba, (f8,) * 6, under_constants)),
+            "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
+            "quadratic_flight_constants": jit(numba, (f8,) * 3, quadratic_flight_constants),
+            "rounding_closing": jit(numba, (f8,) * 6, rounding_closing),
+            "impact": jit(numba, (f8,) * 5, impact),
+            "impact_impulse": jit(numba, (f8,) * 3, impact_impulse),
+            "contact_force": jit(numba, (f8,) * 4, contact_force),
+            "bounce_closure": jit(numba, (f8,) * 7 + (numba.boolean,) + (f8,) * 4,
+                                  bounce_closure),
+            "first_sample_after": jit(numba, (f8[::1], i8, f8, f8), first_sample_after),
+            "_time_eps": jit(numba, (f8,), _time_eps),
+        })
+    return _SCALARS
+
+
+def _march_signature(numba: Any, integrated: Any) -> tuple:
+    f8, i8 = numba.float64, numba.int64
+    array1, array2 = f8[::1], f8[:, ::1]
+    return (array1, i8[::1], array1, array1, array1, array1, array1, array1, i8[::1], array1,
+            array2, integrated)
+
+
 def _compile(numba: Any) -> Any:
     """:func:`bounce_march` compiled by numba, on the compiled functions it calls."""
     f8, i8 = numba.float64, numba.int64
     callees = flight_search.compiled_callees(numba)
-    scalars = {
-        "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants,
-                                  under_constants=jit(numba, (f8,) * 6, under_constants)),
-        "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
-        "quadratic_flight_constants": jit(numba, (f8,) * 3, quadratic_flight_constants),
-        "rounding_closing": jit(numba, (f8,) * 6, rounding_closing),
-        "impact": jit(numba, (f8,) * 5, impact),
-        "impact_impulse": jit(numba, (f8,) * 3, impact_impulse),
-        "contact_force": jit(numba, (f8,) * 4, contact_force),
-        "bounce_closure": jit(numba, (f8,) * 7 + (numba.boolean,) + (f8,) * 4, bounce_closure),
-        "first_sample_after": jit(numba, (f8[::1], i8, f8, f8), first_sample_after),
-        "_time_eps": jit(numba, (f8,), _time_eps),
+    k8 = numba.types.UniTuple(f8, 8)
+    march = {
+        "_flight_sample": jit(numba, (f8,) * 5 + (i8, k8, f8, f8, f8, i8, i8), _flight_sample,
+                              _motion=callees["_motion"]),
+        "_structure_accel": jit(numba, (f8,) * 7 + (i8,), _structure_accel),
+        "_new_flight": jit(numba, (i8, f8, f8), _new_flight),
+        "_failed": jit(numba, (i8,), _failed),
     }
-    array1, array2 = f8[::1], f8[:, ::1]
-    kernel = jit(numba, (array1, i8[::1], array1, array1, array1, array1, array1, array1,
-                         i8[::1], array1, array2), bounce_march,
+    kernel = jit(numba, _march_signature(numba, i8), bounce_march,
                  flight_root=callees["flight_root"], _ice_accel=callees["_ice_accel"],
-                 _motion=callees["_motion"], **scalars)
+                 **march, **_scalars(numba))
     return entry_point(kernel)
 
 
@@ -232,16 +286,52 @@ def _compile(numba: Any) -> Any:
 COMPILED = (compile_or_none("the march of bounces", _compile)
             if flight_search.COMPILED is not None else None)
 
+#: :func:`bounce_march` for the structure under the quadratic Morison drag, run as Python (the
+#: tests' reference for the compiled one): the search and the march on :mod:`.dragged`'s
+#: functions
+DRAGGED_MARCH = rebound(bounce_march, flight_root=rebound(flight_root, **dragged.SEARCH_CALLEES,
+                                                          _bracketed=rebound(
+                                                              _bracketed, **dragged.SEARCH_CALLEES)),
+                        **dragged.MARCH_CALLEES)
+
+
+def _compile_dragged(numba: Any) -> Any:
+    """:func:`bounce_march` compiled for the structure under the quadratic Morison drag."""
+    callees = dragged.compiled_callees(numba, taylor.KERNELS.dispatchers,
+                                       flight_search.compiled_callees(numba))
+    kernel = jit(numba, _march_signature(numba, dragged.steps_type(numba)), bounce_march,
+                 _ice_accel=flight_search.compiled_callees(numba)["_ice_accel"], **callees,
+                 **_scalars(numba))
+    return entry_point(kernel)
+
+
+@functools.cache
+def dragged_kernel() -> Any:
+    """The compiled march under the quadratic Morison drag, compiled at its first use (most
+    scenes never ask), or None (not compiled: the Python march runs)."""
+    if COMPILED is None or taylor.KERNELS is None:
+        return None
+    return compile_or_none("the march of bounces under the quadratic Morison drag",
+                           _compile_dragged)
+
 
 class BounceMarch:
     """An :class:`EventSolver`'s compiled march of bounces: the arrays it hands the kernel, and
     the way from the solver's objects to them and back (the flight to go on with, the impacts,
     the sampler's records). ``kernel``: :func:`bounce_march`, compiled (or, in tests, as
-    Python)."""
+    Python: :data:`DRAGGED_MARCH` for the quadratic Morison drag), for the solver's flights
+    (:class:`Flight`, or :class:`DraggedFlight` and its Taylor steps in arrays)."""
 
     def __init__(self, solver: EventSolver, kernel: Any = None):
         self.solver = solver
-        self.kernel = COMPILED if kernel is None else kernel
+        self.flight_type = solver._flight_cls
+        self.dragged = self.flight_type is DraggedFlight
+        if kernel is None:
+            kernel = dragged_kernel() if self.dragged else COMPILED
+        self.kernel = kernel
+        #: the dragged flight whose Taylor steps the arrays hold (0: a closed form's, none)
+        self.integrated: Any = 0
+        self._steps_for: Any = None
         self.F = np.zeros(N_FLOATS)
         self.N = np.zeros(N_INTS, dtype=np.int64)
         self.P = np.zeros(N_PARAMS)
@@ -262,11 +352,14 @@ class BounceMarch:
         return np.zeros((CAPACITY, 8))
 
     def takes(self, seg: Any) -> bool:
-        """The kernel can go on from this segment: a flight whose search is the compiled one's
-        (the built-in structure, in any damping regime, without the quadratic Morison drag), not
-        handed to RootSearch, and no Zeno tail running."""
-        return (type(seg) is Flight and seg.kernel_constants is not None
-                and not seg.search.handed_back and self.solver.zeno_end is None)
+        """The kernel can go on from this segment: a flight of the built-in structure in any
+        damping regime (its closed form, or its Taylor steps under the quadratic Morison drag),
+        its search not handed to RootSearch, and no Zeno tail running."""
+        if type(seg) is Flight:
+            return (seg.kernel_constants is not None and not seg.search.handed_back
+                    and self.solver.zeno_end is None and not self.dragged)
+        return (type(seg) is DraggedFlight and self.dragged and self.kernel is not None
+                and not seg.handed_back and self.solver.zeno_end is None)
 
     def _params(self, seg: Any) -> None:
         solver = self.solver
@@ -284,7 +377,21 @@ class BounceMarch:
                      rules.omega_n, e, rules.chatter_time, float(rules.follow_zeno),
                      rules.budget_bounce(e), rules.time_resolution, relative, absolute,
                      float(solver.scene.solver_max_impacts), osc._s_slow, osc._s_fast,
-                     float(osc.form))
+                     float(osc.form), seg.search.max_step)
+
+    def _steps(self, seg: Any) -> None:
+        """A dragged flight's Taylor steps into the arrays: those made there already if the
+        kernel ended on this flight, else none yet (the kernel makes them from its anchor, the
+        same steps as the flight's own)."""
+        integrated = self.integrated
+        if isinstance(integrated, int):
+            integrated = self.integrated = dragged.new_steps(
+                seg.taylor, self.solver.dragged_structure.omega2)
+        q, ints = integrated[0], integrated[1]
+        q[dragged.Q_U] = seg.u
+        if seg is not self._steps_for:
+            q[dragged.Q_X0], q[dragged.Q_V0] = seg.x0, seg.v0
+            ints[dragged.I_COUNT] = ints[dragged.I_FAILED] = 0
 
     def _load(self, seg: Any) -> None:
         """The flight ``seg`` and its search into F and N."""
@@ -293,9 +400,13 @@ class BounceMarch:
         root = search.root
         if root is None:
             root_state = (math.nan,) * 5
+        elif self.dragged:
+            root_state = (root, *seg._structure(root), *seg._z_motion(root))
         else:
             last = seg._last
             root_state = last if last[0] == root else (root, *seg._motion(root)[1:])
+        if self.dragged:
+            self._steps(seg)
         self.F[:ROOT_AT + 5] = (seg.t0, seg.x0, seg.v0, seg.z0, seg.w0, seg.start,
                                 search.time_eps, search.a, search._probed_at, *probed,
                                 *root_state)
@@ -308,9 +419,13 @@ class BounceMarch:
         was taken, else a new one; its search where the kernel left it."""
         solver = self.solver
         if N[EVENTS]:
-            seg = Flight(solver, F[T0], F[X0], F[V0], F[Z0], F[W0], seg.u, F[START])
+            seg = self.flight_type(solver, F[T0], F[X0], F[V0], F[Z0], F[W0], seg.u, F[START])
             solver.seg = seg
             solver.tau = 0.0
+        if self.dragged:
+            self._steps_for = seg
+            if N[STATUS] == EVENT:  # (its search, or its steps, are Python's from here)
+                seg.handed_back = True
         search = seg.search
         search.a, search.iterations, search.creep = F[A], N[ITERATIONS], N[CREEP]
         search._probed_at = F[PROBED_AT]
@@ -343,6 +458,17 @@ class BounceMarch:
                                         limit if limit < NO_LIMIT else NO_LIMIT)
         return seg
 
+    def _run(self, times: np.ndarray, xs: np.ndarray, vs: np.ndarray, zs: np.ndarray,
+             ws: np.ndarray) -> None:
+        """One call of the kernel. A Taylor step the compiled kernels hand back
+        (:class:`HandBack`, the dragged structure's) ends it as an event Python takes: the
+        impacts before it are counted in N, the flight it was searching is as it started."""
+        try:
+            self.kernel(self.F, self.N, self.P, times, xs, vs, zs, ws, self.targets, self.values,
+                        self.impacts, self.integrated)
+        except HandBack:
+            self.N[STATUS] = EVENT
+
     def march(self, t_end: float, stop_at_event: bool, t_start: float,
               impulse: float) -> tuple[float, float | None]:
         """From the solver's current flight, the bounces up to ``t_end`` (EventMarch.march's
@@ -354,8 +480,7 @@ class BounceMarch:
         N[STOP_AT_EVENT], N[N_TIMES] = 1 if stop_at_event else 0, 0
         while True:
             no = self.no_times
-            self.kernel(F, N, self.P, no, no, no, no, no, self.targets, self.values,
-                        self.impacts)
+            self._run(no, no, no, no, no)
             status = int(N[STATUS])
             self._impacts(int(N[N_IMPACTS]))
             if status != FULL:
@@ -379,8 +504,7 @@ class BounceMarch:
         F[STEP_START] = solver.step_start
         N[SAMPLE], N[INTERVAL], N[STOP_AT_EVENT], N[N_TIMES] = i, interval, 0, len(times)
         while True:
-            self.kernel(F, N, self.P, times, out.x, out.v, out.z, out.w, self.targets,
-                        self.values, self.impacts)
+            self._run(times, out.x, out.v, out.z, out.w)
             self._impacts(int(N[N_IMPACTS]))
             n_targets = int(N[N_TARGETS])
             if n_targets:

@@ -84,7 +84,8 @@ class Flight(_SearchedSegment):
         if self._ONE_FUNCTION and type(osc) is Oscillator:
             self.kernel_constants = (x0 - z0, x0, z0, *osc.search_constants,
                                      *osc.response_constants(x0, v0),
-                                     *drag.flight_constants(w0, u), u, *drag.law_constants)
+                                     *drag.flight_constants(w0, u), u, *drag.law_constants,
+                                     math.inf, 0)  # (no longest step, no Taylor steps)
             self._x_motion = None
             self.search = FlightSearch(start, time_eps)
         else:
@@ -352,6 +353,9 @@ class DraggedFlight(Flight):
     SAMPLING = STEPPED     # its Taylor steps' polynomials at all its samples (states_at)
     clearance = None       # no closed-form envelope of the structure's motion (RootSearch's
                            # signal takes None for "none")
+    #: the compiled march handed this flight back (a step it does not make, a step of the
+    #: search that is RootSearch's): Python goes on with it
+    handed_back = False
 
     def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):

@@ -62,28 +62,51 @@ from .rootfind import (
 PASSED, ROOT, GENERIC = 0, 1, 2
 
 
-def _motion(t, form, k, rate, w0, r0, quadratic):
+def _motion(t, form, k, rate, w0, r0, quadratic, integrated):
     """(x - x0, v, z - z0, w) at t: the structure's free response in its form on the
     constants k of ``response_constants`` (``Oscillator.deviation_increment``'s:
-    ``under_increment`` or ``aperiodic_increment``) and the ice's
-    increment (``LinearDrag.increment``, rate kappa, or ``QuadraticDrag.increment``, rate
-    beta |r0|), written out."""
+    ``under_increment`` or ``aperiodic_increment``) and the ice's (:func:`_ice_motion`).
+    ``integrated`` is the structure's Taylor steps where it has no closed form
+    (:mod:`.dragged`, which compiles this module's search with its own ``_motion``); unused
+    here."""
     if form == FORM_UNDER:
         dx, v = under_increment(t, k[0], k[1], k[2], k[3], k[4], k[5])
     else:
         dx, v = aperiodic_increment(t, form, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7])
+    dz, w = _ice_motion(t, rate, w0, r0, quadratic)
+    return dx, v, dz, w
+
+
+def _ice_motion(t, rate, w0, r0, quadratic):
+    """(z - z0, w) at t: the ice's increment (``LinearDrag.increment``, rate kappa, or
+    ``QuadraticDrag.increment``, rate beta |r0|), written out."""
     x = rate * t
     if quadratic:
         if x < 1e-3:  # series, truncation ~ y^6 / 7
             lag = -x * (0.5 - x * (1 / 3 - x * (0.25 - x * (0.2 - x / 6))))
         else:
             lag = log1p(x) / x - 1.0
-        return dx, v, w0 * t + r0 * t * lag, w0 - r0 * (x / (1.0 + x))
+        return w0 * t + r0 * t * lag, w0 - r0 * (x / (1.0 + x))
     if x < 1e-2:  # series, truncation ~ x^6 / 5040
         lag = -x * (0.5 - x * (1 / 6 - x * (1 / 24 - x * (1 / 120 - x / 720))))
     else:
         lag = -expm1(-x) / x - 1.0
-    return dx, v, w0 * t + r0 * t * lag, w0 + r0 * expm1(-x)
+    return w0 * t + r0 * t * lag, w0 + r0 * expm1(-x)
+
+
+def _structure_probe(x, v, offset, mass, damping, stiffness, omega2, over, s_slow, s_fast, u,
+                     integrated):
+    """The structure's part of ``Flight.probe``: its acceleration at (x, v) and bounds on the
+    magnitudes of its acceleration and jerk for all later times (``Oscillator.bounds``,
+    written out; over-damped, ``over`` 1, the amplitude bound of :func:`_amplitude`); NaN
+    bounds where RootSearch's probe is to be taken (hypot's scales)."""
+    a_x = -(damping * v + stiffness * (x - offset)) / mass
+    j_x = -(damping * a_x + stiffness * v) / mass
+    s_x = -(damping * j_x + stiffness * a_x) / mass
+    if over:
+        return (a_x, _amplitude(a_x, j_x, omega2, over, s_slow, s_fast),
+                _amplitude(j_x, s_x, omega2, over, s_slow, s_fast))
+    return a_x, sqrt(a_x * a_x + j_x * j_x / omega2), sqrt(j_x * j_x + s_x * s_x / omega2)
 
 
 def _ice_accel(w, u, coef, quadratic):
@@ -163,7 +186,8 @@ def _accel_clearance(w, margin, u, coef, quadratic, omega2):
     return root
 
 
-def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, form, k, rate, w0, r0, quadratic):
+def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, form, k, rate, w0, r0, quadratic,
+               integrated):
     """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t, f'(t) = df_t, the
     motion there ``motion``), its bracket [lo, hi] (f(lo) >= 0 > f(hi)). Returns the root, and
     the last point evaluated with its motion (the state at the root when it is that point)."""
@@ -177,7 +201,8 @@ def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, form, k, rate, w0, r0, quadra
                     return t, at, motion
                 after = nextafter(t, math.inf)
                 if after < hi:
-                    at, motion = after, _motion(after, form, k, rate, w0, r0, quadratic)
+                    at, motion = after, _motion(after, form, k, rate, w0, r0, quadratic,
+                                                integrated)
                     if gap0 + (motion[0] - motion[2]) <= 0.0:
                         return after, at, motion
                     lo = after
@@ -187,7 +212,7 @@ def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, form, k, rate, w0, r0, quadra
         if converged or not lo < nxt < hi:
             return (t if converged else nxt), at, motion
         t = at = nxt
-        motion = _motion(t, form, k, rate, w0, r0, quadratic)
+        motion = _motion(t, form, k, rate, w0, r0, quadratic, integrated)
         dx, v, dz, w = motion
         f_t, df_t = gap0 + (dx - dz), v - w
         if f_t < 0.0:
@@ -202,14 +227,16 @@ def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, form, k, rate, w0, r0, quadra
 def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                 time_eps, gap0, x0, z0, offset, mass, damping, stiffness, omega2, sigma,
                 s_slow, s_fast, form, c0, c1, c2, c3, c4, c5, c6, c7, rate, w0, r0, u, coef,
-                quadratic):
+                quadratic, max_step, integrated):
     """RootSearch's steps from the frontier a (its probe there, if taken: ``probed_at`` and
     the five values) while a <= horizon, for the gap of a flight: structure from (x0, v0) on the
     oscillator (mass, damping, stiffness, offset, omega2, sigma and the over-damped exponents
     s1, s2: ``Oscillator.search_constants``), its free response in ``form`` on the constants
     c0..c7 (``response_constants``), ice from velocity w0 under its drag law (``quadratic`` 0:
     the linear drag, coef = rate = kappa; 1: the quadratic drag, coef = beta, rate = beta |r0|;
-    r0 = w0 - u), gap0 = x0 - z0.
+    r0 = w0 - u), gap0 = x0 - z0; no step longer than ``max_step`` (RootSearch's: inf for a
+    closed form), ``integrated`` the structure's Taylor steps where the search is compiled
+    with the motion of :mod:`.dragged` (unused here).
 
     Returns (outcome, a, root, iterations, creep, probed_at, f, f', f'', K, J, x - x0, v,
     z - z0, w): PASSED, ROOT (the root, and the motion there: the state of the event), or
@@ -224,27 +251,23 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
     outcome = PASSED
     while a <= horizon:
         if a != at:  # (the anchor, a sign test's end and a Newton point are kept)
-            at, motion = a, _motion(a, form, k, rate, w0, r0, quadratic)
+            at, motion = a, _motion(a, form, k, rate, w0, r0, quadratic, integrated)
         dx, v, dz, w = motion
         if a == probed_at:
             f, df, d2, bound, jerk = pf, pdf, pd2, pbound, pjerk
         else:
-            # Flight.probe: Oscillator.bounds (not over-damped) and the drag's accel_bounds
-            a_x = -(damping * v + stiffness * ((x0 + dx) - offset)) / mass
-            j_x = -(damping * a_x + stiffness * v) / mass
-            s_x = -(damping * j_x + stiffness * a_x) / mass
+            # Flight.probe: the structure's bounds and the drag's accel_bounds
+            a_x, size_x, jerk_x = _structure_probe(x0 + dx, v, offset, mass, damping,
+                                                   stiffness, omega2, over, s_slow, s_fast, u,
+                                                   integrated)
             a_z, size, j_z = _ice_accel(w, u, coef, quadratic)
             f = gap0 + (dx - dz)
             df = v - w
             d2 = a_x - a_z
-            if over:  # (Oscillator.bounds: the amplitude bound, NaN at hypot's scales)
-                bound = _amplitude(a_x, j_x, omega2, over, s_slow, s_fast) + size
-                jerk = _amplitude(j_x, s_x, omega2, over, s_slow, s_fast) + j_z
-                if bound != bound or jerk != jerk:
-                    break  # (RootSearch's probe)
-            else:
-                bound = sqrt(a_x * a_x + j_x * j_x / omega2) + size
-                jerk = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
+            bound = size_x + size
+            jerk = jerk_x + j_z
+            if bound != bound or jerk != jerk:
+                break  # (RootSearch's probe: hypot's scales)
         if f < 0.0 or (f == 0.0 and df < 0.0):
             return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                     dx, v, dz, w)
@@ -288,7 +311,10 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             elif d2 <= 0.0:
                 h_mono = math.inf
             if h_mono > h_free:
-                b = a + (FOREVER if FOREVER < h_mono else h_mono)
+                span = FOREVER if FOREVER < h_mono else h_mono
+                if max_step < span:
+                    span = max_step
+                b = a + span
                 if b > a:
                     # RootSearch._descend: Newton's method from a on the monotone stretch [a, b]
                     t, f_t, df_t = a, f, df
@@ -305,13 +331,15 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                         if step <= ROOT_XTOL + ROOT_RTOL * (t if t >= 0.0 else -t):
                             found = t
                             break
-                        at, motion = nxt, _motion(nxt, form, k, rate, w0, r0, quadratic)
+                        at, motion = nxt, _motion(nxt, form, k, rate, w0, r0, quadratic,
+                                                  integrated)
                         dx, v, dz, w = motion
                         f_n = gap0 + (dx - dz)
                         df_n = v - w
                         if f_n < 0.0:
                             found, at, motion = _bracketed(t, nxt, nxt, f_n, df_n, motion, gap0,
-                                                           form, k, rate, w0, r0, quadratic)
+                                                           form, k, rate, w0, r0, quadratic,
+                                                           integrated)
                             stalled = found != found
                             break
                         if f_n == 0.0:
@@ -323,7 +351,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                         break  # (a NaN from the bracket: RootSearch makes the step)
                     if found != found:  # no root in the descent: the sign test at b decides
                         at, motion = b, _motion(b, form, k, rate, w0, r0,
-                                                quadratic)
+                                                quadratic, integrated)
                         dx, v, dz, w = motion
                         f_b = gap0 + (dx - dz)
                         if not f_b < 0.0:  # root-free up to b
@@ -333,39 +361,36 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                             continue
                         # exactly one crossing in (t, b)
                         found, at, motion = _bracketed(t, b, b, f_b, v - w, motion, gap0,
-                                                       form, k, rate, w0, r0, quadratic)
+                                                       form, k, rate, w0, r0, quadratic,
+                                                       integrated)
                         if found != found:
                             break  # (RootSearch's, as a NaN from the bracket above)
                     if found != at:  # (the state at the root: the last point evaluated, or anew)
                         motion = _motion(found, form, k, rate, w0, r0,
-                                         quadratic)
+                                         quadratic, integrated)
                     dx, v, dz, w = motion
                     return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
                             pbound, pjerk, dx, v, dz, w)
-        if h_free > FOREVER:
+        if h_free > FOREVER and max_step == math.inf:
             return (PASSED, math.inf, math.nan, iterations + 1, creep, probed_at, pf, pdf,
                     pd2, pbound, pjerk, math.nan, math.nan, math.nan, math.nan)
-        if h_free < time_eps + TIME_RESOLUTION * a:
+        step = max_step if max_step < h_free else h_free
+        if step < time_eps + TIME_RESOLUTION * a:
             break  # (a tangent or degenerate start: RootSearch's creep)
-        b = a + h_free
+        b = a + step
         # the sign test at b by the full probe, which the next step starts from
-        at, motion = b, _motion(b, form, k, rate, w0, r0, quadratic)
+        at, motion = b, _motion(b, form, k, rate, w0, r0, quadratic, integrated)
         dx, v, dz, w = motion
         f_b = gap0 + (dx - dz)
         if f_b < 0.0:
             break  # (rounding at the frontier: RootSearch's bracket from b)
-        a_x = -(damping * v + stiffness * ((x0 + dx) - offset)) / mass
-        j_x = -(damping * a_x + stiffness * v) / mass
-        s_x = -(damping * j_x + stiffness * a_x) / mass
+        a_x, size_x, jerk_x = _structure_probe(x0 + dx, v, offset, mass, damping, stiffness,
+                                               omega2, over, s_slow, s_fast, u, integrated)
         a_z, size, j_z = _ice_accel(w, u, coef, quadratic)
-        if over:
-            bound_b = _amplitude(a_x, j_x, omega2, over, s_slow, s_fast) + size
-            jerk_b = _amplitude(j_x, s_x, omega2, over, s_slow, s_fast) + j_z
-            if bound_b != bound_b or jerk_b != jerk_b:
-                break  # (RootSearch's probe at b)
-        else:
-            bound_b = sqrt(a_x * a_x + j_x * j_x / omega2) + size
-            jerk_b = sqrt(j_x * j_x + s_x * s_x / omega2) + j_z
+        bound_b = size_x + size
+        jerk_b = jerk_x + j_z
+        if bound_b != bound_b or jerk_b != jerk_b:
+            break  # (RootSearch's probe at b: hypot's scales)
         a = probed_at = b
         pf, pdf, pd2 = f_b, v - w, a_x - a_z
         pbound, pjerk = bound_b, jerk_b
@@ -384,25 +409,50 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
     once (a compiled caller, such as the exact method's march of bounces, calls them)."""
     if not _DISPATCHERS:
         f8, i8 = numba.float64, numba.int64
-        k8 = numba.types.UniTuple(f8, 8)
         decay_pair = jit(numba, (f8,), _decay_pair)
         aperiodic = jit(numba, (f8, i8) + (f8,) * 8, aperiodic_increment, _decay_pair=decay_pair)
         under = jit(numba, (f8,) * 7, under_increment)
-        motion = jit(numba, (f8, i8, k8, f8, f8, f8, i8), _motion,
-                     aperiodic_increment=aperiodic, under_increment=under)
+        ice_motion = jit(numba, (f8, f8, f8, f8, i8), _ice_motion)
+        motion = jit(numba, motion_signature(numba, i8), _motion, aperiodic_increment=aperiodic,
+                     under_increment=under, _ice_motion=ice_motion)
         ice_accel = jit(numba, (f8, f8, f8, i8), _ice_accel)
         accel_clearance = jit(numba, (f8, f8, f8, f8, i8, f8), _accel_clearance,
                               _ice_accel=ice_accel)
         amplitude = jit(numba, (f8, f8, f8, i8, f8, f8), _amplitude)
         clearance = jit(numba, (f8,) * 7 + (i8,) + (f8,) * 4 + (i8,), _clearance,
                         _accel_clearance=accel_clearance, _amplitude=amplitude)
-        bracketed = jit(numba, (f8,) * 5 + (numba.types.UniTuple(f8, 4), f8, i8, k8, f8, f8, f8,
-                                              i8), _bracketed, _motion=motion)
-        root = jit(numba, (f8, f8, i8, i8) + (f8,) * 18 + (i8,) + (f8,) * 13 + (i8,),
-                   flight_root, _motion=motion, _ice_accel=ice_accel, _clearance=clearance,
-                   _bracketed=bracketed, _amplitude=amplitude)
-        _DISPATCHERS.update(flight_root=root, _ice_accel=ice_accel, _motion=motion)
+        probe = jit(numba, probe_signature(numba, i8), _structure_probe, _amplitude=amplitude)
+        callees = {"_motion": motion, "_ice_accel": ice_accel, "_clearance": clearance,
+                   "_amplitude": amplitude, "_structure_probe": probe}
+        _DISPATCHERS.update(callees, _ice_motion=ice_motion,
+                            flight_root=compile_root(numba, i8, callees))
     return _DISPATCHERS
+
+
+def motion_signature(numba: Any, integrated: Any) -> tuple:
+    """The argument types of :func:`_motion` (and of a motion compiled in its place) with the
+    structure's steps of type ``integrated``."""
+    f8, i8 = numba.float64, numba.int64
+    return (f8, i8, numba.types.UniTuple(f8, 8), f8, f8, f8, i8, integrated)
+
+
+def probe_signature(numba: Any, integrated: Any) -> tuple:
+    """The argument types of :func:`_structure_probe` (and of one compiled in its place)."""
+    f8, i8 = numba.float64, numba.int64
+    return (f8,) * 7 + (i8, f8, f8, f8, integrated)
+
+
+def compile_root(numba: Any, integrated: Any, callees: dict[str, Any]) -> Any:
+    """:func:`flight_root` compiled on ``callees`` (the compiled functions it calls by name:
+    ``_motion``, ``_structure_probe``, ``_clearance``, ``_ice_accel``, ``_amplitude``), the
+    structure's steps of type ``integrated``: this module's closed forms, or another
+    structure's motion (:mod:`.dragged`)."""
+    f8, i8 = numba.float64, numba.int64
+    bracketed = jit(numba, (f8,) * 5 + (numba.types.UniTuple(f8, 4), f8, i8,
+                                        numba.types.UniTuple(f8, 8), f8, f8, f8, i8, integrated),
+                    _bracketed, _motion=callees["_motion"])
+    return jit(numba, (f8, f8, i8, i8) + (f8,) * 18 + (i8,) + (f8,) * 13 + (i8, f8, integrated),
+               flight_root, _bracketed=bracketed, **callees)
 
 
 def _compiled():

@@ -644,6 +644,8 @@ class _Kernels:
                        proven_intervals=proven)
         self.ordinary_step = entry_point(ordinary)
         pushes = jit(numba, (table, array, array, *(f8,) * 8), _clearly_pushes)
+        #: the dispatchers a compiled caller calls (the dragged flight's steps, .dragged)
+        self.dispatchers = {"ordinary_step": ordinary, "horner_columns": columns}
         self.run_steps = entry_point(jit(
             numba, (*(f8,) * 14, *(array,) * 5, table, array, cube, cube, table, b1[:, ::1],
                     array, array, array, table, cube, i8[::1]),
