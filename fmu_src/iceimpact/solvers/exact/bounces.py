@@ -286,13 +286,13 @@ def _compile(numba: Any) -> Any:
 COMPILED = (compile_or_none("the march of bounces", _compile)
             if flight_search.COMPILED is not None else None)
 
+_DRAGGED_BRACKET = rebound(_bracketed, **dragged.SEARCH_CALLEES)
 #: :func:`bounce_march` for the structure under the quadratic Morison drag, run as Python (the
 #: tests' reference for the compiled one): the search and the march on :mod:`.dragged`'s
 #: functions
-DRAGGED_MARCH = rebound(bounce_march, flight_root=rebound(flight_root, **dragged.SEARCH_CALLEES,
-                                                          _bracketed=rebound(
-                                                              _bracketed, **dragged.SEARCH_CALLEES)),
-                        **dragged.MARCH_CALLEES)
+DRAGGED_MARCH = rebound(bounce_march, **dragged.MARCH_CALLEES,
+                        flight_root=rebound(flight_root, **dragged.SEARCH_CALLEES,
+                                            _bracketed=_DRAGGED_BRACKET))
 
 
 def _compile_dragged(numba: Any) -> Any:
