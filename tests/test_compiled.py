@@ -255,5 +255,6 @@ def test_every_kernel_compiles_where_numba_is():
     from iceimpact.studies import loads
     compiled = {"bounces": bounces.COMPILED, "flight_search": flight_search.COMPILED,
                 "taylor": taylor.KERNELS, "elementwise": elementwise._COMPILED,
-                "loads": loads._COUNT}
+                "loads": loads._COUNT, "bounces under the quadratic Morison drag":
+                bounces.dragged_kernel()}
     assert [name for name, kernel in compiled.items() if kernel is None] == []
