@@ -70,6 +70,10 @@ SCENES: dict[str, tuple[dict, str]] = {
                              "heavy floe, M = 6400 kg, u = 2 m/s, quadratic drag"),
     "figure18": ({"drag_model": 2, "impact_e": 0.5},
                  "Figure 18: quadratic drag, e = 0.5 (mostly quadratic sticking)"),
+    "morison_quadratic": ({"structure_Cd": 1.0, "structure_A": 2.0, "drag_model": 2,
+                           "ice_A": 2.0},
+                          "quadratic Morison drag on the pile (Cd = 1, A = 2 m2), quadratic "
+                          "drag, ice.A = 2 m2"),
 }
 
 #: What one subprocess runs: the scene over t_end, timed; JSON on stdout.
