@@ -73,7 +73,8 @@ cores = [m for name, m in sys.modules.items() if name.endswith(".solvers.search.
 compiled = bool(cores) and cores[0].COMPILED is not None
 stats = {"hits": 0, "misses": 0}
 if compiled:
-    stats = sys.modules[cores[0].__name__.rsplit(".", 1)[0] + ".compiled"].cache_stats()
+    # (the package's compiled module: iceimpact.compiled, under the FMU's own package name)
+    stats = sys.modules[cores[0].__name__.rsplit(".", 3)[0] + ".compiled"].cache_stats()
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # MB (Linux: kB)
 print(json.dumps({"run_cpu": cpu_run, "run_wall": wall_run, "rows": len(result), "rss_mb": rss,
                   "compiled": compiled, "hits": stats["hits"], "misses": stats["misses"]}))
