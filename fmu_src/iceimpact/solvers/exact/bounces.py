@@ -14,11 +14,17 @@ closed forms, the same floats as the sampler's array closed forms; the impulses 
 call, so the compiled march and the Python one make the same steps on the same numbers, to the
 bit.
 
+Under the quadratic Morison drag on the structure (``DraggedFlight``: no closed form) the same
+source is compiled a second time, the structure's motion, samples and acceleration those of its
+Taylor steps (:mod:`~iceimpact.solvers.search.dragged`; :func:`dragged_kernel`).
+
 It hands the march back to Python, before changing anything, at whatever else comes: the
 horizon, an impact after which the bodies do not part (a chatter or Zeno sequence closed, a
 plastic impact, sticking), a contact at rounding level, an impact beyond the step's budget
-(Python raises its refusal), a step of the root search that is not its common one. Python then
-goes on from the same flight exactly as it would have (:class:`BounceMarch`).
+(Python raises its refusal), a step of the root search that is not its common one, a Taylor
+step of a dragged structure that the kernel does not make (:mod:`~iceimpact.solvers.search.
+dragged`). Python then goes on from the same flight exactly as it would have
+(:class:`BounceMarch`).
 
 Where numba is not installed (or ``ICEIMPACT_PURE`` is set) nothing is compiled and the Python
 march runs alone: :func:`bounce_march` run as Python would be slower than the objects it stands
