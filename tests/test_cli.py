@@ -333,7 +333,9 @@ def alive(pid: int) -> bool:
 def test_killed_sweep_leaves_no_workers_and_resumes(tmp_path):
     """SIGKILL the command while its 2 pool workers run: they die too; a rerun completes."""
     out = tmp_path / "sweep.csv"
-    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:12", "--t-end", "30", "--dt",
+    # (runs long and many enough that the pool cannot finish them between two polls: a run of
+    # 30 s takes milliseconds once the workers are up)
+    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:48", "--t-end", "300", "--dt",
             "0.002", "--out", str(out), "--workers", "2", "--chunksize", "1", "--quiet"]
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 60
@@ -349,7 +351,7 @@ def test_killed_sweep_leaves_no_workers_and_resumes(tmp_path):
         proc.wait()
     assert len(workers) >= 2, "no pool workers seen"
     partial = read_table(out)
-    assert 2 <= len(partial) < 12, "the sweep finished before it could be killed"
+    assert 2 <= len(partial) < 48, "the sweep finished before it could be killed"
     deadline = time.monotonic() + 5
     while time.monotonic() < deadline and any(alive(pid) for pid in workers):
         time.sleep(0.05)
@@ -357,7 +359,7 @@ def test_killed_sweep_leaves_no_workers_and_resumes(tmp_path):
     proc = subprocess.run(argv, capture_output=True, text=True, timeout=180)
     assert proc.returncode == 0, proc.stderr
     rows = read_table(out)
-    assert [r["run"] for r in rows] == list(range(12))
+    assert [r["run"] for r in rows] == list(range(48))
     assert all(r["status"] == "ok" for r in rows)
     for old in partial:  # rows written before the kill are kept as they were
         new = rows[old["run"]]
