@@ -3,16 +3,17 @@ that does no work.
 
     python benchmarks/fmu_overhead.py [--quick] [--repeat N] [--base COMMIT]
 
-Both FMUs are built fresh, then simulated in this one process through FMPy's ``simulate_fmu``,
-the Figure 2 scene for 400 s (``--quick``: 40 s) at a communication step of 1 ms, recording every
+Both FMUs are built fresh, then simulated in this one process through FMPy's ``simulate_fmu``, the
+Figure 2 scene for 400 s (``--quick``: 40 s) at a communication step of 1 ms, recording every
 output at every step. The core alone (``Simulator.advance`` over the same steps, no FMI) is timed
-too, so the table splits the cost into model and FMI plumbing. Prints a table and writes
-``benchmarks/results/fmu_overhead.json``. Times are the best of ``--repeat`` interleaved runs, as
-CPU time of this process (insensitive to other load on the machine; the ratio uses it) and as
-wall-clock time. ``--base COMMIT`` also builds IceImpact.fmu from that commit (its
-``build_fmu.py``, ``fmu_src``, ``fmu_native`` and ``pyproject.toml``, extracted with ``git
-archive``) and steps it in the same interleaved runs: before and after side by side, under the
-same machine load.
+too, so the table splits the cost into model and FMI plumbing, and so is the pure core in a fresh
+process (``ICEIMPACT_PURE=1``, the path the FMU runs by default), with ``--base`` the base's too.
+Prints a table and writes ``benchmarks/results/fmu_overhead.json``. Times are the best of
+``--repeat`` interleaved runs, as CPU time of this process (insensitive to other load on the
+machine; the ratio uses it) and as wall-clock time. ``--base COMMIT`` also builds IceImpact.fmu
+from that commit (its ``build_fmu.py``, ``fmu_src``, ``fmu_native`` and ``pyproject.toml``,
+extracted with ``git archive``) and steps it in the same interleaved runs: before and after side by
+side, under the same machine load.
 
 The trivial slave (``benchmarks/trivial_fmu/TrivialSlave.py``) keeps PythonFMU's default
 fmi2Get/fmi2Set path (one getter call per variable); IceImpact.fmu's slave reads its outputs in
@@ -34,6 +35,7 @@ import argparse
 import importlib.metadata
 import importlib.util
 import json
+import os
 import platform
 import subprocess
 import sys
@@ -220,6 +222,29 @@ def run_core(stop_time: float) -> tuple[float, float, int]:
     return time.perf_counter() - wall, time.process_time() - cpu, n
 
 
+_PURE_CORE = """
+import json, sys, time
+from iceimpact import Scene, Simulator
+n, step = int(sys.argv[1]), float(sys.argv[2])
+sim = Simulator(Scene())
+wall, cpu = time.perf_counter(), time.process_time()
+for k in range(n):
+    sim.advance((k + 1) * step - k * step, 0.1)
+print(json.dumps([time.perf_counter() - wall, time.process_time() - cpu, n]))
+"""
+
+
+def run_core_pure(root: Path, stop_time: float) -> tuple[float, float, int]:
+    """:func:`run_core` in a fresh process on the package of ``root`` with
+    ``ICEIMPACT_PURE=1``, the path the FMU runs by default: wall, CPU (s), steps."""
+    env = {**os.environ, "PYTHONPATH": str(root / "fmu_src"), "ICEIMPACT_PURE": "1"}
+    done = subprocess.run([sys.executable, "-c", _PURE_CORE, str(round(stop_time / STEP)),
+                           repr(STEP)], capture_output=True, text=True, env=env, check=True,
+                          cwd=tempfile.gettempdir())
+    wall, cpu, n = json.loads(done.stdout.strip().splitlines()[-1])
+    return wall, cpu, n
+
+
 def _version(package: str) -> str:
     try:
         return importlib.metadata.version(package)
@@ -241,7 +266,10 @@ def main(argv: list[str] | None = None) -> int:
     cases = ("IceImpact.fmu", "TrivialSlave.fmu", "Simulator.advance (core, no FMI)",
              "IceImpact3.fmu (FMI 3.0)")
     base_case = f"IceImpact.fmu at {args.base}" if args.base else None
-    times: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
+    # the core as the FMU runs it (pure), this tree's and the base's, each in a fresh process
+    pure_cases = ("Simulator.advance, pure",) + (
+        (f"Simulator.advance, pure, at {args.base}",) if args.base else ())
+    times: dict[str, list[tuple[float, float]]] = {case: [] for case in cases + pure_cases}
     with tempfile.TemporaryDirectory(prefix="fmu_overhead_") as tmp:
         fmus = {cases[0]: _build_iceimpact(Path(tmp) / "ice"),
                 cases[1]: _build_trivial(Path(tmp) / "trivial"),
@@ -251,6 +279,7 @@ def main(argv: list[str] | None = None) -> int:
             times[base_case] = []
             base_root = _extract_commit(args.base, Path(tmp) / "base")
             fmus[base_case] = _build_iceimpact(Path(tmp) / "ice_base", base_root)
+        roots = dict(zip(pure_cases, (ROOT, base_root) if base_case else (ROOT,), strict=True))
         print(f"Figure 2 scene, {stop_time:g} s at {STEP * 1e3:g} ms, FMPy simulate_fmu "
               f"recording all outputs, best of {args.repeat}")
         steps = {}
@@ -263,6 +292,9 @@ def main(argv: list[str] | None = None) -> int:
                     impacts = int(result["contact.count"][-1])  # this tree's IceImpact.fmu
             wall, cpu, steps[cases[2]] = run_core(stop_time)
             times[cases[2]].append((wall, cpu))
+            for case in pure_cases:
+                wall, cpu, steps[case] = run_core_pure(roots[case], stop_time)
+                times[case].append((wall, cpu))
         call_steps = CALL_STEPS // 5 if args.quick else CALL_STEPS
         fmu_cases = (cases[1], cases[0], *cases[3:])
         timers = {case: CallTimer(fmus[case], f"calls{i}", guards_null=case != cases[1])
@@ -276,6 +308,7 @@ def main(argv: list[str] | None = None) -> int:
     assert len(set(steps.values())) == 1, steps
     n = steps[cases[0]]
 
+    cases += pure_cases
     best = {case: _best(times[case]) for case in cases}
     us_wall = {case: 1e6 * best[case][0] / n for case in cases}
     us_cpu = {case: 1e6 * best[case][1] / n for case in cases}
@@ -295,6 +328,10 @@ def main(argv: list[str] | None = None) -> int:
     if base_case:
         print(f"at {args.base}: {us_cpu[base_case] / us_cpu[cases[1]]:.2f}x the trivial slave, "
               f"{us_cpu[base_case] - us_cpu[cases[0]]:.1f} us/step more than this tree")
+    if base_case:
+        print(f"the core as the FMU runs it (pure): {us_cpu[pure_cases[0]]:.2f} us/step, "
+              f"{us_cpu[pure_cases[1]]:.2f} at {args.base} "
+              f"({us_cpu[pure_cases[0]] / us_cpu[pure_cases[1]]:.3f}x)")
     print(f"impacts in {stop_time:g} s (this tree's IceImpact.fmu): {impacts}")
 
     # ctypes' part of a bare call, by FMI version (the trivial slave's: IceImpact.fmu's)
