@@ -50,6 +50,32 @@ def stepped(scene: Scene, h: float, flow: str, signs: list[bool], compiled: bool
     return tuple(map(str, out)), tuple(map(str, impacts))
 
 
+def kernel_is_the_python_march(scene: Scene, start: float, kernel, advance: float,
+                               times) -> int:
+    """From ``start`` (s), a Simulator whose march of bounces is ``kernel`` (``bounce_march`` or
+    a form of it, run as given) against one with the Python march alone: stepped ``advance``
+    (s), then 0.5 s with early return, then sampled at ``times``; asserts every impact and
+    sample equal to the bit and returns the impact count."""
+    from iceimpact.solvers.exact.bounces import BounceMarch
+    first = Simulator(scene)
+    first.advance(start)
+    reference, marched = Simulator(scene), Simulator(scene)
+    reference.restore(first.save())
+    marched.restore(first.save())
+    reference.solver.bounces = None
+    marched.solver.bounces = BounceMarch(marched.solver, kernel)
+    for sim in (reference, marched):
+        sim.advance(advance)
+        sim.advance(0.5, stop_at_event=True)
+    count = len(marched.impacts)
+    assert [_bits(i) for i in marched.impacts] == [_bits(i) for i in reference.impacts]
+    a, b = reference.sample(times), marched.sample(times)
+    for key in ("x", "v", "z", "w", "impulse"):
+        assert _bits(getattr(a, key)) == _bits(getattr(b, key))
+    assert [_bits(i) for i in marched.impacts] == [_bits(i) for i in reference.impacts]
+    return count
+
+
 def sampled(scene: Scene, t_end: float, dt: float, compiled: bool) -> tuple:
     """run()'s every sample and impact (or the refusal)."""
     with pytest.MonkeyPatch.context() as mp:

@@ -303,11 +303,10 @@ DRAGGED_MARCH = rebound(bounce_march, **dragged.MARCH_CALLEES,
 
 def _compile_dragged(numba: Any) -> Any:
     """:func:`bounce_march` compiled for the structure under the quadratic Morison drag."""
-    callees = dragged.compiled_callees(numba, taylor.KERNELS.dispatchers,
-                                       flight_search.compiled_callees(numba))
+    search = flight_search.compiled_callees(numba)
+    callees = dragged.compiled_callees(numba, taylor.KERNELS.dispatchers, search)
     kernel = jit(numba, _march_signature(numba, dragged.steps_type(numba)), bounce_march,
-                 _ice_accel=flight_search.compiled_callees(numba)["_ice_accel"], **callees,
-                 **_scalars(numba))
+                 _ice_accel=search["_ice_accel"], **callees, **_scalars(numba))
     return entry_point(kernel)
 
 

@@ -203,8 +203,8 @@ def compiled_callees(numba: Any, kernels: Any, search: dict[str, Any]) -> dict[s
                     horner_columns=kernels["horner_columns"])
     motion = jit(numba, motion_signature(numba, steps), _dragged_motion,
                  _dragged_structure=structure, _ice_motion=ice_motion)
-    bounds = jit(numba, (f8,) * 8, dragged_bounds,
-                 dragged_acceleration=jit(numba, (f8,) * 7, dragged_acceleration))
+    acceleration = jit(numba, (f8,) * 7, dragged_acceleration)
+    bounds = jit(numba, (f8,) * 8, dragged_bounds, dragged_acceleration=acceleration)
     probe = jit(numba, probe_signature(numba, steps), _dragged_probe, dragged_bounds=bounds)
     clearance = jit(numba, (f8,) * 7 + (i8,) + (f8,) * 4 + (i8,), _no_clearance)
     root = compile_root(numba, steps, {"_motion": motion, "_structure_probe": probe,
@@ -217,8 +217,7 @@ def compiled_callees(numba: Any, kernels: Any, search: dict[str, Any]) -> dict[s
         "_flight_sample": jit(numba, (f8,) * 5 + (i8, k8, f8, f8, f8, i8, steps), _dragged_sample,
                               _dragged_structure=structure, _ice_motion=ice_motion),
         "_structure_accel": jit(numba, (f8,) * 7 + (steps,), _dragged_accel,
-                                dragged_acceleration=jit(numba, (f8,) * 7,
-                                                         dragged_acceleration)),
+                                dragged_acceleration=acceleration),
         "_new_flight": jit(numba, (steps, f8, f8), _dragged_new_flight),
         "_failed": jit(numba, (steps,), _dragged_failed),
     }
