@@ -24,7 +24,7 @@ The package: :mod:`~iceimpact.sweep.grid` (axes from text, the grid and its size
 layout and column types), :mod:`~iceimpact.sweep.table` (the CSV/Parquet table, its metadata
 and journal, resume, safe file writing), :mod:`~iceimpact.sweep.backends` (serial, process
 pool, dask) and :func:`sweep` here, which ties them together (:func:`run_points` does the same
-for any list of runs, e.g. the load-case tables of :mod:`iceimpact.studies.seasons`).
+for any list of runs, e.g. the load-case tables of :mod:`iceimpact.seasons`).
 Parameter changes by FMI name and the default sample step come from :mod:`iceimpact.runspec`,
 below this package.
 

@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 from iceimpact import Scene, run
-from iceimpact.studies.loads import WOHLER_EXPONENTS
-from iceimpact.studies.seasons import (
+from iceimpact.seasons import (
     PERTURBATION_M,
     Case,
     CaseTable,
@@ -28,6 +27,7 @@ from iceimpact.studies.seasons import (
     series_row,
     summarize_season,
 )
+from iceimpact.studies.loads import WOHLER_EXPONENTS
 from iceimpact.sweep import read_table
 
 TOML = """\
