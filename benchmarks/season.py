@@ -1,5 +1,5 @@
 """Wall time of a season: the example load-case table (50 cases x 3 repetitions x 600 s) run
-by ``iceimpact.studies.seasons.run_season`` with 1 and with N workers, with this tree's core and,
+by ``iceimpact.seasons.run_season`` with 1 and with N workers, with this tree's core and,
 with ``--base``, with a reference commit's, side by side.
 
 The table is examples/season_cases.csv (ice speeds 0.05-1 m/s, floe masses 400-6400 kg,
@@ -72,7 +72,10 @@ def write_cases(path: Path) -> None:
 #: JSON on stdout: wall and CPU time (the process and its workers), the runs' digest, the summary.
 _WORKER = """
 import hashlib, json, resource, sys, time
-from iceimpact.studies.seasons import load_cases, run_season
+try:
+    from iceimpact.seasons import load_cases, run_season
+except ImportError:  # a core from before the seasons package
+    from iceimpact.studies.seasons import load_cases, run_season
 
 def cpu():
     own, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))

@@ -448,7 +448,7 @@ def errors_page() -> str:
         "take), `StateError` (a saved state), `SweepError` and `SeasonError` (a sweep or a "
         "load-case table). `ParameterError`, `SolverError` and `StateError` are exported by "
         "`iceimpact`, `SweepError` by `iceimpact.sweep`, `SeasonError` by "
-        "`iceimpact.studies.seasons`. A refused step changes nothing: the simulator, and the "
+        "`iceimpact.seasons`. A refused step changes nothing: the simulator, and the "
         "FMU, stay as they were before it, and a valid step can follow. How the FMU reports "
         "each refusal (which status, when) is in [IceImpact.fmu](fmu.md#errors); how each "
         "host shows it, in [Run it in each host]"
@@ -494,9 +494,9 @@ def _fields_table(fields: dict[str, tuple[str, str]]) -> list[str]:
 @page("reference/table-columns.md")
 def table_columns_page() -> str:
     """The columns of a run's summary, a sweep table and a load-case table."""
+    from iceimpact.seasons import SEASON_FIELDS
     from iceimpact.studies.analysis import SUMMARY_FIELDS
     from iceimpact.studies.loads import LOAD_FIELDS
-    from iceimpact.studies.seasons import SEASON_FIELDS
     from iceimpact.sweep.columns import RUN_COLUMN, STATUS_COLUMN, WALL_COLUMN
 
     season = {**SEASON_FIELDS, **{k: v for k, v in LOAD_FIELDS.items()
@@ -520,7 +520,7 @@ def table_columns_page() -> str:
         "## A load-case run", "",
         "A row of `iceimpact loads`' table is `run`, `case` (0-based position in the file), "
         "`repetition` (0 = unperturbed), the FMI values of the run, `status` and `wall_s`, then "
-        "the loads over the run's window (`iceimpact.studies.seasons.run_columns`):", "",
+        "the loads over the run's window (`iceimpact.seasons.run_columns`):", "",
         *_fields_table(season), ""])
 
 

@@ -1,10 +1,13 @@
 """The ``iceimpact`` command: argument errors, simulate, sweep, the installed entry point,
-and a sweep killed half-way then resumed."""
+and a sweep killed half-way then resumed (killed or interrupted while it waits at a known run,
+by the sweep's test hook :data:`iceimpact.sweep.PAUSE_ENV`: no race with the clock)."""
 
 from __future__ import annotations
 
 import csv
 import math
+import os
+import selectors
 import signal
 import subprocess
 import sys
@@ -16,7 +19,7 @@ import pytest
 from iceimpact import Scene, run
 from iceimpact.cli import main
 from iceimpact.studies.analysis import summarize
-from iceimpact.sweep import meta_path, read_table, sweep
+from iceimpact.sweep import PAUSE_ENV, meta_path, read_table, sweep
 
 SCRIPT = Path(sys.executable).with_name("iceimpact")
 FAST = ["--t-end", "4", "--dt", "0.01"]
@@ -44,7 +47,8 @@ def scene_file(tmp_path: Path) -> Path:
     return path
 
 
-@pytest.mark.parametrize("argv,words", [
+#: Argument errors of every subcommand and the words their message must hold.
+ARGUMENT_ERRORS = [
     (["sweep", "--vary", "ice.mass=1,2", "--out", "x.csv"], "unknown parameter 'ice.mass'"),
     (["sweep", "--vary", "flow.u=0:1", "--out", "x.csv"], "--vary 'flow.u=0:1'"),
     (["sweep", "--vary", "flow.u=log:0:1:4", "--out", "x.csv"], "nonzero"),
@@ -63,12 +67,7 @@ def scene_file(tmp_path: Path) -> Path:
      "scene file 'missing.toml' not found"),
     (["simulate", "--set", "foo=1"], "unknown parameter 'foo'"),
     (["frobnicate"], "invalid choice"),
-])
-def test_argument_errors_exit_2_with_a_message(capsys, tmp_path, monkeypatch, argv, words):
-    monkeypatch.chdir(tmp_path)
-    err = usage_error(capsys, argv)
-    assert words in err
-    assert not (tmp_path / "x.csv").exists()
+]
 
 
 def test_bad_scene_file_is_an_argument_error(capsys, tmp_path):
@@ -152,29 +151,53 @@ def test_entry_point_script(tmp_path):
     assert "--vary 'flow.u=0:1'" in proc.stderr and "Traceback" not in proc.stderr
 
 
+def paused_env(runs: int) -> dict[str, str]:
+    """The environment of a sweep that waits after ``runs`` runs (the sweep's test hook)."""
+    return {**os.environ, PAUSE_ENV: str(runs)}
+
+
+def plain_env() -> dict[str, str]:
+    """The environment without the test hook (a rerun that must finish)."""
+    return {k: v for k, v in os.environ.items() if k != PAUSE_ENV}
+
+
+def wait_for_pause(proc: subprocess.Popen, timeout: float = 120.0) -> str:
+    """Read the command's stderr until the sweep says it has paused; returns what was read.
+    Fails if the command ends first, or says nothing of a pause within ``timeout`` s (a bound
+    for a broken sweep: the pause itself waits for the test, not for the clock)."""
+    text = b""
+    deadline = time.monotonic() + timeout
+    with selectors.DefaultSelector() as selector:
+        selector.register(proc.stderr, selectors.EVENT_READ)
+        while b"paused after" not in text:
+            left = deadline - time.monotonic()
+            assert left > 0 and selector.select(left), f"no pause in {timeout} s: {text!r}"
+            chunk = os.read(proc.stderr.fileno(), 65536)
+            assert chunk, f"the command ended without pausing: {text!r}"
+            text += chunk
+    return text.decode()
+
+
 def test_killed_sweep_resumes_to_the_complete_table(tmp_path):
-    """Kill the command (SIGKILL) after a few runs, rerun it: all runs, once each."""
+    """Kill the command (SIGKILL) while it waits after 2 runs, rerun it: all runs, once each."""
     out = tmp_path / "sweep.csv"
-    # (runs long and many enough that the command cannot finish them between two polls)
-    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:16", "--vary", "impact.e=0.6,1",
-            "--t-end", "300", "--dt", "0.002", "--out", str(out), "--workers", "1",
+    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:4", "--vary", "impact.e=0.6,1",
+            "--t-end", "30", "--dt", "0.002", "--out", str(out), "--workers", "1",
             "--chunksize", "1", "--quiet"]
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 60
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env=paused_env(2))
     try:
-        while time.monotonic() < deadline and proc.poll() is None:
-            if out.exists() and len(out.read_text().splitlines()) >= 3:  # header + 2 runs
-                break
-            time.sleep(0.02)
+        assert "paused after 2 runs" in wait_for_pause(proc)
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait()
+        proc.stderr.close()
     partial = read_table(out)
-    assert 2 <= len(partial) < 32, "the sweep finished before it could be killed"
-    proc = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+    assert [r["run"] for r in partial] == [0, 1]  # one worker, one run per task: in order
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=120, env=plain_env())
     assert proc.returncode == 0, proc.stderr
     table = rows_of(out)
-    assert [r[0] for r in table[1:]] == [str(i) for i in range(32)]
+    assert [r[0] for r in table[1:]] == [str(i) for i in range(8)]
     rows = read_table(out)
     assert all(r["status"] == "ok" for r in rows)
     for old in partial:  # rows written before the kill are kept as they were
@@ -183,7 +206,7 @@ def test_killed_sweep_resumes_to_the_complete_table(tmp_path):
     missing = [r for r in rows if r["run"] not in {p["run"] for p in partial}]
     for row in missing[:1]:
         scene = Scene(flow_u=row["flow.u"], impact_e=row["impact.e"])
-        expected = summarize(run(scene, 300.0, dt=0.002), 0.0)
+        expected = summarize(run(scene, 30.0, dt=0.002), 0.0)
         assert row["x_peak_m"] == expected["x_peak_m"]
         assert row["n_impacts"] == expected["n_impacts"]
 
@@ -196,24 +219,27 @@ def _interruptible() -> None:
 
 
 def test_interrupt_reports_how_to_resume(tmp_path):
+    """Ctrl-C (SIGINT) while the sweep waits after its first run: exit 130, the run kept."""
     out = tmp_path / "sweep.csv"
     proc = subprocess.Popen([str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:20", "--t-end",
                              "30", "--out", str(out), "--workers", "1", "--chunksize", "1",
                              "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, preexec_fn=_interruptible)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not (out.exists()
-                                               and len(out.read_text().splitlines()) >= 2):
-        time.sleep(0.02)
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
+                            preexec_fn=_interruptible, env=paused_env(1))
+    try:
+        before = wait_for_pause(proc)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+        proc.wait()
     assert proc.returncode == 130
-    assert "rerun the same command to resume" in err
-    assert 1 <= len(read_table(out)) < 20
+    assert "rerun the same command to resume" in before + err.decode()
+    assert [r["run"] for r in read_table(out)] == [0]
 
 
 # Bad input ---------------------------------------------------------------------------------------
-@pytest.mark.parametrize("argv,words", [
+#: Hostile arguments (huge grids, numbers that overflow, near-miss names) and their message.
+HOSTILE_ARGUMENTS = [
     (["sweep", "--vary", "flow.u=0:1:1000000000", "--out", "x.csv"],
      "COUNT 1,000,000,000 is more than the 100,000 runs"),
     (["sweep", "--vary", "flow.u=0:1:1000", "--vary", "ice.M=1:2:1000", "--out", "x.csv"],
@@ -231,8 +257,12 @@ def test_interrupt_reports_how_to_resume(tmp_path):
      "samples per run"),
     (["simulate", "--set", "ice.mass=3"], "unknown parameter 'ice.mass' (did you mean 'ice.M'"),
     (["sweep", "--vary", "impact.E=0,1", "--out", "x.csv"], "(did you mean 'impact.e'?)"),
-])
-def test_hostile_arguments_exit_2_with_a_message(capsys, tmp_path, monkeypatch, argv, words):
+]
+
+
+@pytest.mark.parametrize("argv,words", ARGUMENT_ERRORS + HOSTILE_ARGUMENTS)
+def test_argument_errors_exit_2_with_a_message(capsys, tmp_path, monkeypatch, argv, words):
+    """Every argument error exits with status 2 and one message, before anything is written."""
     monkeypatch.chdir(tmp_path)
     err = usage_error(capsys, argv)
     assert words in err
@@ -332,35 +362,31 @@ def alive(pid: int) -> bool:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_killed_sweep_leaves_no_workers_and_resumes(tmp_path):
-    """SIGKILL the command while its 2 pool workers run: they die too; a rerun completes."""
+    """SIGKILL the command while it waits after 3 runs with its 2 pool workers up: they die
+    too; a rerun completes."""
     out = tmp_path / "sweep.csv"
-    # (runs long and many enough that the pool cannot finish them between two polls: a run of
-    # 30 s takes milliseconds once the workers are up)
-    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:48", "--t-end", "300", "--dt",
+    argv = [str(SCRIPT), "sweep", "--vary", "flow.u=0.05:0.5:12", "--t-end", "30", "--dt",
             "0.002", "--out", str(out), "--workers", "2", "--chunksize", "1", "--quiet"]
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 60
-    workers: set[int] = set()
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env=paused_env(3))
     try:
-        while time.monotonic() < deadline and proc.poll() is None:
-            workers |= descendants(proc.pid)
-            if len(workers) >= 2 and out.exists() and len(out.read_text().splitlines()) >= 3:
-                break
-            time.sleep(0.02)
+        assert "paused after 3 runs" in wait_for_pause(proc)
+        workers = descendants(proc.pid)  # the pool is up while the sweep waits
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.wait()
+        proc.stderr.close()
     assert len(workers) >= 2, "no pool workers seen"
     partial = read_table(out)
-    assert 2 <= len(partial) < 48, "the sweep finished before it could be killed"
+    assert len(partial) == 3
     deadline = time.monotonic() + 5
     while time.monotonic() < deadline and any(alive(pid) for pid in workers):
         time.sleep(0.05)
     assert not [pid for pid in workers if alive(pid)], "orphan workers survived"
-    proc = subprocess.run(argv, capture_output=True, text=True, timeout=180)
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=180, env=plain_env())
     assert proc.returncode == 0, proc.stderr
     rows = read_table(out)
-    assert [r["run"] for r in rows] == list(range(48))
+    assert [r["run"] for r in rows] == list(range(12))
     assert all(r["status"] == "ok" for r in rows)
     for old in partial:  # rows written before the kill are kept as they were
         new = rows[old["run"]]

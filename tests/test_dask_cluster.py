@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from iceimpact.studies.seasons import load_cases, run_season
+from iceimpact.seasons import load_cases, run_season
 from iceimpact.sweep import read_table, sweep
 
 DASK = Path(sys.executable).with_name("dask")

@@ -446,7 +446,7 @@ def _add_loads_parser(sub: argparse._SubParsersAction) -> None:
 
 def _loads(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
 
-    from .studies.seasons import load_cases, run_season
+    from .seasons import load_cases, run_season
     from .sweep import DEFAULT_MAX_RUNS, SweepError
 
     max_runs = DEFAULT_MAX_RUNS if args.max_runs is None else args.max_runs
@@ -491,7 +491,7 @@ def _loads(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         print(f"iceimpact loads: no time series written to {args.series}: {len(errors)} runs "
               f"failed", file=sys.stderr)
     elif args.series is not None:
-        from .studies.outfiles import write_case_series
+        from .seasons import write_case_series
 
         args.series.mkdir(parents=True, exist_ok=True)
         written = write_case_series(table, args.series)

@@ -4,7 +4,9 @@
 matplotlib is imported only when a plot is drawn (``pip install 'iceimpact[plot]'``), so that
 importing :mod:`iceimpact` stays light; figures are drawn on the Agg canvas (no display, no
 pyplot state). Every function saves the figure and returns it, so that a caller (a test) can look
-at its axes. Axis labels carry their units: SI, from the contract (parameters, outputs) and from
+at its axes. What is drawn is read and chosen by :mod:`iceimpact.plot_data` (table files,
+load-case results, the columns and axes of a map); this module only draws. Axis labels carry
+their units: SI, from the contract (parameters, outputs) and from
 :data:`iceimpact.studies.analysis.SUMMARY_FIELDS` (measures), ``-`` for none.
 
 - :func:`plot_series`: the demo's four panels (structure displacement with the impacts and the
@@ -17,12 +19,27 @@ at its axes. Axis labels carry their units: SI, from the contract (parameters, o
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from .plot_data import (
+    PlotError,
+    default_columns,
+    lifetime_dels,
+    load_case_columns,
+    measure_columns,
+    out_series,
+    read_rows,
+    run_series,
+    season_rows,
+    season_summary,
+    select_rows,
+    sweep_axes,
+    sweep_grid,
+)
 
 #: File types the plots are written as (matplotlib picks the format from the suffix).
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
@@ -35,10 +52,6 @@ STICKING = 0.5
 
 #: Cells of a sweep map are annotated with their values up to this many per axis.
 ANNOTATE_MAX = 12
-
-
-class PlotError(ValueError):
-    """A table or a choice of columns that cannot be plotted (the message says why)."""
 
 
 def check_plot_path(path: str | Path, option: str = "plot") -> Path:
@@ -155,16 +168,6 @@ def plot_series(series: Mapping[str, Any], path: str | Path, title: str = "IceIm
     return _save(fig, path)
 
 
-def run_series(result: Any) -> dict[str, np.ndarray]:
-    """A run (:class:`iceimpact.Result`) as :func:`plot_series` takes it: the FMU's outputs at the
-    samples (``contact.count`` counts the impacts up to each sample)."""
-    from .studies.outfiles import TIME_CHANNEL, run_channels
-
-    channels = run_channels(result)
-    channels["time"] = channels.pop(TIME_CHANNEL)
-    return channels
-
-
 def plot_run(result: Any, path: str | Path, title: str = "IceImpact") -> Any:
     """:func:`plot_series` of a run (``iceimpact simulate --plot``); returns the figure."""
     return plot_series(run_series(result), path, title=title)
@@ -172,21 +175,10 @@ def plot_run(result: Any, path: str | Path, title: str = "IceImpact") -> Any:
 
 def plot_out(table: str | Path, path: str | Path) -> Any:
     """:func:`plot_series` of an OpenFAST text output written by ``iceimpact simulate --format
-    openfast`` (``iceimpact plot run.out``); returns the figure."""
-    from .studies.outfiles import TIME_CHANNEL, read_out
-
-    try:
-        channels, _, description = read_out(table)
-    except (OSError, ValueError) as exc:
-        raise PlotError(str(exc)) from None
-    series = {("time" if n == TIME_CHANNEL else n): v for n, v in channels.items()}
-    missing = [n for n in ("structure.x", "ice.z", "contact.impulse", "contact.count",
-                           "contact.active") if n not in series]
-    if missing or series["time"].size < 2:
-        raise PlotError(f"{table}: " + (f"has no channel {', '.join(missing)}" if missing
-                                         else "has fewer than two samples")
-                        + "; it was not written by iceimpact simulate --format openfast")
-    return plot_series(series, path, title=description.split(",")[0] or Path(table).name)
+    openfast`` (``iceimpact plot run.out``, read by :func:`iceimpact.plot_data.out_series`);
+    returns the figure."""
+    series, title = out_series(table)
+    return plot_series(series, path, title=title)
 
 
 # Units of table columns --------------------------------------------------------------------------
@@ -213,24 +205,6 @@ def column_label(name: str) -> str:
 
 
 # A sweep table ----------------------------------------------------------------------------------
-def varied_columns(columns: Sequence[str]) -> list[str]:
-    """The varied parameters of a sweep table: its columns between ``run`` and ``status``."""
-    from .sweep.columns import RUN_COLUMN, STATUS_COLUMN
-
-    columns = list(columns)
-    if RUN_COLUMN not in columns or STATUS_COLUMN not in columns:
-        raise PlotError("not a sweep table: it has no 'run' and 'status' columns")
-    return columns[columns.index(RUN_COLUMN) + 1:columns.index(STATUS_COLUMN)]
-
-
-def measure_columns(columns: Sequence[str]) -> list[str]:
-    """The result columns of a sweep table (after ``status``)."""
-    from .sweep.columns import STATUS_COLUMN
-
-    columns = list(columns)
-    return columns[columns.index(STATUS_COLUMN) + 1:] if STATUS_COLUMN in columns else []
-
-
 def _log_axis(values: np.ndarray) -> bool:
     """A log axis for positive values: evenly spaced in log, or uneven over two decades, or two
     values a decade apart or more."""
@@ -259,35 +233,6 @@ def _edges(values: np.ndarray, log: bool) -> np.ndarray:
 
 def _centre(edges: np.ndarray, i: int, log: bool) -> float:
     return math.sqrt(edges[i] * edges[i + 1]) if log else 0.5 * (edges[i] + edges[i + 1])
-
-
-def select_rows(rows: Sequence[Mapping[str, Any]], at: Mapping[str, float]
-                ) -> list[Mapping[str, Any]]:
-    """The rows whose parameter ``name`` is the grid value nearest ``at[name]``, for each."""
-    out = list(rows)
-    for name, wanted in at.items():
-        values = np.unique([float(r[name]) for r in out])
-        if not values.size:
-            break
-        nearest = values[int(np.argmin(np.abs(values - wanted)))]
-        out = [r for r in out if float(r[name]) == nearest]
-    return out
-
-
-def sweep_grid(rows: Sequence[Mapping[str, Any]], column: str, x: str, y: str
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(x values, y values, column as an array [y, x]) of the table's rows; nan for a failed run
-    or a missing cell."""
-    xs = np.unique([float(r[x]) for r in rows])
-    ys = np.unique([float(r[y]) for r in rows])
-    data = np.full((ys.size, xs.size), np.nan)
-    for r in rows:
-        if r.get("status", "ok") != "ok":
-            continue
-        i = int(np.searchsorted(ys, float(r[y])))
-        j = int(np.searchsorted(xs, float(r[x])))
-        data[i, j] = float(r[column])
-    return xs, ys, data
 
 
 def plot_sweep_map(rows: Sequence[Mapping[str, Any]], path: str | Path,
@@ -359,40 +304,14 @@ def plot_sweep_map(rows: Sequence[Mapping[str, Any]], path: str | Path,
 
 
 # A load-case result -----------------------------------------------------------------------------
-_DEL_1HZ = re.compile(r"^del_m(\d+(?:\.\d+)?)_1Hz_N$")
-
-
-def load_case_columns(columns: Sequence[str]) -> dict[str, Any]:
-    """The columns of a load-case table that :func:`plot_load_cases` draws: ``case`` (the name
-    column), ``hours``, ``dels`` ({Wöhler exponent: column}) and ``shares`` ({exponent or None:
-    column}). PlotError naming what is missing."""
-    columns = [c for c in columns if isinstance(c, str)]
-    case = next((c for c in columns if c.lower() in ("case", "name", "case_name", "load_case")),
-                None)
-    hours = next((c for c in columns if "hour" in c.lower() or c in ("h", "duration_h")), None)
-    dels = {float(m.group(1)): c for c in columns if (m := _DEL_1HZ.match(c))}
-    shares: dict[float | None, str] = {}
-    for c in columns:
-        low = c.lower()
-        if "damage" in low and ("share" in low or "fraction" in low):
-            m = re.search(r"m(\d+(?:\.\d+)?)", low)
-            shares[float(m.group(1)) if m else None] = c
-    missing = [what for what, found in (("a case name column ('case')", case),
-                                        ("DEL columns (del_m<m>_1Hz_N)", dels),
-                                        ("damage share columns (damage_share*)", shares))
-               if not found]
-    if missing:
-        raise PlotError("not a load-case table: no " + ", no ".join(missing))
-    return {"case": case, "hours": hours, "dels": dels, "shares": shares}
-
-
 def plot_load_cases(rows: Sequence[Mapping[str, Any]], path: str | Path, title: str = "",
                     share_scale: float | None = None,
                     lifetime: Mapping[float, float] | None = None) -> Any:
     """A load-case result: the share of the lifetime damage per case (left, %) and its 1 Hz DEL
     per case (right, N), one bar per Wöhler exponent; saved to ``path``, returns the figure.
 
-    ``rows`` are the table's rows (:func:`load_case_columns` finds the columns). Shares are
+    ``rows`` are the table's rows (:func:`iceimpact.plot_data.load_case_columns` finds the
+    columns). Shares are
     fractions (summing to 1 over the cases) unless ``share_scale`` says otherwise (100 for
     percent); by default a column summing to about 100 is taken as percent. ``lifetime``
     ({Wöhler exponent: DEL, N}) draws the lifetime 1 Hz DELs as dashed lines.
@@ -448,160 +367,6 @@ def plot_load_cases(rows: Sequence[Mapping[str, Any]], path: str | Path, title: 
 
 
 # A table file (``iceimpact plot``) --------------------------------------------------------------
-def _number(text: Any) -> Any:
-    """A CSV cell as a float where it is a number, else the text."""
-    if not isinstance(text, str):
-        return text
-    try:
-        return float(text)
-    except ValueError:
-        return text
-
-
-#: The ``format`` of a load-case result's PREFIX.json (``iceimpact loads``).
-SEASON_FORMAT = "iceimpact-season"
-
-
-def _float(value: Any) -> float:
-    return math.nan if value is None else float(value)
-
-
-def season_rows(summary: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """The cases of a load-case result (PREFIX.json of ``iceimpact loads``: ``cases``, each with
-    ``name``, ``hours_per_year`` and ``del_1Hz_N`` and ``damage_share`` keyed by the Wöhler
-    exponent) as flat rows: ``case``, ``hours_per_year``, ``del_m<m>_1Hz_N``,
-    ``damage_share_m<m>``."""
-    rows = []
-    for case in summary.get("cases") or []:
-        if not isinstance(case, Mapping):
-            raise PlotError("a load-case result's \"cases\" must be objects")
-        row: dict[str, Any] = {"case": case.get("name", "?"),
-                               "hours_per_year": _float(case.get("hours_per_year"))}
-        for key, template in (("del_1Hz_N", "del_m{}_1Hz_N"),
-                              ("damage_share", "damage_share_m{}")):
-            for m, value in (case.get(key) or {}).items():
-                row[template.format(m)] = _float(value)
-        rows.append(row)
-    return rows
-
-
-#: The largest JSON file a plot reads (a load-case summary is a few kB).
-MAX_JSON_BYTES = 64 * 2**20
-
-
-def _read_json_text(path: Path) -> str:
-    """The text of a JSON file from outside, read as every outside text file is (a regular
-    file, within MAX_JSON_BYTES, UTF-8); PlotError otherwise."""
-    from .sweep.table import read_text_file
-
-    return read_text_file(path, MAX_JSON_BYTES,
-                          lambda p, problem: PlotError(f"{p}: not readable JSON ({problem})"))
-
-
-def season_summary(path: str | Path) -> dict[str, Any] | None:
-    """The load-case summary of ``path``: PREFIX.json itself, or the one beside PREFIX.csv;
-    None if there is none (or it is not one)."""
-    import json
-
-    path = Path(path)
-    doc = path if path.suffix.lower() == ".json" else path.with_suffix(".json")
-    if not doc.is_file():
-        return None
-    try:
-        data = json.loads(_read_json_text(doc))
-    except (PlotError, ValueError):
-        return None
-    return data if isinstance(data, dict) and data.get("format") == SEASON_FORMAT else None
-
-
-def read_rows(path: str | Path) -> list[dict[str, Any]]:
-    """The rows of a table file: a sweep table (CSV or Parquet, :func:`iceimpact.sweep.read_table`)
-    or another CSV (numbers as floats), or the case rows of a JSON file (a list of objects, or an
-    object holding one under ``cases`` or ``rows``; else its sibling ``.csv``). PlotError if
-    it cannot be read."""
-    import csv
-    import json
-
-    path = Path(path)
-    if not path.is_file():
-        raise PlotError(f"{path}: no such file")
-    suffix = path.suffix.lower()
-    if suffix in (".parquet", ".pq"):
-        from .sweep import SweepError, read_table
-
-        try:
-            return read_table(path)
-        except SweepError as exc:
-            raise PlotError(str(exc)) from None
-    if suffix == ".json":
-        try:
-            data = json.loads(_read_json_text(path))
-        except ValueError as exc:
-            raise PlotError(f"{path}: not readable JSON ({exc})") from None
-        if isinstance(data, dict):
-            data = next((data[k] for k in ("cases", "rows", "table") if isinstance(data.get(k),
-                                                                                   list)), None)
-        if isinstance(data, list) and data and all(isinstance(r, dict) for r in data):
-            return [dict(r) for r in data]
-        sibling = path.with_suffix(".csv")
-        if sibling.is_file():
-            return read_rows(sibling)
-        raise PlotError(f"{path}: holds no list of cases (\"cases\": [...]) and there is no "
-                        f"{sibling.name} beside it")
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            header = reader.fieldnames or []
-            if "run" in header and "status" in header:
-                from .sweep import SweepError, read_table
-
-                try:
-                    return read_table(path)
-                except SweepError as exc:
-                    raise PlotError(str(exc)) from None
-            return [{k: _number(v) for k, v in row.items()} for row in reader]
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise PlotError(f"{path}: not a readable CSV table ({exc})") from None
-
-
-def sweep_axes(rows: Sequence[Mapping[str, Any]], x: str | None = None, y: str | None = None,
-               at: Mapping[str, float] | None = None) -> tuple[str, str]:
-    """The map's (x, y) parameters of a sweep table: by default its two varied parameters
-    (columns between ``run`` and ``status`` with more than one value; x the last, y the first);
-    with more, ``x`` and ``y`` chosen and every other one fixed by ``at``. PlotError naming
-    what is needed."""
-    between = varied_columns(list(rows[0]))
-    varied = [c for c in between if len({float(r[c]) for r in rows}) > 1]
-    at = dict(at or {})
-    for name in (x, y, *at):
-        if name is not None and name not in between:
-            raise PlotError(f"{name!r} is not a parameter of this sweep; its parameters: "
-                            + (", ".join(between) or "none"))
-    if len(varied) < 2:
-        raise PlotError("a map needs a sweep table with two varied parameters (a sweep with "
-                        "two --vary options); this one varies "
-                        + (", ".join(varied) if varied else "none") + ": plot it from the table "
-                        "itself, or sweep a second parameter")
-    if x is None and y is None and len(varied) == 2:
-        return varied[1], varied[0]
-    if x is None or y is None or x == y:
-        raise PlotError(f"this sweep varies {len(varied)} parameters ({', '.join(varied)}): "
-                        "choose two different ones as the map's axes with --x NAME and --y NAME")
-    loose = [c for c in varied if c not in (x, y) and c not in at]
-    if loose:
-        raise PlotError("fix the other varied parameters with --at NAME=VALUE (the nearest grid "
-                        "value is taken): " + ", ".join(loose))
-    return x, y
-
-
-def default_columns(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The columns plotted without --column: the 1 Hz DEL (m = 4) and the peak displacement,
-    those of them in the table, else the first result column."""
-    measures = measure_columns(list(rows[0]))
-    chosen = [c for c in ("del_m4_1Hz_N", "x_peak_m") if c in measures]
-    return chosen or measures[:1]
-
-
 def plot_table(table: str | Path, path: str | Path | None = None,
                columns: Sequence[str] = (), x: str | None = None, y: str | None = None,
                at: Mapping[str, float] | None = None) -> tuple[Any, Path, str]:
@@ -627,9 +392,8 @@ def plot_table(table: str | Path, path: str | Path | None = None,
         rows = season_rows(summary)
         if not rows:
             raise PlotError(f"{table}: the load-case result has no cases")
-        life = summary.get("lifetime") or {}
-        dels = {float(m): _float(v) for m, v in (life.get("del_1Hz_N") or {}).items()}
-        years = life.get("life_years")
+        dels = lifetime_dels(summary)
+        years = (summary.get("lifetime") or {}).get("life_years")
         title = f"{table.stem}: {len(rows)} load cases" + (
             f"; dashed: the lifetime DELs ({years:g} years)" if dels and years else "")
         return plot_load_cases(rows, path, title=title, lifetime=dels), path, "cases"

@@ -169,8 +169,8 @@ def test_each_load_case_run_as_an_out_file(tmp_path: Path) -> None:
     included): read back by openfast-io, its k x gives the DEL of that run's row in PREFIX.csv
     within the printed precision."""
     fast_output = pytest.importorskip("openfast_io.FAST_output_reader")
-    from iceimpact.studies.outfiles import case_file_name, write_case_series
-    from iceimpact.studies.seasons import load_cases, run_season, series_row
+    from iceimpact.seasons import load_cases, run_season, series_row, write_case_series
+    from iceimpact.studies.outfiles import case_file_name
 
     path = tmp_path / "cases.toml"
     path.write_text(CASES)

@@ -25,8 +25,8 @@ The channels (:data:`OUT_CHANNELS`) are the FMU's outputs with the contract's un
 (``contact.impulse``, ``contact.force``) cover the interval up to their sample, 0 at ``t = 0``.
 
 :func:`write_openfast` writes a run (``iceimpact simulate --format openfast``),
-:func:`write_case_series` every run of a load-case table (one file per case and repetition),
-:func:`write_out` any channels; :func:`read_out` reads such a file back.
+:func:`write_out` any channels; :func:`read_out` reads such a file back; :func:`case_file_name`
+names the file of a load-case run (:func:`iceimpact.seasons.write_case_series` writes them).
 """
 
 from __future__ import annotations
@@ -196,30 +196,3 @@ def case_file_name(index: int, name: str, repetition: int) -> str:
     slug = "".join(c if c.isalnum() or c in "-_" else "-" for c in _ascii_line(name))
     slug = "-".join(filter(None, slug.split("-")))[:60] or "case"
     return f"case{index:02d}_{slug}_rep{repetition}.out"
-
-
-def write_case_series(table: Any, directory: str | Path, generated: float | None = None
-                      ) -> list[Path]:
-    """Run every case of a load-case table (:func:`iceimpact.studies.seasons.load_cases`), each
-    repetition as ``iceimpact loads`` runs it (same scene, same perturbed ``ice.z0``, same
-    ``t_end`` and ``dt``), and write each run as an OpenFAST text output in ``directory``
-    (:func:`case_file_name`), so that pCrunch or pyDatView can take the cases' time series
-    (weights: a case's hours over its repetitions). Runs serially; returns the paths, in the
-    table's order."""
-    from ..runspec import apply
-    from ..simulator import run
-    from .seasons import CASE_COLUMN, REPETITION_COLUMN, season_runs
-
-    directory = Path(directory)
-    names, points, labels = season_runs(table)
-    paths = []
-    for point, i, k in zip(points, labels[CASE_COLUMN], labels[REPETITION_COLUMN], strict=True):
-        case = table.cases[i]
-        scene = apply(table.base, dict(zip(names, point, strict=True)))
-        result = run(scene, table.t_end, dt=table.dt)
-        description = (f"load case {case.name!r} ({case.hours:g} h per year), repetition {k} "
-                       f"of {case.repetitions}, t_end {table.t_end:g} s, dt {table.dt:g} s, "
-                       f"from {table.source}")
-        paths.append(write_openfast(directory / case_file_name(i, case.name, k), result,
-                                    description=description, generated=generated))
-    return paths

@@ -24,9 +24,14 @@ The package: :mod:`~iceimpact.sweep.grid` (axes from text, the grid and its size
 layout and column types), :mod:`~iceimpact.sweep.table` (the CSV/Parquet table, its metadata
 and journal, resume, safe file writing), :mod:`~iceimpact.sweep.backends` (serial, process
 pool, dask) and :func:`sweep` here, which ties them together (:func:`run_points` does the same
-for any list of runs, e.g. the load-case tables of :mod:`iceimpact.studies.seasons`).
+for any list of runs, e.g. the load-case tables of :mod:`iceimpact.seasons`).
 Parameter changes by FMI name and the default sample step come from :mod:`iceimpact.runspec`,
 below this package.
+
+A test hook (no effect unless set): with ``ICEIMPACT_SWEEP_PAUSE_AFTER=N`` in the environment
+(:data:`PAUSE_ENV`) a sweep stops after it has finished N runs in this call (written, if it has
+an output file), says so on stderr and waits there until it is interrupted or killed, so that a
+test kills or interrupts it at a known point instead of racing it.
 
     >>> from iceimpact import Scene
     >>> from iceimpact.sweep import sweep
@@ -40,6 +45,7 @@ import json
 import math
 import os
 import sys
+import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -67,11 +73,36 @@ from .table import FORMAT_VERSION, FORMATS, Output, meta_path, output_format, re
 
 __all__ = [
     "DEFAULT_DT", "DEFAULT_MAX_RUNS", "FORMATS", "FORMAT_VERSION", "MAX_CHUNK", "MAX_SAMPLES",
-    "RUN_COLUMN", "STATUS_COLUMN", "STATUS_OK", "WALL_COLUMN", "Measure", "SweepError", "Value",
-    "apply", "check_grid_size", "grid_points", "grid_size", "meta_path", "normalize_grid",
-    "output_format", "parameter_names", "parse_set", "parse_values", "parse_vary",
-    "read_table", "run_point", "run_points", "sweep",
+    "PAUSE_ENV", "RUN_COLUMN", "STATUS_COLUMN", "STATUS_OK", "WALL_COLUMN", "Measure",
+    "SweepError", "Value", "apply", "check_grid_size", "grid_points", "grid_size", "meta_path",
+    "normalize_grid", "output_format", "parameter_names", "parse_set", "parse_values",
+    "parse_vary", "read_table", "run_point", "run_points", "sweep",
 ]
+
+
+#: The test hook's environment variable (the module docstring): pause after this many runs.
+PAUSE_ENV = "ICEIMPACT_SWEEP_PAUSE_AFTER"
+
+
+def pause_after() -> int | None:
+    """The test hook's run count from :data:`PAUSE_ENV` (None if unset or empty); a
+    :class:`SweepError` if it is set to anything but an integer >= 1."""
+    text = os.environ.get(PAUSE_ENV, "").strip()
+    if not text:
+        return None
+    if not text.isdigit() or int(text) < 1:
+        raise SweepError(f"{PAUSE_ENV} = {text!r}: expected an integer >= 1 (runs after which "
+                         "a sweep waits to be killed; a test hook), or unset")
+    return int(text)
+
+
+def _wait_to_be_stopped(finished: int) -> None:
+    """The test hook's pause: say so on stderr, then sleep until a signal ends the process or
+    raises (Ctrl-C: KeyboardInterrupt, as at any other point of the sweep)."""
+    print(f"iceimpact sweep: paused after {finished} runs ({PAUSE_ENV})", file=sys.stderr,
+          flush=True)
+    while True:
+        time.sleep(3600.0)
 
 
 def _progress(total: int, initial: int, enabled: bool, desc: str = "sweep") -> Any:
@@ -186,6 +217,7 @@ def run_points(base: Scene, names: Sequence[str], points: Sequence[tuple[Value, 
     if chunksize is not None and (isinstance(chunksize, bool) or not isinstance(chunksize, int)
                                   or chunksize < 1):
         raise SweepError(f"chunksize = {chunksize!r}: expected an integer >= 1")
+    pause = pause_after()
 
     names = tuple(names)
     labels = {c: list(v) for c, v in (labels or {}).items()}
@@ -230,6 +262,7 @@ def run_points(base: Scene, names: Sequence[str], points: Sequence[tuple[Value, 
 
     bar = _progress(len(points), len(existing), progress, desc)
     n_errors = sum(r[STATUS_COLUMN] != STATUS_OK for r in existing.values())
+    finished = 0
     try:
         if output is not None:
             output.start(existing)
@@ -247,6 +280,9 @@ def run_points(base: Scene, names: Sequence[str], points: Sequence[tuple[Value, 
                 bar.set_postfix(errors=n_errors)
             if on_rows is not None:
                 on_rows(batch)
+            finished += len(batch)
+            if pause is not None and finished >= pause:
+                _wait_to_be_stopped(finished)
     finally:
         bar.close()
         if hasattr(batches, "close"):

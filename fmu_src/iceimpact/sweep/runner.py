@@ -38,6 +38,8 @@ def status_text(exc: BaseException) -> str:
 
 
 def default_measure() -> Measure:
+    """:func:`iceimpact.studies.analysis.summarize`, the measure of a sweep that names none."""
+    # imported here: a worker of a load-case table never loads the spectra (scipy.signal)
     from ..studies.analysis import summarize
 
     return summarize
@@ -70,7 +72,7 @@ def measure_columns(measure: Measure | None, base: Scene, dt: float) -> dict[str
     numbers :data:`~iceimpact.sweep.columns.INTEGER_MEASURES` as ints), or probed on a short
     run of ``base`` (an int value makes an int column)."""
     if measure is None:
-        from ..studies.analysis import SUMMARY_FIELDS
+        from ..studies.analysis import SUMMARY_FIELDS  # (as in default_measure)
 
         return {k: int if k in INTEGER_MEASURES else float for k in SUMMARY_FIELDS}
     t_probe = max(1.0, 16 * dt)

@@ -1,22 +1,11 @@
-"""Design over an ice season: load-case tables and lifetime damage-equivalent loads.
+"""Load-case tables: reading and checking a table of ice conditions, and the runs it asks for.
 
-A structural designer checks fatigue over a service life, summed over the ice conditions a site
-sees, not one run's DEL. A **load-case table** lists the cases: FMI parameter values, the hours per
+A **load-case table** lists the cases of a site's ice season: FMI parameter values, the hours per
 year each case lasts, and a number of repetitions (the motion is sensitive to its initial state,
 so one run is one sample; repetition ``k`` starts the ice ``k`` steps of :func:`perturbation`
-further upstream). The runs go through the sweep engine (:func:`iceimpact.sweep.run_points`:
-process pool or dask, resumable, the same limits and refusals), one row per run; the rows are then
-combined (SI units throughout; docs/explanation/design-loads.md, "Design over an ice season"):
-
-- per case ``i``, over the cycles of its repetitions pooled (rainflow cycles of ``k x`` counted
-  per run by :mod:`iceimpact.studies.loads`; pooling adds their Miner sums ``D = sum n S^m``,
-  N^m, and their windows ``T``, s): ``DEL_i = (sum_r D_r / (f_eq sum_r T_r))^(1/m)`` at
-  ``f_eq = 1 Hz`` and ``(sum_r D_r / 1e7)^(1/m)`` for 1e7 cycles; extremes with their times;
-  impulse statistics; the spread of the runs' DELs over the repetitions;
-- over the life: ``DEL_life = (sum_i p_i DEL_i^m)^(1/m)`` at 1 Hz, ``p_i = h_i / sum_j h_j`` the
-  case's share of the ice hours, and ``DEL_life (f_eq T_ice / 1e7)^(1/m)`` for 1e7 cycles over the
-  life's ice time ``T_ice = life * sum_j h_j * 3600 s``; the case's share of the lifetime damage
-  ``p_i DEL_i^m / sum_j p_j DEL_j^m``; the largest extreme and the case it comes from.
+further upstream). :func:`load_cases` reads one and :func:`season_runs` lists its runs (FMI
+names and values, with the case and repetition of each); :mod:`iceimpact.seasons.lifetime`
+combines their loads and :func:`iceimpact.seasons.run_season` runs them.
 
 Case files are outside data: TOML (``tomllib``) or CSV (``csv``), nothing evaluated; every field
 is checked, and an error (:class:`SeasonError`) names the file, the case, the field, the value and
@@ -27,28 +16,18 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import tomllib
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from ..errors import ParameterError, real_number, value_text
 from ..runspec import DEFAULT_DT, MAX_SAMPLES, SpecError, Value, apply, check_name, coerce
 from ..scene import Scene, flatten_table, load_scene
 from ..sweep.errors import SweepError
 from ..sweep.table import read_text_file
-from .loads import F_EQ, N_EQ, WOHLER_EXPONENTS, Loads, design_loads, load_columns, run_loads
-
-__all__ = [
-    "Case", "CaseTable", "SEASON_FIELDS", "SeasonError", "load_cases", "lifetime_del",
-    "perturbation", "pooled_del", "run_columns", "run_season", "season_measure", "season_runs",
-    "series_row", "summarize_season", "write_summary",
-]
 
 #: Hours in a (leap) year: the largest ice time per year a table may give, h.
 MAX_HOURS_PER_YEAR = 8784.0
@@ -56,8 +35,6 @@ MAX_HOURS_PER_YEAR = 8784.0
 #: Most repetitions of one case (each is a full run).
 MAX_REPETITIONS = 1000
 
-#: Longest service life accepted, years (a guard against a typo, e.g. 2e5 for 25).
-MAX_LIFE_YEARS = 1000.0
 
 #: Longest case name, characters.
 MAX_NAME = 200
@@ -80,29 +57,8 @@ PERTURBED = "ice.z0"
 #: repetition (0 = unperturbed).
 CASE_COLUMN, REPETITION_COLUMN = "case", "repetition"
 
-FORMAT_NAME, FORMAT_VERSION = "iceimpact-season", 1
-
 _TOP_KEYS = ("t_end", "transient", "dt", "repetitions", "scene", "defaults", "case")
 _CASE_KEYS = ("name", "hours", "repetitions")
-
-
-def _miner_key(m: float) -> str:
-    return f"miner_m{m:g}"
-
-
-#: Columns of :func:`run_columns` besides :data:`iceimpact.studies.loads.LOAD_FIELDS`:
-#: name -> (unit, meaning).
-SEASON_FIELDS: dict[str, tuple[str, str]] = {
-    "t_start_s": ("s", "start of the analysed window (transient, or first sample if later)"),
-    "t_end_s": ("s", "end of the analysed window (last sample)"),
-    "window_s": ("s", "T = t_end_s - t_start_s, the time the cycles are counted over"),
-    "n_impacts": ("1", "impacts in the window"),
-    "mean_impulse_ns": ("N.s", "mean impulse per impact (nan if none)"),
-    "max_impulse_ns": ("N.s", "largest impulse of an impact (nan if none)"),
-    **{_miner_key(m): (f"N^{m:g}", f"Miner sum of k x: sum n S^{m:g} over the rainflow cycles "
-                                   "(half cycles weighted as in the DELs)")
-       for m in WOHLER_EXPONENTS},
-}
 
 
 class SeasonError(SweepError):
@@ -166,8 +122,11 @@ def _where(path: str, case: int | None, name: str | None = None, line: int | Non
     return f"{path}: " + (f"line {line}, " if line is not None else "") + f"{label}: "
 
 
-def _check_number(where: str, key: str, value: Any, low: float, high: float | None,
-                  what: str, low_open: bool = False) -> float:
+def check_number(where: str, key: str, value: Any, low: float, high: float | None,
+                 what: str, low_open: bool = False) -> float:
+    """``value`` as a float if it is a finite real number in ``[low, high]`` (``(low, high]``
+    with ``low_open``; no upper bound for ``high=None``); else a :class:`SeasonError` starting
+    with ``where`` and naming ``key``, the value, the interval and ``what`` it is."""
     number = real_number(value)
     if number is not None and math.isfinite(number) and (
             number > low if low_open else number >= low) and (high is None or number <= high):
@@ -225,15 +184,15 @@ def _settings(path: str, given: Mapping[str, Any]) -> tuple[float, float, float]
     if given.get("t_end") is None:
         raise SeasonError(f"{path}: t_end is missing: give the simulated time per run, s "
                           "(t_end = 600.0 in the TOML file, or --t-end)")
-    t_end = _check_number(f"{path}: ", "t_end", given["t_end"], 0.0, None,
-                          "simulated time per run, s", low_open=True)
-    transient = _check_number(f"{path}: ", "transient", given.get("transient", 0.0), 0.0, None,
-                              "s, the loads use t >= transient")
+    t_end = check_number(f"{path}: ", "t_end", given["t_end"], 0.0, None,
+                         "simulated time per run, s", low_open=True)
+    transient = check_number(f"{path}: ", "transient", given.get("transient", 0.0), 0.0, None,
+                             "s, the loads use t >= transient")
     if transient >= t_end:
         raise SeasonError(f"{path}: transient = {transient!r}: expected a number in [0, t_end) "
                           f"with t_end = {t_end!r} (s)")
-    dt = _check_number(f"{path}: ", "dt", given.get("dt", DEFAULT_DT), 0.0, t_end,
-                       "sample step, s", low_open=True)
+    dt = check_number(f"{path}: ", "dt", given.get("dt", DEFAULT_DT), 0.0, t_end,
+                      "sample step, s", low_open=True)
     if t_end / dt > MAX_SAMPLES:
         raise SeasonError(f"{path}: t_end / dt = {t_end / dt:.3g} samples per run, more than "
                           f"{MAX_SAMPLES:,}; raise dt or lower t_end")
@@ -265,8 +224,8 @@ def _build(path: str, raw_cases: Sequence[tuple[int | None, Mapping[str, Any]]],
         where = _where(path, i, name, line)
         if "hours" not in raw:
             raise SeasonError(f"{where}hours is missing (hours per year in this case, h)")
-        hours = _check_number(where, "hours", raw["hours"], 0.0, MAX_HOURS_PER_YEAR,
-                              "hours per year in this case, h")
+        hours = check_number(where, "hours", raw["hours"], 0.0, MAX_HOURS_PER_YEAR,
+                             "hours per year in this case, h")
         reps = raw.get("repetitions")
         reps = reps_default if reps is None else _check_count(where, "repetitions", reps)
         params = {key: _parameter(where, key, value) for key, value in raw.items()
@@ -429,246 +388,3 @@ def season_runs(table: CaseTable) -> tuple[tuple[str, ...], list[tuple[Value, ..
             rep_labels.append(k)
     return tuple(names), points, {CASE_COLUMN: case_labels, REPETITION_COLUMN: rep_labels}
 
-
-def run_columns(loads: Loads) -> dict[str, float | int]:
-    """One row of the season table from a run's loads: the columns of
-    :func:`iceimpact.studies.loads.load_columns` and :data:`SEASON_FIELDS` (the Miner sums
-    ``sum n S^m`` that pooling adds up, N^m)."""
-    out: dict[str, float | int] = {
-        "t_start_s": loads.t_start, "t_end_s": loads.t_end, "window_s": loads.duration,
-        "n_impacts": -1 if loads.n_impacts is None else int(loads.n_impacts),  # -1: unknown
-        "mean_impulse_ns": loads.impulse_mean, "max_impulse_ns": loads.impulse_max,
-    }
-    out.update(load_columns(loads))
-    cycles = loads.cycles
-    finite = math.isfinite(loads.kx_mean)  # no k, or a diverged run: no cycles to count
-    s_max = float(np.max(cycles.ranges)) if cycles.ranges.size else 0.0
-    for m in WOHLER_EXPONENTS:
-        if not finite:
-            out[_miner_key(m)] = math.nan
-        elif s_max == 0.0:
-            out[_miner_key(m)] = 0.0
-        else:  # scaled by the largest range: no overflow inside the sum
-            out[_miner_key(m)] = s_max ** m * float(np.sum(cycles.counts
-                                                           * (cycles.ranges / s_max) ** m))
-    return out
-
-
-def season_measure(result: Any, transient: float) -> dict[str, float | int]:
-    """The sweep measure of a season run (module level: picklable for the workers)."""
-    return run_columns(run_loads(result, transient))
-
-
-def series_row(t: Any, x: Any, k: float, transient: float = 0.0, **options: Any
-               ) -> dict[str, float | int]:
-    """:func:`run_columns` of sampled ``t`` (s), ``x`` (m) of a structure of stiffness ``k``
-    (N/m): a row for :func:`summarize_season` from a time series instead of a run (tests,
-    other simulators); ``options`` go to :func:`iceimpact.studies.loads.design_loads`
-    (``impacts``, ``impulse``, ``half``)."""
-    return run_columns(design_loads(t, x, k, transient=transient, **options))
-
-
-# The combination ---------------------------------------------------------------------------------
-def pooled_del(miner_sums: Sequence[float], m: float, n_eq: float) -> float:
-    """``(sum_r D_r / n_eq)^(1/m)``: the DEL (N) of the pooled cycles of runs whose Miner sums
-    ``D_r = sum n S^m`` (N^m) are given; ``n_eq = f_eq sum_r T_r`` for the 1 Hz DEL. nan if a
-    sum is nan or ``n_eq`` is not a positive finite number."""
-    total = float(np.sum(miner_sums)) if len(miner_sums) else 0.0
-    if not (math.isfinite(n_eq) and n_eq > 0.0) or math.isnan(total):
-        return math.nan
-    return (total / n_eq) ** (1.0 / m)
-
-
-def lifetime_del(dels: Sequence[float], weights: Sequence[float], m: float) -> float:
-    """``(sum_i p_i DEL_i^m)^(1/m)`` with ``p_i = w_i / sum w`` (N): the 1 Hz DEL of the life
-    from the cases' 1 Hz DELs and hours. A case of zero weight contributes nothing (even a nan
-    DEL); nan if a weighted case's DEL is nan."""
-    d = np.asarray(dels, dtype=float)
-    w = np.asarray(weights, dtype=float)
-    keep = w > 0.0
-    if not np.any(keep):
-        return math.nan
-    d, p = d[keep], w[keep] / np.sum(w[keep])
-    if np.any(np.isnan(d)):
-        return math.nan
-    top = float(np.max(d))
-    if top == 0.0:
-        return 0.0
-    return top * float(np.sum(p * (d / top) ** m)) ** (1.0 / m)  # scaled: no overflow
-
-
-def _spread(values: Sequence[float]) -> dict[str, float]:
-    v = np.asarray([x for x in values if not math.isnan(x)], dtype=float)
-    if v.size == 0:
-        return dict.fromkeys(("min", "max", "mean", "std"), math.nan)
-    return {"min": float(v.min()), "max": float(v.max()), "mean": float(v.mean()),
-            "std": float(v.std(ddof=1)) if v.size > 1 else 0.0}
-
-
-def _extreme(rows: Sequence[Mapping[str, Any]], key: str, biggest: bool
-             ) -> tuple[float, Mapping[str, Any] | None]:
-    best, where = math.nan, None
-    for r in rows:
-        v = r[key]
-        if not math.isnan(v) and (where is None or (v > best if biggest else v < best)):
-            best, where = v, r
-    return best, where
-
-
-#: Units of the summary's entries, by key or key suffix (PREFIX.json's "units").
-SUMMARY_UNITS = {
-    "*_N": "N", "*_s": "s", "*_ns": "N.s", "*_hz": "Hz", "hours_per_year": "h per year",
-    "ice_hours": "h", "ice_hours_per_year": "h per year", "life_years": "years",
-    "share_of_hours": "1", "damage_share": "1 (of the lifetime damage, per Woehler exponent)",
-    "cycles": "1 (rainflow cycles, half cycles weighted 0.5)",
-    "del_1Hz_N, del_1e7_N, del_1Hz_spread_N": "N, per Woehler exponent m (the keys)",
-}
-
-
-def summarize_season(table: CaseTable, rows: Sequence[Mapping[str, Any]],
-                     life_years: float) -> dict[str, Any]:
-    """The season summary (JSON-able; units in the key suffixes and ``units``) from the rows of
-    its runs (``case``, ``repetition``, ``status`` and the :func:`run_columns`), as written to
-    PREFIX.json. Failed runs are left out of their case and listed; a case with hours > 0 and
-    no successful run makes the lifetime values nan (``complete`` false)."""
-    life = _check_number("", "life", life_years, 0.0, MAX_LIFE_YEARS, "service life, years",
-                         low_open=True)
-    ms = WOHLER_EXPONENTS
-    total_hours = table.hours
-    by_case: list[list[Mapping[str, Any]]] = [[] for _ in table.cases]
-    failed: list[list[Mapping[str, Any]]] = [[] for _ in table.cases]
-    for r in rows:
-        (by_case if r["status"] == "ok" else failed)[int(r[CASE_COLUMN])].append(r)
-    cases, del_1hz = [], {m: [] for m in ms}
-    for i, case in enumerate(table.cases):
-        ok = sorted(by_case[i], key=lambda r: r[REPETITION_COLUMN])
-        window = float(sum(r["window_s"] for r in ok))
-        entry: dict[str, Any] = {
-            "name": case.name, "hours_per_year": case.hours,
-            "share_of_hours": case.hours / total_hours, "repetitions": case.repetitions,
-            "runs_ok": len(ok),
-            "failed": [{"run": r.get("run"), "repetition": r[REPETITION_COLUMN],
-                        "status": r["status"]} for r in failed[i]],
-            "parameters": {**table.defaults, **case.params},
-            "window_s": window, "cycles": float(sum(r["kx_cycles"] for r in ok)),
-            "del_1Hz_N": {}, "del_1e7_N": {}, "del_1Hz_spread_N": {},
-        }
-        for m in ms:
-            sums = [r[_miner_key(m)] for r in ok]
-            d1 = pooled_del(sums, m, F_EQ * window) if ok else math.nan
-            entry["del_1Hz_N"][f"{m:g}"] = d1
-            entry["del_1e7_N"][f"{m:g}"] = pooled_del(sums, m, N_EQ) if ok else math.nan
-            entry["del_1Hz_spread_N"][f"{m:g}"] = _spread([r[f"del_m{m:g}_1Hz_N"] for r in ok])
-            del_1hz[m].append(d1)
-        for key, biggest in (("kx_max", True), ("kx_min", False)):
-            value, r = _extreme(ok, f"{key}_N", biggest)
-            entry[f"{key}_N"] = value
-            entry[f"{key}_t_s"] = math.nan if r is None else r[f"{key}_t_s"]
-            entry[f"{key}_repetition"] = None if r is None else r[REPETITION_COLUMN]
-        entry["kx_max_spread_N"] = _spread([r["kx_max_N"] for r in ok])
-        counts = [r["n_impacts"] for r in ok if r["n_impacts"] >= 0]
-        n = int(sum(counts))
-        weighted = [r["n_impacts"] * r["mean_impulse_ns"] for r in ok if r["n_impacts"] > 0]
-        entry["impacts"] = {
-            "count": n, "rate_hz": n / window if window > 0 else math.nan,
-            "mean_impulse_ns": float(sum(weighted)) / n if n else math.nan,
-            "max_impulse_ns": _extreme(ok, "max_impulse_ns", True)[0],
-            "p99_impulse_ns": _extreme(ok, "p99_impulse_ns", True)[0],
-        }
-        cases.append(entry)
-
-    hours = [c.hours for c in table.cases]
-    lasting = [i for i, c in enumerate(table.cases) if c.hours > 0.0]
-    complete = all(not failed[i] for i in lasting)
-    ice_s = life * total_hours * 3600.0
-    lifetime: dict[str, Any] = {
-        "life_years": life, "ice_hours_per_year": total_hours, "ice_hours": life * total_hours,
-        "complete": complete, "del_1Hz_N": {}, "del_1e7_N": {},
-    }
-    for m in ms:
-        d_life = lifetime_del(del_1hz[m], hours, m)
-        lifetime["del_1Hz_N"][f"{m:g}"] = d_life
-        lifetime["del_1e7_N"][f"{m:g}"] = d_life * (F_EQ * ice_s / N_EQ) ** (1.0 / m)
-        weighted = [case.hours / total_hours * (d / d_life) ** m if case.hours > 0.0 else 0.0
-                    for case, d in zip(table.cases, del_1hz[m], strict=True)] \
-            if d_life > 0.0 else [math.nan if c.hours > 0.0 else 0.0 for c in table.cases]
-        for entry, share in zip(cases, weighted, strict=True):
-            entry.setdefault("damage_share", {})[f"{m:g}"] = share
-    for key, biggest in (("kx_max", True), ("kx_min", False)):
-        best, where = math.nan, None
-        for i in lasting:
-            v = cases[i][f"{key}_N"]
-            if not math.isnan(v) and (where is None or (v > best if biggest else v < best)):
-                best, where = v, i
-        lifetime[f"{key}_N"] = best
-        lifetime[f"{key}_case"] = None if where is None else table.cases[where].name
-        lifetime[f"{key}_t_s"] = math.nan if where is None else cases[where][f"{key}_t_s"]
-        lifetime[f"{key}_repetition"] = None if where is None else \
-            cases[where][f"{key}_repetition"]
-    return {
-        "format": FORMAT_NAME, "format_version": FORMAT_VERSION,
-        "settings": {
-            "cases_file": table.source, "t_end_s": table.t_end, "transient_s": table.transient,
-            "dt_s": table.dt, "f_eq_hz": F_EQ, "n_eq": N_EQ, "exponents": list(ms),
-            "perturbation": f"repetition k starts the ice at ice.z0 - k * max({PERTURBATION_M:g}"
-                            f" m, {PERTURBATION_ULPS} ulp(ice.z0))",
-            "signal": "k x, the base shear of the SDOF structure (N)",
-        },
-        "units": SUMMARY_UNITS,
-        "lifetime": lifetime,
-        "cases": cases,
-    }
-
-
-def _jsonable(value: Any) -> Any:
-    """nan and inf -> null (JSON has no such numbers)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    return value
-
-
-def write_summary(path: str | Path, summary: Mapping[str, Any]) -> None:
-    """PREFIX.json, atomically (nan as null)."""
-    from ..sweep.table import write_atomic
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(path, json.dumps(_jsonable(dict(summary)), indent=1, allow_nan=False) + "\n")
-
-
-def run_season(table: CaseTable, life_years: float, out: str | Path | None = None,
-               workers: int | None = None, progress: bool = True, dask_address: Any = None,
-               overwrite: bool = False, chunksize: int | None = None,
-               on_rows: Callable[[list[dict[str, Any]]], None] | None = None
-               ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
-    """Run every case of ``table`` with its repetitions and combine them over ``life_years``.
-
-    ``out`` is the PREFIX: the runs go to ``PREFIX.csv`` (one row per run, the sweep table
-    with ``case`` and ``repetition`` columns, resumable: a rerun runs only what is missing;
-    hours and the life do not enter it, so changing them reruns nothing) and the summary to
-    ``PREFIX.json``. The other arguments are :func:`iceimpact.sweep.sweep`'s. Returns the rows
-    and the summary (:func:`summarize_season`)."""
-    from ..sweep import run_points
-
-    _check_number("", "life", life_years, 0.0, MAX_LIFE_YEARS, "service life, years",
-                  low_open=True)
-    names, points, labels = season_runs(table)
-    kinds = {n: int if all(isinstance(p[j], int) for p in points) else float
-             for j, n in enumerate(names)}
-    identity = {"season": FORMAT_NAME, "names": list(names), "points": [list(p) for p in points],
-                "labels": labels}
-    csv_path = None if out is None else Path(f"{out}.csv")
-    rows = run_points(table.base, names, points, table.t_end, table.transient, table.dt,
-                      identity=identity, kinds=kinds, labels=labels, out=csv_path,
-                      workers=workers, progress=progress, dask_address=dask_address, fmt="csv",
-                      overwrite=overwrite, chunksize=chunksize, measure=season_measure,
-                      on_rows=on_rows, desc="loads")
-    summary = summarize_season(table, rows, life_years)
-    if out is not None:
-        summary["settings"]["runs_table"] = Path(f"{out}.csv").name
-        write_summary(Path(f"{out}.json"), summary)
-    return rows, summary

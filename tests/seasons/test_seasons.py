@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 from iceimpact import Scene, run
-from iceimpact.studies.loads import WOHLER_EXPONENTS
-from iceimpact.studies.seasons import (
+from iceimpact.seasons import (
     PERTURBATION_M,
     Case,
     CaseTable,
@@ -28,6 +27,7 @@ from iceimpact.studies.seasons import (
     series_row,
     summarize_season,
 )
+from iceimpact.studies.loads import WOHLER_EXPONENTS
 from iceimpact.sweep import read_table
 
 TOML = """\
@@ -424,3 +424,21 @@ def test_the_example_season_table_is_the_benchmarks_and_is_valid(tmp_path):
     assert len(table.cases) == 50 and table.n_runs == 150
     assert table.hours == pytest.approx(1200.0) and table.base.drag_model == 1
     assert {c.params["drag.model"] for c in table.cases} == {2}
+
+
+def test_the_analysis_never_loads_the_sweep_or_the_seasons():
+    """Imports go seasons -> sweep -> studies: importing every module of iceimpact.studies
+    loads neither the sweep engine nor the seasons package, and each seasons module imports
+    first in a fresh interpreter."""
+    code = ("import sys\nfor m in ('analysis', 'impacts', 'loads', 'outfiles'):\n"
+            "    __import__('iceimpact.studies.' + m)\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('iceimpact.sweep', "
+            "'iceimpact.seasons'))))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == "[]"
+    for module in ("iceimpact.seasons.lifetime", "iceimpact.seasons.cases", "iceimpact.seasons"):
+        proc = subprocess.run([sys.executable, "-c", f"import {module}"], capture_output=True,
+                              text=True, timeout=120)
+        assert proc.returncode == 0, (module, proc.stderr)
