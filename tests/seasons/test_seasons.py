@@ -375,6 +375,23 @@ def test_season_runs_resume_and_match_serial(tmp_path):
         run_season(table3, 25.0, out=out, workers=1, progress=False)
 
 
+def test_a_table_begun_under_the_measures_earlier_name_resumes(tmp_path):
+    table = load_cases(write(tmp_path, TOML))
+    out = tmp_path / "season"
+    run_season(table, 25.0, out=out, workers=1, progress=False)
+    meta = Path(f"{out}.csv.meta.json")
+    text = meta.read_text()
+    assert "iceimpact.seasons.lifetime.season_measure" in text
+    meta.write_text(text.replace("iceimpact.seasons.lifetime.season_measure",
+                                 "iceimpact.studies.seasons.season_measure"))
+    lines = Path(f"{out}.csv").read_text().splitlines(keepends=True)
+    Path(f"{out}.csv").write_text("".join(lines[:3]))
+    done: list[int] = []
+    rows, _ = run_season(table, 25.0, out=out, workers=1, progress=False,
+                         on_rows=lambda b: done.extend(r["run"] for r in b))
+    assert sorted(done) == [2, 3, 4] and [r["run"] for r in rows] == list(range(5))
+
+
 def test_cli_loads(tmp_path):
     cases = write(tmp_path, TOML)
     cmd = [sys.executable, "-m", "iceimpact.cli", "loads", str(cases), "--life", "25",

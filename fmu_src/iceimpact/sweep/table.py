@@ -32,6 +32,12 @@ from typing import IO, Any
 from .columns import KIND_NAMES, RUN_COLUMN, STATUS_COLUMN, WALL_COLUMN, to_kind
 from .errors import SweepError
 
+#: Measures whose recorded name (module and function) changed between versions, old -> new: a
+#: table begun under the old name resumes (the function computes the same row)
+MOVED_MEASURES = {
+    "iceimpact.studies.seasons.season_measure": "iceimpact.seasons.lifetime.season_measure",
+}
+
 #: Version of the output layout written to the metadata file (2: column types recorded; a
 #: version-1 file is read as well).
 FORMAT_VERSION = 2
@@ -388,6 +394,9 @@ class Output:
                                  f"resumed; {_REFUSED}")
             return {}
         old = read_meta(self.meta)["settings"]
+        measure = old.get("measure")
+        if isinstance(measure, str) and measure in MOVED_MEASURES:
+            old = {**old, "measure": MOVED_MEASURES[measure]}
         if old != self.settings:
             diff = [k for k in sorted(set(old) | set(self.settings), key=str)
                     if old.get(k) != self.settings.get(k)]
