@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib.util
 import itertools
 import math
+import os
 import weakref
 from ctypes import byref
 from pathlib import Path
@@ -26,10 +27,19 @@ from fmpy.fmi2 import (
 from iceimpact.contract import OUTPUTS
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The folder of these helpers.
+HELPERS = Path(__file__).resolve().parent
 
 DT = 1e-3
 REAL_OUTPUTS = [o for o in OUTPUTS if o.kind is float]
 FMI_OK, FMI_WARNING, FMI_DISCARD, FMI_ERROR = 0, 1, 2, 3
+
+
+def helpers_env() -> dict[str, str]:
+    """This process's environment with the helpers' folder first on PYTHONPATH: a child Python
+    given it imports fmu_host and the other helpers by name."""
+    paths = [str(HELPERS), *filter(None, [os.environ.get("PYTHONPATH")])]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
 
 
 def toolbox_check(fmu: Path) -> tuple[list[str], str, list[str]]:

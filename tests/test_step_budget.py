@@ -22,7 +22,8 @@ from iceimpact import ParameterError, Scene, Simulator
 from iceimpact.contract import INT32_MAX, MAX_EVALUATIONS, MAX_IMPACTS
 from iceimpact.simulator import run
 from iceimpact.solvers.base import SolverError
-from test_properties import scenes
+from scene_strategies import scenes
+from scenes import SEED_49
 
 #: Figure 2's run makes ten impacts by t = 30 s, in pairs 0.13 s apart (0.89 s and 1.01 s, 8.63 s
 #: and 8.75 s, ...). Method 2 with the sign test (the window of eq. 26 jumps over them here).
@@ -143,16 +144,6 @@ def test_the_fmu_discards_a_step_over_the_budget_and_goes_on(fmu_dir, model_desc
         assert got["structure.x"] == pytest.approx(want.x, rel=0, abs=1e-12)
     finally:
         inst.free()
-
-
-# The random search's seed-49 scene (method 1, docs/explanation/robustness/stiff-structures.md):
-# a plastic ice pressed by its
-# linear drag on a stiff undamped structure, moving together at 1e-4 m/s at the start.
-SEED_49 = dict(structure_m=1851.183822340676, structure_c=0.0, structure_k=5.307267671675244e17,
-               structure_x0=-1.0553886196597527e-48, structure_v0=0.0001,
-               ice_M=600.1787218082427, ice_A=5.856127714135108, ice_Cd=0.5255924056645146,
-               ice_z0=-1.0553886196597527e-48, ice_v0=0.0001, impact_e=0.0, drag_model=1,
-               drag_v_lin=0.3242134652243039, solver_method=1)
 
 
 def _ringing_over_threshold(scene: Scene, sim: Simulator, u: float) -> float:

@@ -72,9 +72,7 @@ from iceimpact.limits import (
 from iceimpact.solvers.base import State
 from iceimpact.solvers.contact_rules import chatter_time
 from iceimpact.solvers.ode import ATOL_SCALE, ODE_METHODS, PARTING_NOISE, STABLE_STEP
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_properties import scenes  # noqa: E402  (the property tests' scene strategies)
+from scene_strategies import scenes
 
 TIME_LIMIT = 30.0  # s of CPU time per scene (not wall time: the machine may be shared)
 # m; method 3: 10 atol; method 2 reports its grid penetration instead

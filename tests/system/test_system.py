@@ -13,15 +13,13 @@ tests/test_ssp_masters.py.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "examples" / "system"))
+import system
 
-import system  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 T_END = 2.0
 
