@@ -232,7 +232,7 @@ def _as_twin(limited: Simulator, before: dict, h: float, want, made: int, budget
 @given(scene=scenes(), method=st.sampled_from([1, 2, 3]), budget=st.integers(1, 3),
        h=st.sampled_from([0.05, 0.25, 1.0]))
 def test_the_budget_refuses_exactly_the_steps_that_need_more_impacts(scene, method, budget, h):
-    """Random scenes over the extremes (test_properties' strategy), each method: a twin without
+    """Random scenes over the extremes (tools/scene_strategies.py), each method: a twin without
     a budget steps the run; from each of its states a simulator with the budget takes the same
     step. It is refused exactly when the twin's step makes more than the budget's impacts, and
     then changes nothing but the record of why; otherwise it reports exactly the twin's step."""

@@ -4,7 +4,7 @@
     python tools/random_search.py --method 1 --seed 5 --examples 3000 --scales --flows
     python tools/random_search.py --method 2 --seed 112 --examples 3000 --far
 
-Each random scene (the strategy of tests/test_properties.py, with the chosen solver method;
+Each random scene (the strategy of tools/scene_strategies.py, with the chosen solver method;
 method 2 uses the gap-sign test unless --detection 1) runs for 3 s (method 3: 1 s) at a random
 communication step of 1 ms to 10 s, with a limit of 30 s of CPU time (the machine may be
 shared: wall time would flag scenes slowed by other work).

@@ -58,7 +58,7 @@ ROOT = Path(__file__).resolve().parents[2]
 #: An OMSimulator build (bin/OMSimulator, python/OMSimulator): ../shared/tools/omsimulator
 OMSIMULATOR = ROOT.parent / "shared" / "tools" / "omsimulator"
 
-#: The scene: an impacting floe (tests/test_coupling.py's first scene).
+#: The scene: an impacting floe (tests/system/test_coupling.py's first scene).
 ICE = {"structure.model": 2, "drag.model": 2, "ice.M": 1200.0, "impact.e": 0.7,
        "structure.m": 1600.0}
 #: IceImpact's coupling.scheme for each master's scheme

@@ -8,7 +8,7 @@ ECOS's and libcosim's fixed-step algorithms are Jacobi schemes: every component 
 values exchanged at the step start, so the structure holds a step's contact force over the next
 step; IceImpact is told so by ``coupling.scheme = 2`` (the SSP binds it). The SSP in all five
 masters that load it (FMPy, ECOS, libcosim, OMSimulator's command line and Python API):
-tests/test_ssp_masters.py.
+tests/system/test_ssp_masters.py.
 """
 
 from __future__ import annotations
