@@ -35,7 +35,7 @@ from typing import Any
 import reproduce_linear
 import reproduce_quadratic
 from doc_blocks import begin, read_block, write_block
-from reproduce_common import DEFAULT_OUT, ROOT, Case, CoreRunner, Group, secs, standard_measures
+from reproduce_common import DEFAULT_OUT, Case, CoreRunner, Group, secs, standard_measures
 
 SCRIPTS: dict[str, Sequence[Group]] = {"linear": reproduce_linear.GROUPS,
                                        "quadratic": reproduce_quadratic.GROUPS}
@@ -189,5 +189,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(ROOT / "examples"))
     sys.exit(main())
