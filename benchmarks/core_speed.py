@@ -49,14 +49,13 @@ import json
 import platform
 import subprocess
 import sys
-import tarfile
 import tempfile
 import time
 from datetime import UTC, datetime
-from io import BytesIO
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tree import ROOT, extract_commit, load
+
 RESULTS = ROOT / "benchmarks" / "results"
 DT = 1e-2  # s, run()'s sampling step
 
@@ -157,15 +156,6 @@ def step_costs(cores: dict[str, Path], rounds: int) -> dict:
         out[name] = {kind: {key: min(r[kind][key] for r in rs) for key in rs[0][kind]}
                      for kind in ("first_10s_ms", "step_us")}
     return out
-
-
-def extract(commit: str, dest: Path) -> Path:
-    """The reference commit's ``fmu_src`` under ``dest`` (git archive); its path."""
-    blob = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "fmu_src"],
-                          check=True, capture_output=True).stdout
-    with tarfile.open(fileobj=BytesIO(blob)) as tar:
-        tar.extractall(dest, filter="data")
-    return dest / "fmu_src"
 
 
 #: --pure: the environment of every run (the compiled flight search off, in a reference commit
@@ -346,7 +336,8 @@ def main(argv=None) -> int:
         PURE_ENV["ICEIMPACT_PURE"] = "1"
     if args.steps:
         with tempfile.TemporaryDirectory(prefix="core_speed_") as tmp:
-            cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
+            cores = {"before": extract_commit(args.base, Path(tmp)) / "fmu_src",
+                     "after": ROOT / "fmu_src"}
             costs = step_costs(cores, args.rounds)
         lines = [f"Before: commit {args.base}; after: this tree. CPU time, best of the rounds.",
                  "", "| what | before | after | speed-up |", "|---|---:|---:|---:|"]
@@ -375,7 +366,8 @@ def main(argv=None) -> int:
         parser.error(f"--move = {args.move}: the largest move must be > 0 m")
     rows = []
     with tempfile.TemporaryDirectory(prefix="core_speed_") as tmp:
-        cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
+        cores = {"before": extract_commit(args.base, Path(tmp)) / "fmu_src",
+                     "after": ROOT / "fmu_src"}
         head = (f"{'scene':22} {'t_end':>6} {'impacts':>13} {'us/impact':>15} "
                 f"{'ms/sim s':>13} {'speed-up':>8} {'/impact':>8} {'first10 moved':>13}")
         print(f"before = {args.base}, after = this tree; run(dt={DT:g}), best of {rounds}")
@@ -427,9 +419,9 @@ def vs_ode(t_end: float) -> list[dict]:
     sticking phase), and both against a tight (rtol 1e-13) one on the first 10 impacts."""
     import numpy as np
 
-    sys.path[:0] = [str(ROOT / "fmu_src"), str(ROOT / "tests")]
     from iceimpact import Scene, run
-    from ode_reference import simulate
+
+    simulate = load("tests/ode_reference.py").simulate
 
     rows = []
     for name in ("figure2", "quadratic_A2"):

@@ -33,16 +33,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
+from core_speed import DT, SCENES
+from tree import ROOT, extract_commit, load
+
+from iceimpact import Scene
+
+ode_simulate = load("tests/ode_reference.py").simulate
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-sys.path[:0] = [str(HERE), str(ROOT / "fmu_src"), str(ROOT / "tests")]
-
-from core_speed import DT, SCENES, extract  # noqa: E402
-
-from iceimpact import Scene  # noqa: E402
-from ode_reference import simulate as ode_simulate  # noqa: E402
-
 RESULTS = HERE / "results"
 T_END = 1000.0        # s, the long run
 T_SHORT = 100.0       # s, the count also reported at this time
@@ -194,7 +192,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS / "count_divergence.json")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="count_divergence_") as tmp:
-        cores = {"before": extract(args.base, Path(tmp)), "after": ROOT / "fmu_src"}
+        cores = {"before": extract_commit(args.base, Path(tmp)) / "fmu_src",
+                 "after": ROOT / "fmu_src"}
         results = []
         for name in args.scenes:
             results.append(study(name, cores))

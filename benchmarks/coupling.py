@@ -41,23 +41,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from tree import ROOT, load
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-sys.path.insert(0, str(ROOT / "fmu_src"))
-sys.path.insert(0, str(ROOT / "examples" / "system"))
+from iceimpact import Scene
+from iceimpact.simulator import Simulator, run
 
-import system  # noqa: E402
-
-from coupling_master import ExactSdof, gauss_seidel, jacobi  # noqa: E402
-from iceimpact import Scene  # noqa: E402
-from iceimpact.simulator import Simulator, run  # noqa: E402
+system = load("examples/system/system.py")
+coupling_master = load("tests/coupling_master.py")
+ExactSdof, gauss_seidel, jacobi = (coupling_master.ExactSdof, coupling_master.gauss_seidel,
+                                   coupling_master.jacobi)
 
 SCENES = {
     "impacting (M = 1200 kg, e = 0.7)": {"drag_model": 2, "flow_u": 0.3, "ice_M": 1200.0,

@@ -64,25 +64,21 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from coupling import SCENES, T_END, ice_values, impacts_as_external, measure
+from tree import ROOT, load
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
-sys.path.insert(0, str(ROOT / "fmu_src"))
-sys.path.insert(0, str(ROOT / "examples" / "system"))
-sys.path.insert(0, str(ROOT / "benchmarks"))
+from iceimpact import Scene
+from iceimpact.simulator import Simulator, run
 
-import early_return  # noqa: E402
-from coupling import SCENES, T_END, ice_values, impacts_as_external, measure  # noqa: E402
-from early_return import APPROACH, KICK, MASTERS, early_return_master  # noqa: E402
-
-from coupling_master import ExactSdof  # noqa: E402
-from iceimpact import Scene  # noqa: E402
-from iceimpact.simulator import Simulator, run  # noqa: E402
+# after coupling, which loaded examples/system/system.py, the module early_return imports
+early_return = load("examples/system/early_return.py")
+APPROACH, KICK, MASTERS = early_return.APPROACH, early_return.KICK, early_return.MASTERS
+early_return_master = early_return.early_return_master
+ExactSdof = load("tests/coupling_master.py").ExactSdof
 
 STEPS = (1e-2, 3e-3, 1e-3, 3e-4, 1e-4)
 #: The leading impacts column counts the first impacts within this time of the reference's, s.

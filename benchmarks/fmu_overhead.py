@@ -44,7 +44,8 @@ import time
 from datetime import UTC, datetime
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tree import ROOT, extract_commit
+
 HERE = Path(__file__).resolve().parent
 STEP = 1e-3  # s
 CALL_STEPS = 20000  # steps (and get calls) per round of the per-call table (--quick: 4000)
@@ -67,19 +68,9 @@ def _build_iceimpact3(dest: Path) -> Path:
     return module.build_fmi3("IceImpact", dest)
 
 
-def _extract_commit(commit: str, dest: Path) -> Path:
-    """What building IceImpact.fmu needs, as of ``commit``, extracted into ``dest``."""
-    archive = subprocess.run(["git", "archive", commit, "build_fmu.py", "fmu_src", "fmu_native",
-                              "pyproject.toml"], cwd=ROOT, check=True, capture_output=True).stdout
-    dest.mkdir(parents=True)
-    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
-    return dest
-
-
 def _check_trivial_interface() -> None:
     """The trivial slave has IceImpact's inputs and outputs (names and types), so that both
     FMUs are stepped and recorded alike."""
-    sys.path.insert(0, str(ROOT / "fmu_src"))
     from iceimpact.contract import INPUTS, OUTPUTS
 
     spec = importlib.util.spec_from_file_location("TrivialSlave",
@@ -211,7 +202,6 @@ class CallTimer:
 
 def run_core(stop_time: float) -> tuple[float, float, int]:
     """The core stepped over the same communication points, no FMI: wall, CPU (s), steps."""
-    sys.path.insert(0, str(ROOT / "fmu_src"))
     from iceimpact import Scene, Simulator
 
     n = round(stop_time / STEP)
@@ -277,7 +267,9 @@ def main(argv: list[str] | None = None) -> int:
         if base_case:
             cases += (base_case,)
             times[base_case] = []
-            base_root = _extract_commit(args.base, Path(tmp) / "base")
+            # what building IceImpact.fmu needs, as of the base
+            base_root = extract_commit(args.base, Path(tmp) / "base",
+                                       ("build_fmu.py", "fmu_src", "fmu_native", "pyproject.toml"))
             fmus[base_case] = _build_iceimpact(Path(tmp) / "ice_base", base_root)
         roots = dict(zip(pure_cases, (ROOT, base_root) if base_case else (ROOT,), strict=True))
         print(f"Figure 2 scene, {stop_time:g} s at {STEP * 1e3:g} ms, FMPy simulate_fmu "

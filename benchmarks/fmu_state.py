@@ -25,15 +25,13 @@ import json
 import pickle
 import platform
 import statistics
-import sys
 import time
 from datetime import UTC, datetime
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "fmu_src"))
+from iceimpact import Scene, Simulator
 
-from iceimpact import Scene, Simulator  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 HERE = Path(__file__).resolve().parent
 STIFF = Scene(structure_k=1e8)  # elastic chatter: impacts accumulate fast

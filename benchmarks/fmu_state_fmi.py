@@ -20,15 +20,12 @@ import argparse
 import importlib.util
 import json
 import platform
-import sys
 import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "fmu_src"))
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 
 from fmu_state import _median_time  # noqa: E402  (the core-level benchmark's timer)
 

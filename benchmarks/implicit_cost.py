@@ -12,7 +12,7 @@ in 1 ms steps) or stops at ``--budget`` s of CPU. Printed per run: CPU s per sim
 1 ms step the ``solve_ivp`` steps, right-hand-side and Jacobian evaluations (machine-independent).
 A second table gives the accuracy: each of the first 20 flights of Figures 2 and 13, restarted
 from the exact solver's post-impact state, against the exact next impact (the largest and mean
-relative error of the flight's duration, as ``tests/test_methods.py`` checks it). A third
+relative error of the flight's duration, as ``tests/solvers/test_methods.py`` checks it). A third
 gives the steps against ``solver.rtol`` (1e-4 to 1e-12; 10 ms per run) in three of the scenes.
 
 ``--base COMMIT`` runs every case on that commit's ``fmu_src`` too (extracted with ``git
@@ -33,7 +33,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tree import ROOT, extract_commit, load
+
 STEP = 1e-3  # s
 RATES = (1e3, 1e4, 1e5, 9.9e5)
 KINDS = ("over-damped flight", "over-damped stuck", "linear drag", "quadratic drag")
@@ -41,7 +42,8 @@ KINDS = ("over-damped flight", "over-damped stuck", "linear drag", "quadratic dr
 
 def _scene(kind: str, rate: float, ode: int):
     from iceimpact import Scene
-    from ode_rate_cost import scene
+
+    scene = load("tools/ode_rate_cost.py").scene
 
     if kind == "ringing":  # rate = omega_n, zeta = 0.01, the ice 1 m away without drag
         return Scene(structure_m=1.0, structure_k=rate**2, structure_c=0.02 * rate,
@@ -97,7 +99,10 @@ def flight_errors(case: dict) -> dict:
     """Relative errors of the first 20 flights' durations of ``case["figure"]`` with
     solver.ode_method ``case["ode"]`` at ``case["rtol"]``, each restarted from the exact
     solver's post-impact state (test_methods.test_ode_flights_agree_with_exact_within_tolerance)."""
-    from test_methods import FIG2, FIG13, impact_times, make_solver, ode
+    test_methods = load("tests/solvers/test_methods.py")
+    FIG2, FIG13, impact_times, ode = (test_methods.FIG2, test_methods.FIG13,
+                                      test_methods.impact_times, test_methods.ode)
+    from iceimpact.simulator import make_solver
 
     scene = {"Figure 2": FIG2, "Figure 13": FIG13}[case["figure"]]
     exact = make_solver(scene)
@@ -120,16 +125,8 @@ def _worker() -> None:
         print(json.dumps(result), flush=True)
 
 
-def _extract(commit: str, dest: Path) -> Path:
-    archive = subprocess.run(["git", "archive", commit, "fmu_src"], cwd=ROOT, check=True,
-                             capture_output=True).stdout
-    dest.mkdir(parents=True)
-    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
-    return dest / "fmu_src"
-
-
 def _start_worker(fmu_src: Path) -> subprocess.Popen:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(fmu_src), str(ROOT / "tests")]))
+    env = dict(os.environ, PYTHONPATH=str(fmu_src))
     return subprocess.Popen([sys.executable, __file__, "--worker"], env=env, text=True,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE)
 
@@ -170,7 +167,7 @@ def main() -> None:
     trees = {"branch": ROOT / "fmu_src"}
     with tempfile.TemporaryDirectory() as tmp:
         if args.base:
-            trees["base"] = _extract(args.base, Path(tmp) / "base")
+            trees["base"] = extract_commit(args.base, Path(tmp) / "base") / "fmu_src"
         workers = {name: _start_worker(src) for name, src in trees.items()}
         head = " | ".join(f"{name}: CPU s per simulated s | solve_ivp steps | f evals | "
                           "jacobians" for name in trees)

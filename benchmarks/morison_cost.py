@@ -30,7 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tree import ROOT, extract_commit
 
 #: (name, scene changes, simulated time s): stepped at 1 ms, Morison terms off.
 CASES = (
@@ -77,10 +77,8 @@ def main() -> None:
     args = parser.parse_args()
 
     with tempfile.TemporaryDirectory() as tmp:
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.base, "fmu_src"],
-                                 check=True, capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
-        trees = {"before": Path(tmp) / "fmu_src", "branch": ROOT / "fmu_src"}
+        trees = {"before": extract_commit(args.base, Path(tmp)) / "fmu_src",
+                 "branch": ROOT / "fmu_src"}
         best: dict[str, dict[str, float]] = {t: {} for t in trees}
         best_wall: dict[str, dict[str, float]] = {t: {} for t in trees}
         seen: dict[str, dict[str, dict]] = {}

@@ -28,8 +28,8 @@ import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from core_speed import DT, SCENES, extract  # noqa: E402
+from core_speed import DT, SCENES
+from tree import extract_commit
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -125,7 +125,7 @@ def main(argv=None) -> int:
     runs = [(s, t) for s in scenes for t in (args.lengths or [default_length.get(s, 60.0)])]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        before_core = extract(args.base, Path(tmp))
+        before_core = extract_commit(args.base, Path(tmp)) / "fmu_src"
         for name, t_end in runs:
             fields = SCENES[name][0]
             before = count(before_core, fields, t_end)

@@ -37,7 +37,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tree import ROOT, extract_commit
+
 #: the commit issue 16 measured (4 min 51 s), and main before the vectorised sticking phase
 BASES = ("060a0a0", "17eb7ff")
 WORKERS = 2
@@ -101,12 +102,8 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         trees = {}
         for base in bases:
-            tree = Path(tmp) / f"base-{base}"
-            tree.mkdir()
-            archive = subprocess.run(["git", "archive", base, "fmu_src", "examples"], cwd=ROOT,
-                                     check=True, capture_output=True).stdout
-            subprocess.run(["tar", "-x", "-C", str(tree)], input=archive, check=True)
-            trees[base] = tree
+            trees[base] = extract_commit(base, Path(tmp) / f"base-{base}",
+                                         ("fmu_src", "examples"))
         trees["current"] = ROOT
         runs: dict[str, list[dict[str, float]]] = {name: [] for name in trees}
         tables: dict[str, list[dict[str, str]]] = {}

@@ -2,10 +2,10 @@
 tree against a base commit, side by side in one run.
 
 The base commit's ``fmu_src`` is extracted with ``git archive`` into a temporary directory; each
-case runs in a subprocess (this script with ``--worker SRC``) importing ``iceimpact`` from either
-tree. Times are the CPU time of the measuring process (``time.process_time``; the machine may be
-shared), each run stopped after ``--limit`` s of CPU (a SIGPROF timer), so a run that does not
-finish reports how far it got. Cases, each a 1 s run:
+case runs in a subprocess (this script with ``--worker``, ``PYTHONPATH`` that tree's ``fmu_src``)
+importing ``iceimpact`` from either tree. Times are the CPU time of the measuring process
+(``time.process_time``; the machine may be shared), each run stopped after ``--limit`` s of CPU
+(a SIGPROF timer), so a run that does not finish reports how far it got. Cases, each a 1 s run:
 
 - ``tangent ringing, u = 0``: an undamped structure (omega_n 4.1e7 rad/s, m = M = 1600 kg)
   released from rest at -0.16 m, the ice at rest exactly at the lowest point of its swing, no
@@ -18,7 +18,7 @@ finish reports how far it got. Cases, each a 1 s run:
 - ``drifting at W m/s, omega_n O``: the tangent ringing's structure (omega_n 4.1e7 or 4.1e5
   rad/s), the ice coasting at W (no drag) from W / 2 s below the lowest point of its swing,
   which it reaches at 0.5 s: the first impact is at the first trough after that (the exact one
-  in 60-digit decimal arithmetic is in ``tests/solvers/test_exact_flight.py``), after up to 1e7
+  in 60-digit decimal arithmetic is in ``tests/solvers/exact/test_flight.py``), after up to 1e7
   periods at the bottom of the envelope;
 - ``at rest 1e-15 m below, linear drag, u = 1e-6``: the ice pushed there by a weak flow;
 - ``stopping 5e-16 m short``: the ice coasting in at 1.6e-17 m/s under a linear drag and no
@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import subprocess
 import sys
@@ -47,7 +48,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tree import ROOT, extract_commit
+
 BASE = "29ed3b0"
 T_END = 1.0
 
@@ -96,7 +98,7 @@ def _stop(signum, frame):
 
 
 def _worker(limit: float) -> dict:
-    """The cases, with ``iceimpact`` from the tree on ``sys.path`` (a subprocess)."""
+    """The cases, with ``iceimpact`` from the tree on ``PYTHONPATH`` (a subprocess)."""
     import signal
 
     from iceimpact import Scene, Simulator
@@ -143,9 +145,9 @@ def _worker(limit: float) -> dict:
 
 
 def _run(src: Path, limit: float) -> dict:
-    env_path = f"{src}"
-    res = subprocess.run([sys.executable, __file__, "--worker", env_path, "--limit", str(limit)],
-                         capture_output=True, text=True, check=True)
+    res = subprocess.run([sys.executable, __file__, "--worker", "--limit", str(limit)],
+                         capture_output=True, text=True, check=True,
+                         env={**os.environ, "PYTHONPATH": str(src)})
     return json.loads(res.stdout)
 
 
@@ -153,17 +155,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--base", default=BASE, help="commit to compare with")
     parser.add_argument("--limit", type=float, default=10.0, help="CPU s per run")
-    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        sys.path.insert(0, args.worker)
         print(json.dumps(_worker(args.limit)))
         return
     with tempfile.TemporaryDirectory() as tmp:
-        archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.base, "fmu_src"],
-                                 capture_output=True, check=True).stdout
-        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
-        base = _run(Path(tmp) / "fmu_src", args.limit)
+        base = _run(extract_commit(args.base, Path(tmp)) / "fmu_src", args.limit)
     current = _run(ROOT / "fmu_src", args.limit)
     print("| case | tree | simulated (s) | CPU (s) | impacts | first impact (s) | "
           "gap evaluations | search iterations | min gap (m) | min impulse (N.s) |")

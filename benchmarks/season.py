@@ -36,9 +36,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))  # (core_speed: also when loaded from elsewhere)
-from core_speed import extract  # noqa: E402
+from tree import ROOT, extract_commit
 
 CASES = ROOT / "examples/season_cases.csv"
 
@@ -138,7 +136,7 @@ def main() -> None:
     cores = {"after": ROOT / "fmu_src"}
     with tempfile.TemporaryDirectory() as tmp:
         if args.base:
-            cores = {"before": extract(args.base, Path(tmp)), **cores}
+            cores = {"before": extract_commit(args.base, Path(tmp)) / "fmu_src", **cores}
         results = []
         for w in args.workers:
             row: dict = {"workers": w}

@@ -30,13 +30,12 @@ import zipfile
 from datetime import UTC, datetime
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-sys.path.insert(0, str(ROOT))
+from tree import ROOT, load
 
-import build_fmu  # noqa: E402
-
-from native_host import C_HOST, compile_c, run_empty_env  # noqa: E402
+build_fmu = load("build_fmu.py")
+native_host = load("tests/native_host.py")
+C_HOST, compile_c, run_empty_env = (native_host.C_HOST, native_host.compile_c,
+                                    native_host.run_empty_env)
 
 OUT = ROOT / "benchmarks" / "results" / "standalone_start.json"
 
@@ -50,7 +49,7 @@ def namespace_command(command: list[str]) -> list[str] | None:
     """``command`` with every Python of the machine hidden, or None where that cannot be done."""
     import pytest
 
-    from native_host import without_python
+    without_python = native_host.without_python
 
     try:
         return without_python(command)

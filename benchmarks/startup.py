@@ -35,10 +35,9 @@ import tempfile
 from datetime import UTC, datetime
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from tree import ROOT, load
 
-import build_fmu  # noqa: E402
+build_fmu = load("build_fmu.py")
 
 OUT = ROOT / "benchmarks" / "results" / "startup.json"
 T_END = 10.0  # s, the core's first run

@@ -21,15 +21,13 @@ import argparse
 import json
 import math
 import platform
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "fmu_src"))
+from iceimpact import Scene, Simulator
+from iceimpact.contract import INT32_MAX
 
-from iceimpact import Scene, Simulator  # noqa: E402
-from iceimpact.contract import INT32_MAX  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 SEED_49 = dict(structure_m=1851.183822340676, structure_c=0.0, structure_k=5.307267671675244e17,
                structure_x0=-1.0553886196597527e-48, structure_v0=0.0001,

@@ -2,11 +2,12 @@
 side by side in one run.
 
 The base commit's ``fmu_src`` is extracted with ``git archive`` into a temporary directory; each
-measurement runs in a subprocess (this script with ``--worker SRC``) importing ``iceimpact`` from
-either tree, alternating base and current, best of ``--repeat``. Times are the CPU time of the
-measuring process (``time.process_time``): on a shared machine wall times move with the other
-load, CPU times much less; the method-3 row, whose code the sticking work does not touch, shows
-what is left of that (its ratio should be near 1). Measured:
+measurement runs in a subprocess (this script with ``--worker``, ``PYTHONPATH`` that tree's
+``fmu_src``) importing ``iceimpact`` from either tree, alternating base and current, best of
+``--repeat``. Times are the CPU time of the measuring process (``time.process_time``): on a
+shared machine wall times move with the other load, CPU times much less; the method-3 row, whose
+code the sticking work does not touch, shows what is left of that (its ratio should be near 1).
+Measured:
 
 - ``fig18 sticking, sampled``: the sticking phase of the Figure 18 scene (quadratic drag,
   e = 0.5; sticking from 9.77 s) from 10 s to 200 s through the method (``advance_to`` every
@@ -34,6 +35,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import subprocess
 import sys
@@ -42,8 +44,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from tree import ROOT, extract_commit
 
-ROOT = Path(__file__).resolve().parents[1]
 BASE = "060a0a0"
 
 #: Figure 18 sticking phase: from T_STICK to T_END sampled every DT (s)
@@ -55,7 +57,7 @@ FLOW_STEPS = 300
 
 
 def _worker() -> dict:
-    """The measurements, with ``iceimpact`` from the tree on ``sys.path`` (a subprocess)."""
+    """The measurements, with ``iceimpact`` from the tree on ``PYTHONPATH`` (a subprocess)."""
     from iceimpact import Scene, Simulator, run
     from iceimpact.sweep import DEFAULT_DT
 
@@ -158,7 +160,8 @@ def reference_positions(scene: list[float], anchor: list[float],
 
 
 def _run_worker(src: Path) -> dict:
-    proc = subprocess.run([sys.executable, __file__, "--worker", str(src)], check=True,
+    proc = subprocess.run([sys.executable, __file__, "--worker"], check=True,
+                          env={**os.environ, "PYTHONPATH": str(src)},
                           capture_output=True, text=True, cwd=ROOT)
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -167,20 +170,17 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--base", default=BASE, help=f"commit to compare with (default {BASE})")
     parser.add_argument("--repeat", type=int, default=3, help="best of N (alternating)")
-    parser.add_argument("--worker", default=None, help=argparse.SUPPRESS)
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path,
                         default=ROOT / "benchmarks" / "results" / "sticking_speed.json")
     args = parser.parse_args(argv)
     if args.worker:
-        sys.path.insert(0, args.worker)
         print(json.dumps(_worker()))
         return 0
 
     with tempfile.TemporaryDirectory() as tmp:
-        archive = subprocess.run(["git", "archive", args.base, "fmu_src"], cwd=ROOT, check=True,
-                                 capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", tmp], input=archive, check=True)
-        trees = {"base": Path(tmp) / "fmu_src", "current": ROOT / "fmu_src"}
+        trees = {"base": extract_commit(args.base, Path(tmp)) / "fmu_src",
+                 "current": ROOT / "fmu_src"}
         runs: dict[str, list[dict]] = {"base": [], "current": []}
         for _ in range(args.repeat):
             for name, src in trees.items():

@@ -35,27 +35,25 @@ import argparse
 import json
 import math
 import platform
-import sys
 import time
 from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "fmu_src"))
-
-from iceimpact import Scene, Simulator  # noqa: E402
-from iceimpact.scene import (  # noqa: E402
+from iceimpact import Scene, Simulator
+from iceimpact.scene import (
     DETECTION_SIGN,
     DETECTION_WINDOW,
     METHOD_EXACT,
     METHOD_FIXED_STEP,
     METHOD_ODE,
 )
-from iceimpact.simulator import make_solver  # noqa: E402
-from iceimpact.solvers.ode import ODE_METHODS  # noqa: E402
-from iceimpact.studies.analysis import dominant_frequency  # noqa: E402
+from iceimpact.simulator import make_solver
+from iceimpact.solvers.ode import ODE_METHODS
+from iceimpact.studies.analysis import dominant_frequency
+
+ROOT = Path(__file__).resolve().parents[1]
 
 SCENES = {
     "fig2": ("Figure 2: e = 1, linear drag (defaults)", Scene()),

@@ -238,7 +238,7 @@ class CoreRunner(FmuRunner):
     stepped as IceImpact.fmu steps it under FMPy (one ``Simulator.advance`` per communication
     step, of the length FMPy passes to ``doStep``), so the outputs, and every number measured
     from them, are those of :class:`FmuRunner` without the FMI overhead (a 400 s exact run:
-    0.3 s instead of 1.5 s). ``--core`` selects it; ``tests/test_doc_numbers.py`` uses it.
+    0.3 s instead of 1.5 s). ``--core`` selects it; ``tests/docs/test_doc_numbers.py`` uses it.
     """
 
     def __init__(self, step: float = STEP, dt: float = FIXED_DT, quick: bool = False,

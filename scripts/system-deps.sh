@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Debian packages the project needs: libtbb12 for ecospy (the ECOS engine used in the tests),
-# libatomic1 for libcosimpy's libcosimc.so, valgrind, under which tests/test_host_failures.py
+# libatomic1 for libcosimpy's libcosimc.so, valgrind, under which tests/fmu/test_host_failures.py
 # runs the C host's failed starts, and a C compiler, with which build_fmu.py compiles the FMU's
 # loader (fmu_native/loader.c) and the tests their C hosts. Installed only when missing; needs
 # root or sudo.

@@ -1,32 +1,44 @@
 """Session fixtures: IceImpact.fmu (and IceImpact3.fmu, FMI 3.0) built once into a temporary
-folder, extracted, described."""
+folder, extracted, described.
+
+FMPy and the FMU helpers are imported by the fixtures that use them, so that the tests of the
+core collect and run where the FMU extra is not installed."""
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
-from fmpy import extract, read_model_description
 
-from fmu_host import build_module
 
-# the search and cost scripts (tools/) that some tests drive
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+def _build_module():
+    """build_fmu.py as a module (tests/fmu_host.py)."""
+    from fmu_host import build_module
+
+    return build_module()
+
+
+def _extract(fmu: Path | str, unzipdir: Path) -> str:
+    """The FMU unzipped into ``unzipdir``; its folder."""
+    from fmpy import extract
+
+    return extract(str(fmu), unzipdir=str(unzipdir))
 
 
 @pytest.fixture(scope="session")
 def fmu(tmp_path_factory) -> Path:
-    return build_module().build(tmp_path_factory.mktemp("dist"))
+    return _build_module().build(tmp_path_factory.mktemp("dist"))
 
 
 @pytest.fixture(scope="session")
 def fmu_dir(fmu, tmp_path_factory) -> str:
-    return extract(str(fmu), unzipdir=str(tmp_path_factory.mktemp("IceImpact")))
+    return _extract(fmu, tmp_path_factory.mktemp("IceImpact"))
 
 
 @pytest.fixture(scope="session")
 def model_description(fmu):
+    from fmpy import read_model_description
+
     return read_model_description(str(fmu))
 
 
@@ -51,12 +63,12 @@ def c_host3(tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def standalone_fmu(fmu, tmp_path_factory) -> Path:
     """The session's IceImpact.fmu made standalone (build_fmu.py --standalone)."""
-    return build_module().make_standalone(fmu, tmp_path_factory.mktemp("standalone"))
+    return _build_module().make_standalone(fmu, tmp_path_factory.mktemp("standalone"))
 
 
 @pytest.fixture(scope="session")
 def standalone_dir(standalone_fmu, tmp_path_factory) -> str:
-    return extract(str(standalone_fmu), unzipdir=str(tmp_path_factory.mktemp("standalone_x")))
+    return _extract(standalone_fmu, tmp_path_factory.mktemp("standalone_x"))
 
 
 @pytest.fixture(scope="session")
@@ -67,19 +79,19 @@ def fmus(fmu, tmp_path_factory) -> Path:
 
     folder = tmp_path_factory.mktemp("system_fmus")
     shutil.copy(fmu, folder / "IceImpact.fmu")
-    build_module().build_modal(folder)
+    _build_module().build_modal(folder)
     return folder
 
 
 @pytest.fixture(scope="session")
 def fmu3(fmu, tmp_path_factory) -> Path:
     """IceImpact3.fmu (FMI 3.0), made of the session's IceImpact.fmu."""
-    return build_module().fmi3_from_fmi2(fmu, tmp_path_factory.mktemp("dist3"))
+    return _build_module().fmi3_from_fmi2(fmu, tmp_path_factory.mktemp("dist3"))
 
 
 @pytest.fixture(scope="session")
 def fmu3_dir(fmu3, tmp_path_factory) -> str:
-    return extract(str(fmu3), unzipdir=str(tmp_path_factory.mktemp("IceImpact3")))
+    return _extract(fmu3, tmp_path_factory.mktemp("IceImpact3"))
 
 
 @pytest.fixture(scope="session")
@@ -89,7 +101,7 @@ def fmus3(fmu3, tmp_path_factory) -> Path:
 
     folder = tmp_path_factory.mktemp("system_fmus3")
     shutil.copy(fmu3, folder / "IceImpact3.fmu")
-    build_module().build_fmi3("ModalStructure", folder)
+    _build_module().build_fmi3("ModalStructure", folder)
     return folder
 
 
@@ -97,10 +109,10 @@ def fmus3(fmu3, tmp_path_factory) -> Path:
 def standalone_fmu3(standalone_fmu, tmp_path_factory) -> Path:
     """IceImpact3.fmu made standalone (build_fmu.py --standalone): made of the session's
     standalone IceImpact.fmu."""
-    return build_module().fmi3_from_fmi2(standalone_fmu, tmp_path_factory.mktemp("standalone3"),
+    return _build_module().fmi3_from_fmi2(standalone_fmu, tmp_path_factory.mktemp("standalone3"),
                                          bundled_python=True)
 
 
 @pytest.fixture(scope="session")
 def standalone3_dir(standalone_fmu3, tmp_path_factory) -> str:
-    return extract(str(standalone_fmu3), unzipdir=str(tmp_path_factory.mktemp("standalone3_x")))
+    return _extract(standalone_fmu3, tmp_path_factory.mktemp("standalone3_x"))

@@ -34,14 +34,11 @@ import signal
 import sys
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import ode_reference  # noqa: E402
-from iceimpact import ParameterError, Scene, Simulator  # noqa: E402
+import ode_reference
+from iceimpact import ParameterError, Scene, Simulator
 
 #: A cell that runs longer than this (s of wall time) has stalled.
 TIME_LIMIT = 60.0

@@ -2,6 +2,7 @@
 
 ``Instance`` drives an FMU2Slave call by call, keeps every log message with its status, and turns
 FMPy's exceptions for non-OK statuses back into status codes, so that tests can assert on them.
+FMPy is imported by what uses it, so that the module imports where FMPy is not installed.
 """
 
 from __future__ import annotations
@@ -9,27 +10,29 @@ from __future__ import annotations
 import importlib.util
 import itertools
 import math
+import os
 import weakref
 from ctypes import byref
 from pathlib import Path
 
 import numpy as np
-from fmpy.fmi1 import FMICallException, printLogMessage
-from fmpy.fmi2 import (
-    FMU2Slave,
-    fmi2CallbackAllocateMemoryTYPE,
-    fmi2CallbackFreeMemoryTYPE,
-    fmi2CallbackFunctions,
-    fmi2CallbackLoggerTYPE,
-)
 
 from iceimpact.contract import OUTPUTS
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The folder of these helpers.
+HELPERS = Path(__file__).resolve().parent
 
 DT = 1e-3
 REAL_OUTPUTS = [o for o in OUTPUTS if o.kind is float]
 FMI_OK, FMI_WARNING, FMI_DISCARD, FMI_ERROR = 0, 1, 2, 3
+
+
+def helpers_env() -> dict[str, str]:
+    """This process's environment with the helpers' folder first on PYTHONPATH: a child Python
+    given it imports fmu_host and the other helpers by name."""
+    paths = [str(HELPERS), *filter(None, [os.environ.get("PYTHONPATH")])]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths)}
 
 
 def toolbox_check(fmu: Path) -> tuple[list[str], str, list[str]]:
@@ -86,12 +89,23 @@ _INSTANCE_KEYS = itertools.count(1)
 def _log(env, instance, status, category, message):
     target = _INSTANCES.get(env) if env else None
     if target is None:
+        from fmpy.fmi1 import printLogMessage
+
         printLogMessage(env, instance, status, category, message)
     else:
         target.messages.append((status, (category or b"").decode(), message.decode()))
 
 
-_LOGGER = fmi2CallbackLoggerTYPE(_log)  # never freed: FMPy's proxy may call it at any time
+_LOGGER = []  # the one ctypes logger, never freed: FMPy's proxy may call it at any time
+
+
+def _logger():
+    """The ctypes logger of every Instance, made at the first."""
+    if not _LOGGER:
+        from fmpy.fmi2 import fmi2CallbackLoggerTYPE
+
+        _LOGGER.append(fmi2CallbackLoggerTYPE(_log))
+    return _LOGGER[0]
 
 
 class Instance:
@@ -101,16 +115,22 @@ class Instance:
         self.messages: list[tuple[int, str, str]] = []
 
         from fmpy import calloc, free
+        from fmpy.fmi2 import (
+            FMU2Slave,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+        )
         from fmpy.logging import addLoggerProxy
 
         key = next(_INSTANCE_KEYS)
         _INSTANCES[key] = self
         callbacks = fmi2CallbackFunctions()
-        callbacks.logger = _LOGGER
+        callbacks.logger = _logger()
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         callbacks.componentEnvironment = key
-        addLoggerProxy(byref(callbacks))  # makes _LOGGER FMPy's one logger (again)
+        addLoggerProxy(byref(callbacks))  # makes _logger() FMPy's one logger (again)
         self._callbacks = callbacks  # must outlive the instance
         self.variables = {v.name: v for v in md.modelVariables}
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=fmu_dir,
@@ -135,6 +155,8 @@ class Instance:
 
     def step(self, t: float, h: float) -> int:
         """doStep; returns the status instead of raising."""
+        from fmpy.fmi1 import FMICallException
+
         try:
             self.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
         except FMICallException as exc:

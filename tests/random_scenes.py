@@ -1,7 +1,7 @@
 """Random scenes as ``tools/random_search.py --scales --flows`` draws them, and what the exact
 method reports for them with its compiled march of bounces or with the Python march alone: each
 step's numbers (or the refusal) and every impact, stepped at the scene's step h (optionally with
-early return), and every sample of run() every h. tests/solvers/test_exact_bounces.py compares
+early return), and every sample of run() every h. tests/solvers/exact/test_bounces.py compares
 the two paths on them; tests/test_machine_matrix.py compares a fixed draw in every machine
 configuration."""
 

@@ -123,13 +123,14 @@ def test_demo_csv_is_decimated_and_keeps_the_impulses(fmu: Path, tmp_path: Path)
 
 
 def test_ice_on_tower_quick_mode(fmu: Path, tmp_path: Path) -> None:
-    """examples/ice_on_tower.py: a 3-mode tower (ModalStructure.fmu) struck through IceImpact.fmu
-    in external-structure mode, and two SDOF idealisations with the built-in structure."""
+    """examples/system/ice_on_tower.py: a 3-mode tower (ModalStructure.fmu) struck through
+    IceImpact.fmu in external-structure mode, and two SDOF idealisations with the built-in
+    structure."""
     if not (fmu.parent / "ModalStructure.fmu").exists():
         subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--fmu", "ModalStructure"],
                        check=True, cwd=ROOT)
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / "ice_on_tower.py"), "--quick",
+        [sys.executable, str(ROOT / "examples" / "system" / "ice_on_tower.py"), "--quick",
          "--fmus", str(fmu.parent), "--out", str(tmp_path)],
         capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]

@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 from extremes import CELLS, failures, run_cell
 from iceimpact import ParameterError, Scene, Simulator, SolverError
+from scenes import EULER_DIVERGES_AFTER_IMPACT
 
 
 @pytest.mark.parametrize("method", [1, 2, 3], ids=["exact", "fixed-step", "ode"])
@@ -105,12 +106,6 @@ def test_flow_that_overflows_the_drag_is_refused_during_the_run():
 
 
 # The article's explicit Euler step (method 2, quadratic drag) diverges when dt is too long -----
-EULER_DIVERGES_AFTER_IMPACT = {  # stable at the start (ice at rest), not once struck at 3 m/s
-    "structure_m": 4.0, "structure_k": 4.0, "structure_v0": -3.0, "ice_M": 0.06, "ice_A": 6.0,
-    "ice_Cd": 1.3, "ice_z0": -1e-3, "ice_v0": 0.0, "drag_model": 2, "flow_u": 0.0,
-    "solver_method": 2, "solver_detection": 2}
-
-
 def test_unstable_euler_step_is_refused_up_front():
     """(B/M) dt |w0 - u| > 2: eq. 36 would diverge from the first step (found by random search:
     NaN outputs before this check)."""

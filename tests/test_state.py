@@ -361,7 +361,7 @@ def test_step_failing_midway_changes_nothing(method, error):
     steps(sim, [(0.01, 0.1)] * 50)
     steps(clean, [(0.01, 0.1)] * 50)
     solver = sim.solver
-    solver.bounces = None  # (every impact through _record: tests/solvers/test_exact_bounces.py
+    solver.bounces = None  # (every impact through _record: tests/solvers/exact/test_bounces.py
     # fails the compiled march midway)
     before = sim.save()
     solver._record = _Fails(solver._record, 3, error)

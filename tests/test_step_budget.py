@@ -22,7 +22,8 @@ from iceimpact import ParameterError, Scene, Simulator
 from iceimpact.contract import INT32_MAX, MAX_EVALUATIONS, MAX_IMPACTS
 from iceimpact.simulator import run
 from iceimpact.solvers.base import SolverError
-from test_properties import scenes
+from scene_strategies import scenes
+from scenes import SEED_49
 
 #: Figure 2's run makes ten impacts by t = 30 s, in pairs 0.13 s apart (0.89 s and 1.01 s, 8.63 s
 #: and 8.75 s, ...). Method 2 with the sign test (the window of eq. 26 jumps over them here).
@@ -145,16 +146,6 @@ def test_the_fmu_discards_a_step_over_the_budget_and_goes_on(fmu_dir, model_desc
         inst.free()
 
 
-# The random search's seed-49 scene (method 1, docs/explanation/robustness/stiff-structures.md):
-# a plastic ice pressed by its
-# linear drag on a stiff undamped structure, moving together at 1e-4 m/s at the start.
-SEED_49 = dict(structure_m=1851.183822340676, structure_c=0.0, structure_k=5.307267671675244e17,
-               structure_x0=-1.0553886196597527e-48, structure_v0=0.0001,
-               ice_M=600.1787218082427, ice_A=5.856127714135108, ice_Cd=0.5255924056645146,
-               ice_z0=-1.0553886196597527e-48, ice_v0=0.0001, impact_e=0.0, drag_model=1,
-               drag_v_lin=0.3242134652243039, solver_method=1)
-
-
 def _ringing_over_threshold(scene: Scene, sim: Simulator, u: float) -> float:
     """The stuck pair's ringing amplitude over the largest its drag holds, a closed form
     independent of the solver: stuck, (m + M) a = b (u - v) - k x and the contact force is
@@ -241,7 +232,7 @@ def _as_twin(limited: Simulator, before: dict, h: float, want, made: int, budget
 @given(scene=scenes(), method=st.sampled_from([1, 2, 3]), budget=st.integers(1, 3),
        h=st.sampled_from([0.05, 0.25, 1.0]))
 def test_the_budget_refuses_exactly_the_steps_that_need_more_impacts(scene, method, budget, h):
-    """Random scenes over the extremes (test_properties' strategy), each method: a twin without
+    """Random scenes over the extremes (tools/scene_strategies.py), each method: a twin without
     a budget steps the run; from each of its states a simulator with the budget takes the same
     step. It is refused exactly when the twin's step makes more than the budget's impacts, and
     then changes nothing but the record of why; otherwise it reports exactly the twin's step."""

@@ -8,7 +8,8 @@ For each case: the impact counts before and after, the largest shift of an impac
 impulse (relative to the largest impulse of the run) over the impacts both runs have, the first
 impact whose time moved by more than 1e-9 s, the communication steps whose sticking flag
 differs, and how far each sticking start moved (stepped runs: the simulator's sticking_since).
-Both sides run in fresh processes, each with its own tree's package on sys.path.
+Both sides run in fresh processes, each with its own tree's package first on PYTHONPATH (and this
+tree's tests/, for the reference runs' definitions).
 """
 
 from __future__ import annotations
@@ -27,7 +28,6 @@ ROOT = Path(__file__).resolve().parents[1]
 
 _WORKER = r"""
 import json, sys
-sys.path.insert(0, sys.argv[2])
 import reference_digests as rd
 from iceimpact import Scene, run
 
@@ -75,8 +75,8 @@ def _extract(commit: str, dest: Path) -> Path:
 
 
 def _events(package: Path, names: list[str]) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(package)}
-    done = subprocess.run([sys.executable, "-c", _WORKER, json.dumps(names), str(ROOT / "tests")],
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(package), str(ROOT / "tests")])}
+    done = subprocess.run([sys.executable, "-c", _WORKER, json.dumps(names)],
                           env=env, capture_output=True, text=True, check=True, cwd=ROOT)
     return json.loads(done.stdout)
 

@@ -4,7 +4,7 @@
     python tools/random_search.py --method 1 --seed 5 --examples 3000 --scales --flows
     python tools/random_search.py --method 2 --seed 112 --examples 3000 --far
 
-Each random scene (the strategy of tests/test_properties.py, with the chosen solver method;
+Each random scene (the strategy of tools/scene_strategies.py, with the chosen solver method;
 method 2 uses the gap-sign test unless --detection 1) runs for 3 s (method 3: 1 s) at a random
 communication step of 1 ms to 10 s, with a limit of 30 s of CPU time (the machine may be
 shared: wall time would flag scenes slowed by other work).
@@ -72,9 +72,7 @@ from iceimpact.limits import (
 from iceimpact.solvers.base import State
 from iceimpact.solvers.contact_rules import chatter_time
 from iceimpact.solvers.ode import ATOL_SCALE, ODE_METHODS, PARTING_NOISE, STABLE_STEP
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_properties import scenes  # noqa: E402  (the property tests' scene strategies)
+from scene_strategies import scenes
 
 TIME_LIMIT = 30.0  # s of CPU time per scene (not wall time: the machine may be shared)
 # m; method 3: 10 atol; method 2 reports its grid penetration instead

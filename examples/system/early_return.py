@@ -81,14 +81,11 @@ from __future__ import annotations
 import argparse
 import math
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from system import (  # noqa: E402
+from system import (
     FLOW_U,
     ICE,
     ICE_COMPONENT,
@@ -284,7 +281,6 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--t-end", type=float, default=6.0)
     parser.add_argument("--steps", type=float, nargs="+", default=[1e-2, 3e-3, 1e-3])
     args = parser.parse_args(argv)
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "fmu_src"))
     from iceimpact import Scene
     from iceimpact.simulator import run
 

@@ -42,6 +42,7 @@ agreement of the masters with the FMPy Jacobi loop.
 from __future__ import annotations
 
 import argparse
+import os
 import pickle
 import shutil
 import subprocess
@@ -58,7 +59,7 @@ ROOT = Path(__file__).resolve().parents[2]
 #: An OMSimulator build (bin/OMSimulator, python/OMSimulator): ../shared/tools/omsimulator
 OMSIMULATOR = ROOT.parent / "shared" / "tools" / "omsimulator"
 
-#: The scene: an impacting floe (tests/test_coupling.py's first scene).
+#: The scene: an impacting floe (tests/system/test_coupling.py's first scene).
 ICE = {"structure.model": 2, "drag.model": 2, "ice.M": 1200.0, "impact.e": 0.7,
        "structure.m": 1600.0}
 #: IceImpact's coupling.scheme for each master's scheme
@@ -677,11 +678,15 @@ def in_subprocess(function: str, *args, timeout: float = 600) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         call, out = Path(tmp) / "call.pickle", Path(tmp) / "result.pickle"
         call.write_bytes(pickle.dumps((function, args)))
-        code = ("import pickle, sys; from pathlib import Path; sys.path.insert(0, sys.argv[1]); "
-                "import system; name, args = pickle.loads(Path(sys.argv[2]).read_bytes()); "
-                "Path(sys.argv[3]).write_bytes(pickle.dumps(getattr(system, name)(*args)))")
-        done = subprocess.run([sys.executable, "-c", code, str(Path(__file__).parent), str(call),
-                               str(out)], capture_output=True, text=True, timeout=timeout)
+        code = ("import pickle, sys; from pathlib import Path; "
+                "import system; name, args = pickle.loads(Path(sys.argv[1]).read_bytes()); "
+                "Path(sys.argv[2]).write_bytes(pickle.dumps(getattr(system, name)(*args)))")
+        # this folder first on the child's path: it imports this module by name
+        paths = [str(Path(__file__).resolve().parent),
+                 *filter(None, [os.environ.get("PYTHONPATH")])]
+        done = subprocess.run([sys.executable, "-c", code, str(call), str(out)],
+                              capture_output=True, text=True, timeout=timeout,
+                              env={**os.environ, "PYTHONPATH": os.pathsep.join(paths)})
         if done.returncode != 0 or not out.is_file():
             raise RuntimeError(f"{function} failed (exit status {done.returncode}):\n"
                                f"{done.stdout[-5000:]}{done.stderr[-5000:]}")

@@ -15,7 +15,7 @@ it). Everything else draws from it:
 Adding a variable: one row here, plus the physics that uses it (a :class:`~iceimpact.Scene`
 field for a parameter or input, a :class:`~iceimpact.StepReport` field for an output); an output
 names the knowns it depends on (``initial_depends_on``, ``depends_on``), which
-tests/test_model_structure.py measures.
+tests/fmu/test_model_structure.py measures.
 This module imports nothing from the package: it is the bottom layer.
 """
 

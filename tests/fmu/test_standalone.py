@@ -21,7 +21,8 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from fmu_host import DT, OUTPUTS, ROOT, build_module
+import system  # (its reader of OMSimulator's result files)
+from fmu_host import DT, OUTPUTS, build_module
 from native_host import (
     OMSIMULATOR,
     OMSIMULATOR_ABSENT,
@@ -31,9 +32,6 @@ from native_host import (
     run_empty_env,
     without_python,
 )
-
-sys.path.insert(0, str(ROOT / "examples" / "system"))
-import system  # noqa: E402  (its reader of OMSimulator's result files)
 
 N_STEPS = 2000
 VALUES = {"ice.M": 800.0}  # impacts within the first second

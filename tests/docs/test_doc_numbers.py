@@ -34,22 +34,19 @@ import subprocess
 import sys
 from pathlib import Path
 
+import design_loads_sensitivity
+import design_map
+import lockin
+import morison_effect
 import pytest
+import regime_map
+import reproduce_common as rc
+import reproduce_linear
+import reproduce_quadratic
+import reproduce_spread
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples"
-if str(EXAMPLES) not in sys.path:
-    sys.path.insert(0, str(EXAMPLES))
-
-import design_loads_sensitivity  # noqa: E402
-import design_map  # noqa: E402
-import lockin  # noqa: E402
-import morison_effect  # noqa: E402
-import regime_map  # noqa: E402
-import reproduce_common as rc  # noqa: E402
-import reproduce_linear  # noqa: E402
-import reproduce_quadratic  # noqa: E402
-import reproduce_spread  # noqa: E402
 
 EXPLANATION = ROOT / "docs" / "explanation"
 REPRODUCTION = EXPLANATION / "reproduction.md"

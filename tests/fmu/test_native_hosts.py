@@ -29,7 +29,17 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.fmi1 import FMICallException
 
-from fmu_host import DT, FMI_ERROR, OUTPUTS, ROOT, Instance, build_module, columns, errors
+from fmu_host import (
+    DT,
+    FMI_ERROR,
+    OUTPUTS,
+    ROOT,
+    Instance,
+    build_module,
+    columns,
+    errors,
+    helpers_env,
+)
 from iceimpact import Scene, Simulator
 from native_host import (
     C_HOST,
@@ -269,8 +279,6 @@ def test_libcosim_shows_the_bad_parameter_and_stops_cleanly(fmu, model_descripti
 
 # 5. No leak per instance --------------------------------------------------------------------------
 LEAK_SCRIPT = """
-import sys
-sys.path.insert(0, {tests!r})
 from fmu_host import Instance
 from fmpy import read_model_description
 
@@ -303,10 +311,9 @@ def test_instances_do_not_leak(fmu_dir):
     cycle (356-360 kB over 500). The filling lasts longer with larger variable tables: with
     one Real parameter more (solver.chatter_fraction, or any) the 500 cycles after the first
     300 grew by 992 kB, those after the first 800 by 360 kB."""
-    script = LEAK_SCRIPT.format(tests=str(ROOT / "tests"), fmu_dir=str(fmu_dir), warm=800,
-                                cycles=500)
+    script = LEAK_SCRIPT.format(fmu_dir=str(fmu_dir), warm=800, cycles=500)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          timeout=300)
+                          timeout=300, env=helpers_env())
     assert done.returncode == 0, done.stderr
     growth_kb = int(done.stdout.split()[-1])
     assert growth_kb <= 1024, f"RSS grew by {growth_kb} kB over 500 cycles"
@@ -314,7 +321,6 @@ def test_instances_do_not_leak(fmu_dir):
 
 DICT_SCRIPT = """
 import sys
-sys.path.insert(0, {tests!r})
 from fmu_host import Instance
 from fmpy import read_model_description
 
@@ -338,9 +344,9 @@ def test_instantiations_leave_the_entry_module_its_dictionary(fmu_dir):
     per instantiation too many, freed the dictionary while in use, and the decrements that
     followed corrupted the heap (the full test suite aborted at exit). Run in a child process.
     """
-    script = DICT_SCRIPT.format(tests=str(ROOT / "tests"), fmu_dir=str(fmu_dir), n=20)
+    script = DICT_SCRIPT.format(fmu_dir=str(fmu_dir), n=20)
     done = subprocess.run([sys.executable, "-X", "faulthandler", "-c", script],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, env=helpers_env())
     assert done.returncode == 0, done.stderr[-4000:]
     # this name, the module's and the call's reference at least: still alive, not freed
     assert int(done.stdout.split()[-1]) >= 3, done.stdout
@@ -403,7 +409,6 @@ def test_fmpy_logs_safely_after_hand_stepped_instances_are_freed(fmu, fmu_dir, t
     """
     script = textwrap.dedent(f"""
         import gc, sys
-        sys.path.insert(0, {str(ROOT / "tests")!r})
         from fmpy import extract, read_model_description, simulate_fmu
         from fmu_host import DT, Instance, errors
 
@@ -435,7 +440,7 @@ def test_fmpy_logs_safely_after_hand_stepped_instances_are_freed(fmu, fmu_dir, t
         print("steps", len(result))
     """)
     done = subprocess.run([sys.executable, "-X", "faulthandler", "-c", script],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, env=helpers_env())
     assert done.returncode == 0, done.stderr[-4000:]
     # the warning of the last run, printed by FMPy's default logger
     assert "[WARNING] doStep at t = 0.816" in done.stdout, done.stdout

@@ -632,7 +632,7 @@ def test_method_3_sees_a_tensile_moment_hidden_inside_one_integrator_step():
     lowest point inside a step, where its rate (``Together.contact_force_rate``) turns from
     negative to positive, is now checked: every 0.1 s window has the exact method's impacts,
     and the ringing the same amplitude, to 1e-3 of the drag's threshold."""
-    from test_step_budget import SEED_49
+    from scenes import SEED_49
 
     windows = {}
     for method in (1, 3):

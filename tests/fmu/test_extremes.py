@@ -238,7 +238,7 @@ def test_a_run_the_method_cannot_continue_is_stopped_and_stays_stopped(fmu_dir,
                                                                        model_description):
     """Method 2's explicit Euler step diverging after an impact: fmi2Discard with the reason,
     outputs finite and unchanged, every later doStep refused the same way; reset recovers."""
-    from test_extremes import EULER_DIVERGES_AFTER_IMPACT
+    from scenes import EULER_DIVERGES_AFTER_IMPACT
 
     values = Scene(**EULER_DIVERGES_AFTER_IMPACT).to_fmi()
     inst = Instance(fmu_dir, model_description)

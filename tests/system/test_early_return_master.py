@@ -11,21 +11,15 @@ kg, e = 0.3), which rides on the structure and separates from it.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+import coupling_early_return as bench
 import numpy as np
 import pytest
+from early_return import early_return_master, impact_time_error
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "examples" / "system"))
-sys.path.insert(0, str(ROOT / "benchmarks"))
-
-import coupling_early_return as bench  # noqa: E402
-from early_return import early_return_master, impact_time_error  # noqa: E402
-
-from iceimpact import Scene  # noqa: E402
-from iceimpact.simulator import run  # noqa: E402
+from iceimpact import Scene
+from iceimpact.simulator import run
 
 pytest.importorskip("fmpy")
 

@@ -14,7 +14,6 @@ crash fails a test instead of ending pytest.
 from __future__ import annotations
 
 import importlib.util
-import sys
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree
@@ -22,10 +21,9 @@ from xml.etree import ElementTree
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "examples" / "system"))
+import system
 
-import system  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 #: The OMSimulator build, beside the repository (CI clones it with shared/ next to it).
 OMSIMULATOR = ROOT.parent / "shared" / "tools" / "omsimulator"

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 #: History by number (the word fix or issue and a number): the pages say instead what a rule
 #: protects against, and CHANGELOG.md keeps the story.

@@ -2,7 +2,8 @@
 ModalStructure.fmu through FMPy, compared with IceImpact's built-in SDOF structure.
 
     python build_fmu.py
-    python examples/ice_on_tower.py [--fmus dist] [--t-end 20] [--step 2e-4] [--out out] [--quick]
+    python examples/system/ice_on_tower.py [--fmus dist] [--t-end 20] [--step 2e-4] [--out out]
+        [--quick]
 
 The tower is seen at the ice's contact point (the waterline) through three modes: a slender first
 bending mode and two higher modes with larger mode-shape values there (see ``TOWER``). IceImpact
@@ -29,18 +30,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "examples" / "system"))
-sys.path.insert(0, str(ROOT / "fmu_src"))
+import system
+from iceimpact.modal import ModalStructure, Mode
 
-import system  # noqa: E402
-
-from iceimpact.modal import ModalStructure, Mode  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 #: The tower at the contact point: (frequency Hz, damping ratio, modal mass kg, mode shape there)
 TOWER = [(1.2, 0.01, 2.0e4, 0.35), (6.5, 0.015, 1.5e4, -0.8), (17.0, 0.02, 1.2e4, 0.6)]

@@ -3,8 +3,8 @@
 The same contract rendered for FMI 3.0 (variables, units, ranges, dependencies, experiment), the
 checkers clean, the same outputs as the FMI 2.0 FMU to the bit, early return at every contact
 event with its samples exact, event mode, the FMU state, and the refusals with their statuses.
-The native hosts and the failure paths outside Python are in tests/test_native_hosts.py and
-tests/test_host_failures.py.
+The native hosts and the failure paths outside Python are in tests/fmu/test_native_hosts.py and
+tests/fmu/test_host_failures.py.
 """
 
 from __future__ import annotations

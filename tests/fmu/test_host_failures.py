@@ -41,7 +41,6 @@ from native_host import (
     C_HOST,
     OMSIMULATOR,
     OMSIMULATOR_ABSENT,
-    ROOT,
     ecos_binary,
     parse_csv,
     partial_site,
@@ -203,7 +202,6 @@ def test_omsimulator_shows_the_reason_and_does_not_abort(fmi, tmp_path, machine)
 def test_omsimulator_runs_the_fmi3_fmu_as_the_fmi2_one(fmu, fmu3, tmp_path):
     """This OMSimulator build does not refuse FMI 3.0 (no "Unsupported FMI version: 3"): it runs
     IceImpact3.fmu with an empty environment, to the bit as its run of IceImpact.fmu."""
-    sys.path.insert(0, str(ROOT / "examples" / "system"))
     import system  # (its reader of OMSimulator's result files)
 
     results = {}

@@ -8,20 +8,18 @@ ECOS's and libcosim's fixed-step algorithms are Jacobi schemes: every component 
 values exchanged at the step start, so the structure holds a step's contact force over the next
 step; IceImpact is told so by ``coupling.scheme = 2`` (the SSP binds it). The SSP in all five
 masters that load it (FMPy, ECOS, libcosim, OMSimulator's command line and Python API):
-tests/test_ssp_masters.py.
+tests/system/test_ssp_masters.py.
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "examples" / "system"))
+import system
 
-import system  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 T_END = 2.0
 
