@@ -54,7 +54,7 @@ docs: $(STAMP)
 	$(VENV)/bin/mkdocs build --strict --site-dir site
 
 lint: $(STAMP)
-	$(PY) -m ruff check fmu_src tests tools benchmarks examples scripts build_fmu.py
+	$(PY) -m ruff check fmu_src tests tools benchmarks examples scripts build_fmu.py fmu_build
 
 clean:
 	rm -rf dist out build site .pytest_cache

@@ -11,9 +11,9 @@ process (``ICEIMPACT_PURE=1``, the path the FMU runs by default), with ``--base`
 Prints a table and writes ``benchmarks/results/fmu_overhead.json``. Times are the best of
 ``--repeat`` interleaved runs, as CPU time of this process (insensitive to other load on the
 machine; the ratio uses it) and as wall-clock time. ``--base COMMIT`` also builds IceImpact.fmu
-from that commit (its ``build_fmu.py``, ``fmu_src``, ``fmu_native`` and ``pyproject.toml``,
-extracted with ``git archive``) and steps it in the same interleaved runs: before and after side by
-side, under the same machine load.
+from that commit (its ``build_fmu.py``, ``fmu_build`` where it has one, ``fmu_src``,
+``fmu_native`` and ``pyproject.toml``, extracted with ``git archive``) and steps it in the same
+interleaved runs: before and after side by side, under the same machine load.
 
 The trivial slave (``benchmarks/trivial_fmu/TrivialSlave.py``) keeps PythonFMU's default
 fmi2Get/fmi2Set path (one getter call per variable); IceImpact.fmu's slave reads its outputs in
@@ -44,7 +44,7 @@ import time
 from datetime import UTC, datetime
 from pathlib import Path
 
-from tree import ROOT, extract_commit
+from tree import ROOT, extract_commit, paths_in
 
 HERE = Path(__file__).resolve().parent
 STEP = 1e-3  # s
@@ -268,8 +268,9 @@ def main(argv: list[str] | None = None) -> int:
             cases += (base_case,)
             times[base_case] = []
             # what building IceImpact.fmu needs, as of the base
-            base_root = extract_commit(args.base, Path(tmp) / "base",
-                                       ("build_fmu.py", "fmu_src", "fmu_native", "pyproject.toml"))
+            base_root = extract_commit(args.base, Path(tmp) / "base", paths_in(
+                args.base, ("build_fmu.py", "fmu_build", "fmu_src", "fmu_native",
+                            "pyproject.toml")))
             fmus[base_case] = _build_iceimpact(Path(tmp) / "ice_base", base_root)
         roots = dict(zip(pure_cases, (ROOT, base_root) if base_case else (ROOT,), strict=True))
         print(f"Figure 2 scene, {stop_time:g} s at {STEP * 1e3:g} ms, FMPy simulate_fmu "

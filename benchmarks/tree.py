@@ -53,3 +53,11 @@ def extract_commit(commit: str, dest: Path, paths: Iterable[str] = ("fmu_src",))
     with tarfile.open(fileobj=BytesIO(blob)) as tar:
         tar.extractall(dest, filter="data")
     return dest
+
+
+def paths_in(commit: str, paths: Iterable[str]) -> list[str]:
+    """Those of ``paths`` that ``commit`` has (a build made of a base before a folder existed
+    extracts without it)."""
+    listed = subprocess.run(["git", "-C", str(ROOT), "ls-tree", "--name-only", commit, *paths],
+                            check=True, capture_output=True, text=True).stdout.split()
+    return [p for p in paths if p in listed]

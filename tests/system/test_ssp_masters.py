@@ -140,7 +140,7 @@ def test_write_ssp_refuses_names_a_master_would_lose(fmus, tmp_path, monkeypatch
         system.write_ssp(fmus, tmp_path / "a.ssp", ice={**system.ICE, "ice.MM": 1.0})
     with pytest.raises(ValueError, match="'contact.force' is no parameter or input"):
         system.write_ssp(fmus, tmp_path / "b.ssp", ice={**system.ICE, "contact.force": 1.0})
-    monkeypatch.setattr(system, "ICE_COMPONENT", "ice")
+    monkeypatch.setattr("iceimpact.fmi.ssp.ICE_COMPONENT", "ice")  # (the writer's module)
     with pytest.raises(ValueError, match="the component's name begins 'ice.M'"):
         system.write_ssp(fmus, tmp_path / "c.ssp")
 
