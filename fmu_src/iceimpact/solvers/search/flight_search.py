@@ -45,8 +45,8 @@ from ...physics.structure import (
     under_increment,
 )
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
-from .rootfind import (
-    _SUM_NEAR_1_LOW,
+from .rootfind import RootSearch
+from .step import (
     BRACKET_STEPS,
     DESCENT_STEPS,
     FOREVER,
@@ -54,8 +54,8 @@ from .rootfind import (
     ROOT_XTOL,
     SCALED_ABOVE,
     SPREAD,
-    RootSearch,
 )
+from .step import SUM_NEAR_1_LOW as _SUM_NEAR_1_LOW
 
 #: The outcomes of :func:`flight_root`: the frontier passed the horizon with no root, a root was
 #: found (it may lie beyond the horizon), or the next step is RootSearch's to make.
