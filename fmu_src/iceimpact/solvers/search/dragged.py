@@ -121,12 +121,13 @@ def _dragged_structure(t, integrated):
     return x - q[Q_X0], v
 
 
-def _dragged_motion(t, form, k, rate, w0, r0, quadratic, integrated):
-    """``flight_search._motion`` for the structure in Taylor steps (``DraggedFlight``'s
-    ``_structure`` and the ice's closed form)."""
+def _dragged_gap_point(context, t):
+    """``flight_search._gap_point`` for the structure in Taylor steps (``DraggedFlight``'s
+    ``gap_and_rate``: its ``_structure`` and the ice's closed form)."""
+    gap0, form, k, rate, w0, r0, quadratic, integrated = context
     dx, v = _dragged_structure(t, integrated)
     dz, w = _ice_motion(t, rate, w0, r0, quadratic)
-    return dx, v, dz, w
+    return gap0 + (dx - dz), v - w, (dx, v, dz, w)
 
 
 def _dragged_probe(x, v, offset, mass, damping, stiffness, omega2, over, s_slow, s_fast, u,
@@ -172,7 +173,7 @@ def _dragged_failed(integrated):
 
 
 #: The functions the search and the march call by name, for the structure in Taylor steps.
-SEARCH_CALLEES = {"_motion": _dragged_motion, "_structure_probe": _dragged_probe,
+SEARCH_CALLEES = {"_gap_point": _dragged_gap_point, "_structure_probe": _dragged_probe,
                   "_clearance": _no_clearance}
 MARCH_CALLEES = {"_flight_sample": _dragged_sample, "_structure_accel": _dragged_accel,
                  "_new_flight": _dragged_new_flight, "_failed": _dragged_failed}
@@ -208,8 +209,8 @@ def compiled_callees(numba: Any, kernels: Any, search: dict[str, Any]) -> dict[s
     structure = compiled(_dragged_structure, _make_step=make,
                          horner_columns=kernels["horner_columns"])
     acceleration = compiled(dragged_acceleration)
-    callees = {"_motion": compiled(_dragged_motion, _dragged_structure=structure,
-                                   _ice_motion=ice_motion),
+    callees = {"_gap_point": compiled(_dragged_gap_point, _dragged_structure=structure,
+                                      _ice_motion=ice_motion),
                "_structure_probe": compiled(_dragged_probe,
                                             dragged_bounds=compiled(
                                                 dragged_bounds,

@@ -63,19 +63,28 @@ from .step import (
 GENERIC = 2
 
 
-def _motion(t, form, k, rate, w0, r0, quadratic, integrated):
-    """(x - x0, v, z - z0, w) at t: the structure's free response in its form on the
-    constants k of ``response_constants`` (``Oscillator.deviation_increment``'s:
-    ``under_increment`` or ``aperiodic_increment``) and the ice's (:func:`_ice_motion`).
-    ``integrated`` is the structure's Taylor steps where it has no closed form
-    (:mod:`.dragged`, which compiles this module's search with its own ``_motion``); unused
-    here."""
+def _gap_point(context, t):
+    """The gap at t, as the search evaluates it (:mod:`.step`'s ``evaluate``): (gap, its rate
+    v - w, the motion (x - x0, v, z - z0, w)) on the flight's ``context`` (gap0, then the
+    structure's form and its constants k of ``response_constants``, the ice's rate, w0, r0 and
+    drag law, the Taylor steps ``integrated`` where the structure has no closed form (unused
+    here)). The structure's free response is ``Oscillator.deviation_increment``'s
+    (``under_increment`` or ``aperiodic_increment``), the ice's :func:`_ice_motion`; a
+    structure in Taylor steps has its own (:mod:`.dragged`, which compiles this module's search
+    with it)."""
+    gap0, form, k, rate, w0, r0, quadratic, integrated = context
     if form == FORM_UNDER:
         dx, v = under_increment(t, k[0], k[1], k[2], k[3], k[4], k[5])
     else:
         dx, v = aperiodic_increment(t, form, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7])
     dz, w = _ice_motion(t, rate, w0, r0, quadratic)
-    return dx, v, dz, w
+    return gap0 + (dx - dz), v - w, (dx, v, dz, w)
+
+
+def _motion(t, form, k, rate, w0, r0, quadratic, integrated):
+    """(x - x0, v, z - z0, w) at t: :func:`_gap_point`'s motion (the march of bounces samples
+    a flight with it)."""
+    return _gap_point((0.0, form, k, rate, w0, r0, quadratic, integrated), t)[2]
 
 
 def _ice_motion(t, rate, w0, r0, quadratic):
@@ -187,15 +196,6 @@ def _accel_clearance(w, margin, u, coef, quadratic, omega2):
     return root
 
 
-def _gap_point(context, t):
-    """The gap at t as :func:`~.step.descend` and :func:`~.step.bracketed` evaluate it for a
-    flight (their ``evaluate``): (gap, its rate v - w, the motion there), on the flight's
-    ``context`` (gap0 and :func:`_motion`'s constants)."""
-    gap0, form, k, rate, w0, r0, quadratic, integrated = context
-    motion = _motion(t, form, k, rate, w0, r0, quadratic, integrated)
-    return gap0 + (motion[0] - motion[2]), motion[1] - motion[3], motion
-
-
 def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                 time_eps, gap0, x0, z0, offset, mass, damping, stiffness, omega2, sigma,
                 s_slow, s_fast, form, c0, c1, c2, c3, c4, c5, c6, c7, rate, w0, r0, u, coef,
@@ -221,15 +221,16 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
     The closed forms are evaluated where :class:`~iceimpact.solvers.exact.Flight` evaluates
     them, no more: the last point evaluated and its motion are kept (``at``, ``motion``), first
     the anchor (no increments, the anchor's velocities), as Flight keeps its last point."""
-    k = (c0, c1, c2, c3, c4, c5, c6, c7)
     over = 1 if form >= FORM_OVER else 0
-    context = (gap0, form, k, rate, w0, r0, quadratic, integrated)
-    at, motion = 0.0, (0.0, c6 if form == FORM_MODES else c5, 0.0, w0)
+    context = (gap0, form, (c0, c1, c2, c3, c4, c5, c6, c7), rate, w0, r0, quadratic,
+               integrated)
+    v0 = c6 if form == FORM_MODES else c5
+    at, point = 0.0, (gap0 + (0.0 - 0.0), v0 - w0, (0.0, v0, 0.0, w0))
     outcome = PASSED
     while a <= horizon:
         if a != at:  # (the anchor, a sign test's end and a Newton point are kept)
-            at, motion = a, _motion(a, form, k, rate, w0, r0, quadratic, integrated)
-        dx, v, dz, w = motion
+            at, point = a, _gap_point(context, a)
+        dx, v, dz, w = point[2]
         if a == probed_at:
             f, df, d2, bound, jerk = pf, pdf, pd2, pbound, pjerk
         else:
@@ -238,8 +239,8 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                                                    stiffness, omega2, over, s_slow, s_fast, u,
                                                    integrated)
             a_z, size, j_z = _ice_accel(w, u, coef, quadratic)
-            f = gap0 + (dx - dz)
-            df = v - w
+            f = point[0]
+            df = point[1]
             d2 = a_x - a_z
             bound = size_x + size
             jerk = jerk_x + j_z
@@ -258,8 +259,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                     dx, v, dz, w)
         outcome = GENERIC  # (any break below leaves the step to RootSearch)
         if what == MONOTONE:
-            found, root, at, point = _descend(a, f, df, d2, b, 1.0, (f, df, motion), context)
-            motion = point[2]
+            found, root, at, point = _descend(a, f, df, d2, b, 1.0, point, context)
             if found == PASSED:  # root-free up to b
                 a = b
                 iterations += 1
@@ -268,8 +268,8 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             if root != root:
                 break  # (a NaN from the bracket: RootSearch makes the step)
             if root != at:  # (the state at the root: the last point evaluated, or anew)
-                motion = _motion(root, form, k, rate, w0, r0, quadratic, integrated)
-            dx, v, dz, w = motion
+                point = _gap_point(context, root)
+            dx, v, dz, w = point[2]
             return (ROOT, a, root, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound,
                     pjerk, dx, v, dz, w)
         if what == BEYOND:
@@ -278,9 +278,9 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         if what != FREE:
             break  # (a probe to rescale, a linear signal, a tangent or degenerate start)
         # the sign test at b by the full probe, which the next step starts from
-        at, motion = b, _motion(b, form, k, rate, w0, r0, quadratic, integrated)
-        dx, v, dz, w = motion
-        f_b = gap0 + (dx - dz)
+        at, point = b, _gap_point(context, b)
+        dx, v, dz, w = point[2]
+        f_b = point[0]
         if f_b < 0.0:
             break  # (rounding at the frontier: RootSearch's bracket from b)
         a_x, size_x, jerk_x = _structure_probe(x0 + dx, v, offset, mass, damping, stiffness,
@@ -291,7 +291,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         if bound_b != bound_b or jerk_b != jerk_b:
             break  # (RootSearch's probe at b: hypot's scales)
         a = probed_at = b
-        pf, pdf, pd2 = f_b, v - w, a_x - a_z
+        pf, pdf, pd2 = f_b, point[1], a_x - a_z
         pbound, pjerk = bound_b, jerk_b
         iterations += 1
         creep = 0
@@ -301,11 +301,10 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
 
 
 def python_root(**callees: Any) -> Any:
-    """:func:`flight_root` run as Python with other functions of the motion (``_motion``,
+    """:func:`flight_root` run as Python with other functions of the motion (``_gap_point``,
     ``_structure_probe``, ``_clearance``: :mod:`.dragged`'s), the descent and the bracket
-    evaluating the gap on the same ``_motion``."""
-    gap_point = rebound(_gap_point, _motion=callees["_motion"])
-    return rebound(flight_root, _descend=_descent(gap_point), **callees)
+    evaluating the gap by the same ``_gap_point``."""
+    return rebound(flight_root, _descend=_descent(callees["_gap_point"]), **callees)
 
 
 def _descent(gap_point: Any) -> Any:
@@ -350,8 +349,9 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
                         _decay_pair=decay_pair)
         under = jit(numba, signature(numba, under_increment), under_increment)
         ice_motion = jit(numba, signature(numba, _ice_motion), _ice_motion)
-        motion = jit(numba, signature(numba, _motion), _motion, aperiodic_increment=aperiodic,
-                     under_increment=under, _ice_motion=ice_motion)
+        gap_point = jit(numba, signature(numba, _gap_point), _gap_point,
+                        aperiodic_increment=aperiodic, under_increment=under,
+                        _ice_motion=ice_motion)
         ice_accel = jit(numba, signature(numba, _ice_accel), _ice_accel)
         accel_clearance = jit(numba, signature(numba, _accel_clearance), _accel_clearance,
                               _ice_accel=ice_accel)
@@ -360,21 +360,22 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
                         _accel_clearance=accel_clearance, _amplitude=amplitude)
         probe = jit(numba, signature(numba, _structure_probe), _structure_probe,
                     _amplitude=amplitude)
-        callees = {"_motion": motion, "_ice_accel": ice_accel, "_clearance": clearance,
+        callees = {"_gap_point": gap_point, "_ice_accel": ice_accel, "_clearance": clearance,
                    "_structure_probe": probe, "plan": jit(numba, signature(numba, plan), plan)}
         _DISPATCHERS.update(callees, _ice_motion=ice_motion, _amplitude=amplitude,
+                            _motion=jit(numba, signature(numba, _motion), _motion,
+                                        _gap_point=gap_point),
                             flight_root=compile_root(numba, numba.int64, callees))
     return _DISPATCHERS
 
 
 def compile_root(numba: Any, integrated: Any, callees: dict[str, Any]) -> Any:
     """:func:`flight_root` compiled on ``callees`` (the compiled functions it calls by name:
-    ``_motion``, ``_structure_probe``, ``_clearance``, ``_ice_accel``, ``plan``), the
+    ``_gap_point``, ``_structure_probe``, ``_clearance``, ``_ice_accel``, ``plan``), the
     structure's steps of type ``integrated``: this module's closed forms, or another
-    structure's motion (:mod:`.dragged`). The descent and the bracket are
-    :mod:`.step`'s, compiled evaluating the gap on the same ``_motion``."""
-    gap_point = jit(numba, signature(numba, _gap_point, integrated), _gap_point,
-                    _motion=callees["_motion"])
+    structure's motion (:mod:`.dragged`). The descent and the bracket are :mod:`.step`'s,
+    compiled evaluating the gap by the same ``_gap_point``."""
+    gap_point = callees["_gap_point"]
     bracket = jit(numba, signature(numba, bracketed, integrated), bracketed,
                   evaluate=gap_point)
     descent = jit(numba, signature(numba, descend, integrated), descend, evaluate=gap_point,
