@@ -30,7 +30,8 @@ import numpy as np
 
 from ...physics.structure import dragged_acceleration, dragged_bounds
 from .flight_search import _ice_motion, compile_root, python_root, signature
-from .taylor import NO_ROOT, ORDER, SAMPLES, StickingTaylor, horner_columns, ordinary_step
+from .taylor import StickingTaylor
+from .taylor_series import NO_ROOT, ORDER, SAMPLES, horner_columns, ordinary_step
 
 #: The flight's constants in the first array of the steps (Q): the flow speed, B_s, the
 #: structure's mass, damping, stiffness, omega_n^2, the longest step (a natural period) and the

@@ -9,7 +9,9 @@ Python functions. :func:`flight_root` makes the same steps on plain floats, with
 and bounds written out, so that it compiles as one function; the solver calls it for each flight
 it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.exact`).
 
-Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
+Its rules are RootSearch's: the same functions of :mod:`.step` (:func:`~.step.plan`,
+:func:`~.step.descend`, :func:`~.step.bracketed`), compiled here with the gap's evaluation
+(:func:`_gap_point`) as their callee. Its arithmetic is that of the closed forms' scalar functions
 (``Oscillator.deviation_increment``'s forms, ``aperiodic_increment``, the drag laws'
 ``increment`` and ``accel_bounds``, ``bounds`` and ``amplitude_bound``, ``Flight.probe``,
 ``gap_and_rate``, ``clearance``), operation for operation, with RootSearch's constants, so the
