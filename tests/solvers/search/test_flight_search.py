@@ -180,11 +180,13 @@ def test_function_evaluates_the_closed_forms_no_more_often_than_root_search(name
     from iceimpact.solvers.exact import flight as flight_module
 
     count = [0]
-    motion, response_of = flight_search._motion, flight_module.under_response
+    response_of = flight_module.under_response
 
-    def counted_motion(*args):
-        count[0] += 1
-        return motion(*args)
+    def counted(increment):
+        def counted_increment(*args):
+            count[0] += 1
+            return increment(*args)
+        return counted_increment
 
     def counted_response(*constants):
         response = response_of(*constants)
@@ -194,7 +196,8 @@ def test_function_evaluates_the_closed_forms_no_more_often_than_root_search(name
             return response(t)
         return counted
 
-    monkeypatch.setattr(flight_search, "_motion", counted_motion)
+    for form in ("under_increment", "aperiodic_increment"):  # (the structure's closed forms)
+        monkeypatch.setattr(flight_search, form, counted(getattr(flight_search, form)))
     monkeypatch.setattr(FlightSearch, "kernel", staticmethod(flight_root))
     monkeypatch.setattr(flight_module, "under_response", counted_response)
     fields, t_end = SCENES[name]

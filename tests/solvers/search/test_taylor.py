@@ -337,7 +337,7 @@ def test_vectorised_states_equal_the_point_by_point_ones(name):
 def test_the_compiled_kernels_give_the_pure_functions_floats():
     """The Taylor recurrence and Horner's rule compiled by numba (taylor.KERNELS) against the
     same functions run as Python, on random inputs: the same floats."""
-    from iceimpact.solvers.search import taylor
+    from iceimpact.solvers.search import taylor, taylor_series
     if taylor.KERNELS is None:
         pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
     rng = np.random.default_rng(7)
@@ -346,7 +346,8 @@ def test_the_compiled_kernels_give_the_pure_functions_floats():
         order_over = (1.0 / rng.uniform(1.0, 1e4) / np.arange(1.0, ORDER + 1)).tolist()
         reciprocals = (1.0 / np.arange(1.0, ORDER + 1)).tolist()
         rs, fs = [0.0] * (ORDER + 1), [0.0] * ORDER
-        taylor.taylor_recurrence(x, v, u, drag, 1.5 * drag, c, k, order_over, reciprocals, rs, fs)
+        taylor_series.taylor_recurrence(x, v, u, drag, 1.5 * drag, c, k, order_over, reciprocals,
+                                        rs, fs)
         rs_c, fs_c = np.empty(ORDER + 1), np.empty(ORDER)
         taylor.KERNELS.recurrence(x, v, u, drag, 1.5 * drag, c, k, np.array(order_over),
                                   np.array(reciprocals), rs_c, fs_c)
@@ -442,7 +443,7 @@ def test_the_compiled_step_gives_the_pure_functions_floats(monkeypatch):
 def test_the_pairwise_sum_is_numpys():
     """pairwise_sum, over floats (a row) and over arrays (the rows at once): numpy's add.reduce
     along a row, bit for bit, for 16 to 128 terms of mixed signs and scales (-0.0 sums too)."""
-    from iceimpact.solvers.search.taylor import pairwise_sum
+    from iceimpact.solvers.search.taylor_series import pairwise_sum
     rng = np.random.default_rng(5)
     for n in (16, 23, 37, 64, 101, 128):
         rows = rng.normal(size=(50, n)) * 10.0 ** rng.integers(-12, 12, (50, n))

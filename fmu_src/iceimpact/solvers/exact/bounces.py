@@ -45,7 +45,7 @@ from ...physics.ice import linear_flight_constants, quadratic_flight_constants
 from ...physics.structure import response_constants, under_constants
 from ..contact_rules import bounce_closure, rounding_closing
 from ..search import dragged, flight_search, taylor
-from ..search.flight_search import GENERIC, ROOT, _bracketed, _ice_accel, _motion, flight_root
+from ..search.flight_search import GENERIC, ROOT, _ice_accel, _motion, flight_root
 from ..search.taylor import HandBack
 from .flight import DraggedFlight, Flight
 from .sampling import first_sample_after
@@ -292,13 +292,10 @@ def _compile(numba: Any) -> Any:
 COMPILED = (compile_or_none("the march of bounces", _compile)
             if flight_search.COMPILED is not None else None)
 
-_DRAGGED_BRACKET = rebound(_bracketed, **dragged.SEARCH_CALLEES)
 #: :func:`bounce_march` for the structure under the quadratic Morison drag, run as Python (the
 #: tests' reference for the compiled one): the search and the march on :mod:`.dragged`'s
 #: functions
-DRAGGED_MARCH = rebound(bounce_march, **dragged.MARCH_CALLEES,
-                        flight_root=rebound(flight_root, **dragged.SEARCH_CALLEES,
-                                            _bracketed=_DRAGGED_BRACKET))
+DRAGGED_MARCH = rebound(bounce_march, **dragged.MARCH_CALLEES, flight_root=dragged.PYTHON_ROOT)
 
 
 def _compile_dragged(numba: Any) -> Any:

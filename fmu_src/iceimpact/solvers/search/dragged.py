@@ -29,8 +29,9 @@ from typing import Any
 import numpy as np
 
 from ...physics.structure import dragged_acceleration, dragged_bounds
-from .flight_search import _ice_motion
-from .taylor import NO_ROOT, ORDER, SAMPLES, StickingTaylor, horner_columns, ordinary_step
+from .flight_search import _ice_motion, compile_root, python_root, signature
+from .taylor import StickingTaylor
+from .taylor_series import NO_ROOT, ORDER, SAMPLES, horner_columns, ordinary_step
 
 #: The flight's constants in the first array of the steps (Q): the flow speed, B_s, the
 #: structure's mass, damping, stiffness, omega_n^2, the longest step (a natural period) and the
@@ -121,12 +122,13 @@ def _dragged_structure(t, integrated):
     return x - q[Q_X0], v
 
 
-def _dragged_motion(t, form, k, rate, w0, r0, quadratic, integrated):
-    """``flight_search._motion`` for the structure in Taylor steps (``DraggedFlight``'s
-    ``_structure`` and the ice's closed form)."""
+def _dragged_gap_point(context, t):
+    """``flight_search._gap_point`` for the structure in Taylor steps (``DraggedFlight``'s
+    ``gap_and_rate``: its ``_structure`` and the ice's closed form)."""
+    gap0, form, k, rate, w0, r0, quadratic, integrated = context
     dx, v = _dragged_structure(t, integrated)
     dz, w = _ice_motion(t, rate, w0, r0, quadratic)
-    return dx, v, dz, w
+    return gap0 + (dx - dz), v - w, (dx, v, dz, w)
 
 
 def _dragged_probe(x, v, offset, mass, damping, stiffness, omega2, over, s_slow, s_fast, u,
@@ -172,10 +174,14 @@ def _dragged_failed(integrated):
 
 
 #: The functions the search and the march call by name, for the structure in Taylor steps.
-SEARCH_CALLEES = {"_motion": _dragged_motion, "_structure_probe": _dragged_probe,
+SEARCH_CALLEES = {"_gap_point": _dragged_gap_point, "_structure_probe": _dragged_probe,
                   "_clearance": _no_clearance}
 MARCH_CALLEES = {"_flight_sample": _dragged_sample, "_structure_accel": _dragged_accel,
                  "_new_flight": _dragged_new_flight, "_failed": _dragged_failed}
+
+#: :func:`~.flight_search.flight_root` run as Python on this module's functions (the tests'
+#: reference for the compiled search and march)
+PYTHON_ROOT = python_root(**SEARCH_CALLEES)
 
 
 def steps_type(numba: Any) -> Any:
@@ -192,32 +198,31 @@ def compiled_callees(numba: Any, kernels: Any, search: dict[str, Any]) -> dict[s
     flight search's (``flight_search.compiled_callees``); ``flight_root`` is the search
     compiled on them."""
     from ...compiled import jit
-    from .flight_search import compile_root, motion_signature, probe_signature
 
-    f8, i8 = numba.float64, numba.int64
     steps = steps_type(numba)
+
+    def compiled(function: Any, **callees: Any) -> Any:
+        return jit(numba, signature(numba, function, steps), function, **callees)
+
     ice_motion = search["_ice_motion"]
-    make = jit(numba, (steps,), _make_step, ordinary_step=kernels["ordinary_step"],
-               horner_columns=kernels["horner_columns"])
-    structure = jit(numba, (f8, steps), _dragged_structure, _make_step=make,
+    make = compiled(_make_step, ordinary_step=kernels["ordinary_step"],
                     horner_columns=kernels["horner_columns"])
-    motion = jit(numba, motion_signature(numba, steps), _dragged_motion,
-                 _dragged_structure=structure, _ice_motion=ice_motion)
-    acceleration = jit(numba, (f8,) * 7, dragged_acceleration)
-    bounds = jit(numba, (f8,) * 8, dragged_bounds, dragged_acceleration=acceleration)
-    probe = jit(numba, probe_signature(numba, steps), _dragged_probe, dragged_bounds=bounds)
-    clearance = jit(numba, (f8,) * 7 + (i8,) + (f8,) * 4 + (i8,), _no_clearance)
-    root = compile_root(numba, steps, {"_motion": motion, "_structure_probe": probe,
-                                       "_clearance": clearance,
-                                       "_ice_accel": search["_ice_accel"],
-                                       "_amplitude": search["_amplitude"]})
-    k8 = numba.types.UniTuple(f8, 8)
+    structure = compiled(_dragged_structure, _make_step=make,
+                         horner_columns=kernels["horner_columns"])
+    acceleration = compiled(dragged_acceleration)
+    callees = {"_gap_point": compiled(_dragged_gap_point, _dragged_structure=structure,
+                                      _ice_motion=ice_motion),
+               "_structure_probe": compiled(_dragged_probe,
+                                            dragged_bounds=compiled(
+                                                dragged_bounds,
+                                                dragged_acceleration=acceleration)),
+               "_clearance": compiled(_no_clearance),
+               "_ice_accel": search["_ice_accel"], "plan": search["plan"]}
     return {
-        "flight_root": root,
-        "_flight_sample": jit(numba, (f8,) * 5 + (i8, k8, f8, f8, f8, i8, steps), _dragged_sample,
-                              _dragged_structure=structure, _ice_motion=ice_motion),
-        "_structure_accel": jit(numba, (f8,) * 7 + (steps,), _dragged_accel,
-                                dragged_acceleration=acceleration),
-        "_new_flight": jit(numba, (steps, f8, f8), _dragged_new_flight),
-        "_failed": jit(numba, (steps,), _dragged_failed),
+        "flight_root": compile_root(numba, steps, callees),
+        "_flight_sample": compiled(_dragged_sample, _dragged_structure=structure,
+                                   _ice_motion=ice_motion),
+        "_structure_accel": compiled(_dragged_accel, dragged_acceleration=acceleration),
+        "_new_flight": compiled(_dragged_new_flight),
+        "_failed": compiled(_dragged_failed),
     }

@@ -9,7 +9,9 @@ Python functions. :func:`flight_root` makes the same steps on plain floats, with
 and bounds written out, so that it compiles as one function; the solver calls it for each flight
 it applies to (:meth:`FlightSearch.next_root_of`, :mod:`iceimpact.solvers.exact`).
 
-Its rules are RootSearch's, its arithmetic that of the closed forms' scalar functions
+Its rules are RootSearch's: the same functions of :mod:`.step` (:func:`~.step.plan`,
+:func:`~.step.descend`, :func:`~.step.bracketed`), compiled here with the gap's evaluation
+(:func:`_gap_point`) as their callee. Its arithmetic is that of the closed forms' scalar functions
 (``Oscillator.deviation_increment``'s forms, ``aperiodic_increment``, the drag laws'
 ``increment`` and ``accel_bounds``, ``bounds`` and ``amplitude_bound``, ``Flight.probe``,
 ``gap_and_rate``, ``clearance``), operation for operation, with RootSearch's constants, so the
@@ -31,11 +33,10 @@ results are the same either way.
 from __future__ import annotations
 
 import math
-from math import expm1, log1p, nextafter, sqrt
+from math import expm1, log1p, sqrt
 from typing import Any
 
-from ...compiled import compile_or_none, entry_point, jit
-from ...limits import TIME_RESOLUTION
+from ...compiled import compile_or_none, entry_point, jit, rebound
 from ...physics.structure import (
     FORM_MODES,
     FORM_OVER,
@@ -45,36 +46,47 @@ from ...physics.structure import (
     under_increment,
 )
 from ..base import ACCEL_CLEARANCE_PHASE, GAP_ROUNDING, GAP_ULPS
-from .rootfind import (
-    _SUM_NEAR_1_LOW,
-    BRACKET_STEPS,
-    DESCENT_STEPS,
-    FOREVER,
-    ROOT_RTOL,
-    ROOT_XTOL,
-    SCALED_ABOVE,
-    SPREAD,
-    RootSearch,
+from .rootfind import RootSearch
+from .step import (
+    AT_FRONTIER,
+    BEYOND,
+    FREE,
+    MONOTONE,
+    PASSED,
+    ROOT,
+    bracketed,
+    descend,
+    plan,
 )
 
-#: The outcomes of :func:`flight_root`: the frontier passed the horizon with no root, a root was
-#: found (it may lie beyond the horizon), or the next step is RootSearch's to make.
-PASSED, ROOT, GENERIC = 0, 1, 2
+#: The outcomes of :func:`flight_root`: the frontier passed the horizon with no root (PASSED), a
+#: root was found (ROOT, :mod:`.step`'s; it may lie beyond the horizon), or the next step is
+#: RootSearch's to make (GENERIC).
+GENERIC = 2
 
 
-def _motion(t, form, k, rate, w0, r0, quadratic, integrated):
-    """(x - x0, v, z - z0, w) at t: the structure's free response in its form on the
-    constants k of ``response_constants`` (``Oscillator.deviation_increment``'s:
-    ``under_increment`` or ``aperiodic_increment``) and the ice's (:func:`_ice_motion`).
-    ``integrated`` is the structure's Taylor steps where it has no closed form
-    (:mod:`.dragged`, which compiles this module's search with its own ``_motion``); unused
-    here."""
+def _gap_point(context, t):
+    """The gap at t, as the search evaluates it (:mod:`.step`'s ``evaluate``): (gap, its rate
+    v - w, the motion (x - x0, v, z - z0, w)) on the flight's ``context`` (gap0, then the
+    structure's form and its constants k of ``response_constants``, the ice's rate, w0, r0 and
+    drag law, the Taylor steps ``integrated`` where the structure has no closed form (unused
+    here)). The structure's free response is ``Oscillator.deviation_increment``'s
+    (``under_increment`` or ``aperiodic_increment``), the ice's :func:`_ice_motion`; a
+    structure in Taylor steps has its own (:mod:`.dragged`, which compiles this module's search
+    with it)."""
+    gap0, form, k, rate, w0, r0, quadratic, integrated = context
     if form == FORM_UNDER:
         dx, v = under_increment(t, k[0], k[1], k[2], k[3], k[4], k[5])
     else:
         dx, v = aperiodic_increment(t, form, k[0], k[1], k[2], k[3], k[4], k[5], k[6], k[7])
     dz, w = _ice_motion(t, rate, w0, r0, quadratic)
-    return dx, v, dz, w
+    return gap0 + (dx - dz), v - w, (dx, v, dz, w)
+
+
+def _motion(t, form, k, rate, w0, r0, quadratic, integrated):
+    """(x - x0, v, z - z0, w) at t: :func:`_gap_point`'s motion (the march of bounces samples
+    a flight with it)."""
+    return _gap_point((0.0, form, k, rate, w0, r0, quadratic, integrated), t)[2]
 
 
 def _ice_motion(t, rate, w0, r0, quadratic):
@@ -186,44 +198,6 @@ def _accel_clearance(w, margin, u, coef, quadratic, omega2):
     return root
 
 
-def _bracketed(lo, hi, t, f_t, df_t, motion, gap0, form, k, rate, w0, r0, quadratic,
-               integrated):
-    """``RootSearch._bracketed_root`` from the Newton point t (f(t) = f_t, f'(t) = df_t, the
-    motion there ``motion``), its bracket [lo, hi] (f(lo) >= 0 > f(hi)). Returns the root, and
-    the last point evaluated with its motion (the state at the root when it is that point)."""
-    step = step_before = hi - lo
-    at = t
-    for _ in range(BRACKET_STEPS):
-        nxt = t - f_t / df_t if df_t != 0.0 else math.nan
-        if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
-            if abs(nxt - t) <= ROOT_XTOL + ROOT_RTOL * abs(t):
-                if f_t < 0.0:
-                    return t, at, motion
-                after = nextafter(t, math.inf)
-                if after < hi:
-                    at, motion = after, _motion(after, form, k, rate, w0, r0, quadratic,
-                                                integrated)
-                    if gap0 + (motion[0] - motion[2]) <= 0.0:
-                        return after, at, motion
-                    lo = after
-            nxt = lo + 0.5 * (hi - lo)
-        step_before, step = step, abs(nxt - t)
-        converged = step <= ROOT_XTOL + ROOT_RTOL * abs(nxt)
-        if converged or not lo < nxt < hi:
-            return (t if converged else nxt), at, motion
-        t = at = nxt
-        motion = _motion(t, form, k, rate, w0, r0, quadratic, integrated)
-        dx, v, dz, w = motion
-        f_t, df_t = gap0 + (dx - dz), v - w
-        if f_t < 0.0:
-            hi = t
-        elif f_t > 0.0:
-            lo = t
-        else:
-            return t, at, motion
-    return t, at, motion
-
-
 def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
                 time_eps, gap0, x0, z0, offset, mass, damping, stiffness, omega2, sigma,
                 s_slow, s_fast, form, c0, c1, c2, c3, c4, c5, c6, c7, rate, w0, r0, u, coef,
@@ -238,6 +212,10 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
     closed form), ``integrated`` the structure's Taylor steps where the search is compiled
     with the motion of :mod:`.dragged` (unused here).
 
+    Each step is :func:`~.step.plan`'s, a monotone stretch :func:`~.step.descend`'s, as
+    RootSearch makes them; this function probes the gap (``Flight.probe``), computes the
+    clearance (``Flight.clearance``) and makes the sign test at the end of a free step.
+
     Returns (outcome, a, root, iterations, creep, probed_at, f, f', f'', K, J, x - x0, v,
     z - z0, w): PASSED, ROOT (the root, and the motion there: the state of the event), or
     GENERIC with the frontier before the step RootSearch is to make.
@@ -245,14 +223,16 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
     The closed forms are evaluated where :class:`~iceimpact.solvers.exact.Flight` evaluates
     them, no more: the last point evaluated and its motion are kept (``at``, ``motion``), first
     the anchor (no increments, the anchor's velocities), as Flight keeps its last point."""
-    k = (c0, c1, c2, c3, c4, c5, c6, c7)
     over = 1 if form >= FORM_OVER else 0
-    at, motion = 0.0, (0.0, c6 if form == FORM_MODES else c5, 0.0, w0)
+    context = (gap0, form, (c0, c1, c2, c3, c4, c5, c6, c7), rate, w0, r0, quadratic,
+               integrated)
+    v0 = c6 if form == FORM_MODES else c5
+    at, point = 0.0, (gap0 + (0.0 - 0.0), v0 - w0, (0.0, v0, 0.0, w0))
     outcome = PASSED
     while a <= horizon:
         if a != at:  # (the anchor, a sign test's end and a Newton point are kept)
-            at, motion = a, _motion(a, form, k, rate, w0, r0, quadratic, integrated)
-        dx, v, dz, w = motion
+            at, point = a, _gap_point(context, a)
+        dx, v, dz, w = point[2]
         if a == probed_at:
             f, df, d2, bound, jerk = pf, pdf, pd2, pbound, pjerk
         else:
@@ -261,127 +241,48 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
                                                    stiffness, omega2, over, s_slow, s_fast, u,
                                                    integrated)
             a_z, size, j_z = _ice_accel(w, u, coef, quadratic)
-            f = gap0 + (dx - dz)
-            df = v - w
+            f = point[0]
+            df = point[1]
             d2 = a_x - a_z
             bound = size_x + size
             jerk = jerk_x + j_z
             if bound != bound or jerk != jerk:
                 break  # (RootSearch's probe: hypot's scales)
-        if f < 0.0 or (f == 0.0 and df < 0.0):
-            return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
-                    dx, v, dz, w)
-        df_size = df if df >= 0.0 else -df
-        d2_size = d2 if d2 >= 0.0 else -d2
-        total = f + df_size + d2_size + bound + jerk
-        floor = SPREAD * total
-        outcome = GENERIC  # (any break below leaves the step to RootSearch)
-        if (0.0 < f < floor or df_size < floor or d2_size < floor or bound < floor
-                or jerk < floor or not _SUM_NEAR_1_LOW <= total <= SCALED_ABOVE
-                or bound <= 0.0):
-            break  # (a probe RootSearch may rescale, or a linear signal)
-        disc = sqrt(df * df + 2.0 * bound * f)
-        h_free = (df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df)
-        if not z0 + dz >= offset:  # Flight.clearance (0 with the ice at or past x = offset)
+        # Flight.clearance (0 with the ice at or past x = offset; NaN where Python's Flight
+        # computes it)
+        cleared = 0.0
+        if not z0 + dz >= offset:
             cleared = _clearance(x0 + dx, v, z0 + dz, w, offset, omega2, sigma, over, s_slow,
                                  s_fast, u, coef, quadratic)
-            if cleared != cleared:
-                break  # (a clearance RootSearch's Flight computes)
-            if cleared > h_free:
-                h_free = cleared
-        if df >= 0.0:
-            if jerk > 0.0:
-                h_rise = (d2 + sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk
-            else:
-                h_rise = math.inf if d2 >= 0.0 else df / -d2
-            if h_rise > h_free:
-                h_free = h_rise
-        else:
-            h_mono = -df / bound
-            if jerk > 0.0:
-                root = sqrt(d2 * d2 - 2.0 * jerk * df)
-                if d2 < 0.0:
-                    h_jerk = (root - d2) / jerk
-                    if h_jerk > h_mono:
-                        h_mono = h_jerk
-                elif d2 + root > 0.0:
-                    h_jerk = -2.0 * df / (d2 + root)
-                    if h_jerk > h_mono:
-                        h_mono = h_jerk
-            elif d2 <= 0.0:
-                h_mono = math.inf
-            if h_mono > h_free:
-                span = FOREVER if FOREVER < h_mono else h_mono
-                if max_step < span:
-                    span = max_step
-                b = a + span
-                if b > a:
-                    # RootSearch._descend: Newton's method from a on the monotone stretch [a, b]
-                    t, f_t, df_t = a, f, df
-                    disc = df * df - 2.0 * f * d2
-                    step = 2.0 * f / (sqrt(disc) - df) if disc >= 0.0 else f / -df
-                    found = math.nan
-                    stalled = False
-                    for _ in range(DESCENT_STEPS):
-                        if not df_t < 0.0:
-                            break
-                        nxt = t + step
-                        if nxt >= b:
-                            break
-                        if step <= ROOT_XTOL + ROOT_RTOL * (t if t >= 0.0 else -t):
-                            found = t
-                            break
-                        at, motion = nxt, _motion(nxt, form, k, rate, w0, r0, quadratic,
-                                                  integrated)
-                        dx, v, dz, w = motion
-                        f_n = gap0 + (dx - dz)
-                        df_n = v - w
-                        if f_n < 0.0:
-                            found, at, motion = _bracketed(t, nxt, nxt, f_n, df_n, motion, gap0,
-                                                           form, k, rate, w0, r0, quadratic,
-                                                           integrated)
-                            stalled = found != found
-                            break
-                        if f_n == 0.0:
-                            found = nxt
-                            break
-                        t, f_t, df_t = nxt, f_n, df_n
-                        step = f_t / -df_t if df_t < 0.0 else math.inf
-                    if stalled:
-                        break  # (a NaN from the bracket: RootSearch makes the step)
-                    if found != found:  # no root in the descent: the sign test at b decides
-                        at, motion = b, _motion(b, form, k, rate, w0, r0,
-                                                quadratic, integrated)
-                        dx, v, dz, w = motion
-                        f_b = gap0 + (dx - dz)
-                        if not f_b < 0.0:  # root-free up to b
-                            a = b
-                            iterations += 1
-                            outcome = PASSED
-                            continue
-                        # exactly one crossing in (t, b)
-                        found, at, motion = _bracketed(t, b, b, f_b, v - w, motion, gap0,
-                                                       form, k, rate, w0, r0, quadratic,
-                                                       integrated)
-                        if found != found:
-                            break  # (RootSearch's, as a NaN from the bracket above)
-                    if found != at:  # (the state at the root: the last point evaluated, or anew)
-                        motion = _motion(found, form, k, rate, w0, r0,
-                                         quadratic, integrated)
-                    dx, v, dz, w = motion
-                    return (ROOT, a, found, iterations + 1, creep, probed_at, pf, pdf, pd2,
-                            pbound, pjerk, dx, v, dz, w)
-        if h_free > FOREVER and max_step == math.inf:
+        what, b = plan(a, f, df, d2, bound, jerk, cleared, 1.0, max_step, time_eps,
+                       iterations + 1, creep, False)
+        if what == AT_FRONTIER:
+            return (ROOT, a, a, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound, pjerk,
+                    dx, v, dz, w)
+        outcome = GENERIC  # (any break below leaves the step to RootSearch)
+        if what == MONOTONE:
+            found, root, at, point = _descend(a, f, df, d2, b, 1.0, point, context)
+            if found == PASSED:  # root-free up to b
+                a = b
+                iterations += 1
+                outcome = PASSED
+                continue
+            if root != root:
+                break  # (a NaN from the bracket: RootSearch makes the step)
+            if root != at:  # (the state at the root: the last point evaluated, or anew)
+                point = _gap_point(context, root)
+            dx, v, dz, w = point[2]
+            return (ROOT, a, root, iterations + 1, creep, probed_at, pf, pdf, pd2, pbound,
+                    pjerk, dx, v, dz, w)
+        if what == BEYOND:
             return (PASSED, math.inf, math.nan, iterations + 1, creep, probed_at, pf, pdf,
                     pd2, pbound, pjerk, math.nan, math.nan, math.nan, math.nan)
-        step = max_step if max_step < h_free else h_free
-        if step < time_eps + TIME_RESOLUTION * a:
-            break  # (a tangent or degenerate start: RootSearch's creep)
-        b = a + step
+        if what != FREE:
+            break  # (a probe to rescale, a linear signal, a tangent or degenerate start)
         # the sign test at b by the full probe, which the next step starts from
-        at, motion = b, _motion(b, form, k, rate, w0, r0, quadratic, integrated)
-        dx, v, dz, w = motion
-        f_b = gap0 + (dx - dz)
+        at, point = b, _gap_point(context, b)
+        dx, v, dz, w = point[2]
+        f_b = point[0]
         if f_b < 0.0:
             break  # (rounding at the frontier: RootSearch's bracket from b)
         a_x, size_x, jerk_x = _structure_probe(x0 + dx, v, offset, mass, damping, stiffness,
@@ -392,7 +293,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         if bound_b != bound_b or jerk_b != jerk_b:
             break  # (RootSearch's probe at b: hypot's scales)
         a = probed_at = b
-        pf, pdf, pd2 = f_b, v - w, a_x - a_z
+        pf, pdf, pd2 = f_b, point[1], a_x - a_z
         pbound, pjerk = bound_b, jerk_b
         iterations += 1
         creep = 0
@@ -401,58 +302,88 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             math.nan, math.nan, math.nan, math.nan)
 
 
+def python_root(**callees: Any) -> Any:
+    """:func:`flight_root` run as Python with other functions of the motion (``_gap_point``,
+    ``_structure_probe``, ``_clearance``: :mod:`.dragged`'s), the descent and the bracket
+    evaluating the gap by the same ``_gap_point``."""
+    return rebound(flight_root, _descend=_descent(callees["_gap_point"]), **callees)
+
+
+def _descent(gap_point: Any) -> Any:
+    """:func:`~.step.descend` (and the :func:`~.step.bracketed` it calls) evaluating the gap
+    by ``gap_point``, run as Python."""
+    return rebound(descend, evaluate=gap_point,
+                   bracketed=rebound(bracketed, evaluate=gap_point))
+
+
+#: the descent of :func:`flight_root` run as Python: the step's on the closed forms' gap
+_descend = _descent(_gap_point)
 _DISPATCHERS: dict[str, Any] = {}
+
+
+def argument_types(numba: Any, integrated: Any) -> dict[str, Any]:
+    """numba's type of each argument of the search's functions that is not a float, by its
+    name (the one declaration from which :func:`signature` derives every signature), with the
+    structure's steps of type ``integrated`` (an integer, unused, for the closed forms)."""
+    f8, i8 = numba.float64, numba.int64
+    k, motion = numba.types.UniTuple(f8, 8), numba.types.UniTuple(f8, 4)
+    return {"iterations": i8, "creep": i8, "form": i8, "over": i8, "quadratic": i8,
+            "checked": numba.boolean, "k": k, "motion": motion, "integrated": integrated,
+            "point": numba.types.Tuple((f8, f8, motion)),
+            "context": numba.types.Tuple((f8, i8, k, f8, f8, f8, i8, integrated))}
+
+
+def signature(numba: Any, function: Any, integrated: Any = None) -> tuple:
+    """The argument types of ``function`` (a function of this package's search: the types
+    of :func:`argument_types` by the parameters' names, a float for any other), the
+    structure's steps of type ``integrated`` (default: the closed forms')."""
+    types = argument_types(numba, numba.int64 if integrated is None else integrated)
+    code = function.__code__
+    return tuple(types.get(name, numba.float64) for name in code.co_varnames[:code.co_argcount])
 
 
 def compiled_callees(numba: Any) -> dict[str, Any]:
     """numba's dispatchers of :func:`flight_root` and the functions it calls, by name, compiled
     once (a compiled caller, such as the exact method's march of bounces, calls them)."""
     if not _DISPATCHERS:
-        f8, i8 = numba.float64, numba.int64
-        decay_pair = jit(numba, (f8,), _decay_pair)
-        aperiodic = jit(numba, (f8, i8) + (f8,) * 8, aperiodic_increment, _decay_pair=decay_pair)
-        under = jit(numba, (f8,) * 7, under_increment)
-        ice_motion = jit(numba, (f8, f8, f8, f8, i8), _ice_motion)
-        motion = jit(numba, motion_signature(numba, i8), _motion, aperiodic_increment=aperiodic,
-                     under_increment=under, _ice_motion=ice_motion)
-        ice_accel = jit(numba, (f8, f8, f8, i8), _ice_accel)
-        accel_clearance = jit(numba, (f8, f8, f8, f8, i8, f8), _accel_clearance,
+        decay_pair = jit(numba, signature(numba, _decay_pair), _decay_pair)
+        aperiodic = jit(numba, signature(numba, aperiodic_increment), aperiodic_increment,
+                        _decay_pair=decay_pair)
+        under = jit(numba, signature(numba, under_increment), under_increment)
+        ice_motion = jit(numba, signature(numba, _ice_motion), _ice_motion)
+        gap_point = jit(numba, signature(numba, _gap_point), _gap_point,
+                        aperiodic_increment=aperiodic, under_increment=under,
+                        _ice_motion=ice_motion)
+        ice_accel = jit(numba, signature(numba, _ice_accel), _ice_accel)
+        accel_clearance = jit(numba, signature(numba, _accel_clearance), _accel_clearance,
                               _ice_accel=ice_accel)
-        amplitude = jit(numba, (f8, f8, f8, i8, f8, f8), _amplitude)
-        clearance = jit(numba, (f8,) * 7 + (i8,) + (f8,) * 4 + (i8,), _clearance,
+        amplitude = jit(numba, signature(numba, _amplitude), _amplitude)
+        clearance = jit(numba, signature(numba, _clearance), _clearance,
                         _accel_clearance=accel_clearance, _amplitude=amplitude)
-        probe = jit(numba, probe_signature(numba, i8), _structure_probe, _amplitude=amplitude)
-        callees = {"_motion": motion, "_ice_accel": ice_accel, "_clearance": clearance,
-                   "_amplitude": amplitude, "_structure_probe": probe}
-        _DISPATCHERS.update(callees, _ice_motion=ice_motion,
-                            flight_root=compile_root(numba, i8, callees))
+        probe = jit(numba, signature(numba, _structure_probe), _structure_probe,
+                    _amplitude=amplitude)
+        callees = {"_gap_point": gap_point, "_ice_accel": ice_accel, "_clearance": clearance,
+                   "_structure_probe": probe, "plan": jit(numba, signature(numba, plan), plan)}
+        _DISPATCHERS.update(callees, _ice_motion=ice_motion, _amplitude=amplitude,
+                            _motion=jit(numba, signature(numba, _motion), _motion,
+                                        _gap_point=gap_point),
+                            flight_root=compile_root(numba, numba.int64, callees))
     return _DISPATCHERS
-
-
-def motion_signature(numba: Any, integrated: Any) -> tuple:
-    """The argument types of :func:`_motion` (and of a motion compiled in its place) with the
-    structure's steps of type ``integrated``."""
-    f8, i8 = numba.float64, numba.int64
-    return (f8, i8, numba.types.UniTuple(f8, 8), f8, f8, f8, i8, integrated)
-
-
-def probe_signature(numba: Any, integrated: Any) -> tuple:
-    """The argument types of :func:`_structure_probe` (and of one compiled in its place)."""
-    f8, i8 = numba.float64, numba.int64
-    return (f8,) * 7 + (i8, f8, f8, f8, integrated)
 
 
 def compile_root(numba: Any, integrated: Any, callees: dict[str, Any]) -> Any:
     """:func:`flight_root` compiled on ``callees`` (the compiled functions it calls by name:
-    ``_motion``, ``_structure_probe``, ``_clearance``, ``_ice_accel``, ``_amplitude``), the
+    ``_gap_point``, ``_structure_probe``, ``_clearance``, ``_ice_accel``, ``plan``), the
     structure's steps of type ``integrated``: this module's closed forms, or another
-    structure's motion (:mod:`.dragged`)."""
-    f8, i8 = numba.float64, numba.int64
-    bracketed = jit(numba, (f8,) * 5 + (numba.types.UniTuple(f8, 4), f8, i8,
-                                        numba.types.UniTuple(f8, 8), f8, f8, f8, i8, integrated),
-                    _bracketed, _motion=callees["_motion"])
-    return jit(numba, (f8, f8, i8, i8) + (f8,) * 18 + (i8,) + (f8,) * 13 + (i8, f8, integrated),
-               flight_root, _bracketed=bracketed, **callees)
+    structure's motion (:mod:`.dragged`). The descent and the bracket are :mod:`.step`'s,
+    compiled evaluating the gap by the same ``_gap_point``."""
+    gap_point = callees["_gap_point"]
+    bracket = jit(numba, signature(numba, bracketed, integrated), bracketed,
+                  evaluate=gap_point)
+    descent = jit(numba, signature(numba, descend, integrated), descend, evaluate=gap_point,
+                  bracketed=bracket)
+    return jit(numba, signature(numba, flight_root, integrated), flight_root, _descend=descent,
+               **callees)
 
 
 def _compiled():

@@ -30,54 +30,39 @@ it root-free, and one with f < 0 brackets the root, which a safeguarded Newton i
 when a step leaves the bracket) then converges on quadratically. That takes three to five
 evaluations where a sign test at the end of the stretch and ``brentq`` took eight; without it the
 search uses ``brentq``.
+
+The rules of a step (the stretches, the descent, the bracketed Newton iteration) are the plain
+functions of :mod:`.step`, which the compiled flight search (:mod:`.flight_search`) makes its
+steps with too; :class:`RootSearch` keeps the frontier, probes the signal and makes what is
+Python's alone (a rescaled probe, the creep out of a degenerate start, brentq without rates).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from math import sqrt
 from typing import Any
 
 from scipy.optimize import brentq
 
-from ...limits import TIME_RESOLUTION
 from ...record import Record
-
-#: Iterations before the search gives up proving and reports a touch where it stands
-#: (only a pathological, exactly tangent contact gets there; the touch is then real to rounding).
-MAX_ITERATIONS = 100_000
-
-#: Newton steps from the start of a monotone stretch before the search falls back on the sign test
-#: at its end (a simple root takes 3 to 5; more means a root close to the end of the stretch).
-DESCENT_STEPS = 12
-
-#: Iterations of the bracketed Newton-bisection search (bisection alone halves any bracket the
-#: search can make, up to 1e300 s, to 1e-15 s within them).
-BRACKET_STEPS = 1100
-
-#: Relative tolerance on a located root, as brentq's ``rtol`` (4 ulps): the time resolution.
-ROOT_RTOL = TIME_RESOLUTION
-
-#: Absolute tolerance on a located root (s), as brentq's ``xtol``.
-ROOT_XTOL = 1e-15
-
-#: A root-free stretch longer than this (s) is the whole future: no run reaches its end, and the
-#: closed forms overflow there (a clearance of 6e306 s, a margin over an ice speed of 1e-308
-#: m/s, had the search evaluate the gap at omega_n t = inf).
-FOREVER = 1e300
-
-#: A probe whose largest value (of f, f', f'', K, J) is below this, or above its inverse, is
-#: scaled to about 1 before the step lengths are computed: their squares (f'^2, 2 K f, ...)
-#: underflowed at contact forces of 1e-286 N, and a discriminant of 0 gave a Taylor stretch of
-#: 1e14 s that stepped over the separation.
-SCALED_BELOW = 1e-100
-SCALED_ABOVE = 1.0 / SCALED_BELOW
-
-#: A probe with a nonzero value below this times its largest is rescaled in time as well
-#: (:func:`balanced`): with f = 1.2e-271, f' = -2.4e-184, K = 4.9e-91, J = 1 both f'^2 and K f
-#: underflowed, and the Taylor stretch came out as f / -f', 1415 times the one its bounds prove.
-SPREAD = 1e-140
+from .step import (
+    BEYOND,
+    CREEP,
+    FREE,
+    LINEAR_BEYOND,
+    MONOTONE,
+    OFF_PATH,
+    PASSED,
+    ROOT_RTOL,
+    ROOT_XTOL,
+    SCALED_ABOVE,
+    SCALED_BELOW,
+    SPREAD,
+    bracketed,
+    descend,
+    plan,
+)
 
 #: The time degree of each of (f, f', f'', K, J): a time unit tau multiplies them by tau^degree.
 _DEGREES = (0, 1, 2, 2, 3)
@@ -118,8 +103,23 @@ def balanced(f: float, df: float, d2: float, bound: float,
     return (*scaled, math.ldexp(1.0, p))
 
 
-#: a sum of the five magnitudes at or above this has its largest at or above SCALED_BELOW
-_SUM_NEAR_1_LOW = 5.0 * SCALED_BELOW
+def _rescaled(f: float, df: float, d2: float, bound: float,
+              jerk: float) -> tuple[float, float, float, float, float, float]:
+    """A probe off :func:`~.step.plan`'s common path, tested exactly: (f, f', f'', K, J) and
+    the time unit of its step lengths, rescaled by :func:`balanced` where the squares of the
+    step lengths would underflow (or overflow), or the values lie too far apart for their
+    products to keep their precision; else as it is, in a unit of 1 s (a value 0, or all of
+    them far from 1 without reaching the scales that need it)."""
+    df_size = df if df >= 0.0 else -df
+    d2_size = d2 if d2 >= 0.0 else -d2
+    size = max(f, df_size, d2_size, bound, jerk)
+    floor = SPREAD * size
+    if 0.0 < size < math.inf and (
+            not SCALED_BELOW <= size <= SCALED_ABOVE or 0.0 < f < floor
+            or 0.0 < df_size < floor or 0.0 < d2_size < floor or 0.0 < bound < floor
+            or 0.0 < jerk < floor):
+        return balanced(f, df, d2, bound, jerk)
+    return f, df, d2, bound, jerk, 1.0
 
 
 class Signal:
@@ -221,109 +221,51 @@ class RootSearch:
         return None
 
     def _step(self, signal: Any) -> None:
+        """One step from the frontier a: the probe there (the one the last step's sign test
+        took, if it ended here), then what :func:`~.step.plan` decides from it. Either the
+        root is set, or the frontier moves on to a point b with [a, b) proven root-free and
+        f(b) >= 0 (to infinity where the rest of time is root-free)."""
         a = self.a
         if a == self._probed_at:  # the last step's sign test probed its end, here
             f, df, d2, bound, jerk = self._probed
         else:
             f, df, d2, bound, jerk = signal.probe(a)
         self.iterations += 1
-        if f < 0.0 or (f == 0.0 and df < 0.0):  # going below zero here
-            self.root = a
-            return
-        # the common path: the sum of the magnitudes (f >= 0 here, within a factor 5 of the
-        # largest) near 1 and every value within SPREAD of it, f also where it is 0 (the start
-        # of each bounce, at contact; the exact test below never rescales for f = 0); otherwise
-        # the exact test
-        df_size = df if df >= 0.0 else -df
-        d2_size = d2 if d2 >= 0.0 else -d2
-        total = f + df_size + d2_size + bound + jerk
-        floor = SPREAD * total
-        unit = 1.0  # the time unit of the step lengths below (s)
-        if (0.0 < f < floor or df_size < floor or d2_size < floor or bound < floor or jerk < floor
-                or not _SUM_NEAR_1_LOW <= total <= SCALED_ABOVE):
-            # (rarely: a value is 0 or far below the largest, or all are tiny or huge)
-            size = max(f, df_size, d2_size, bound, jerk)
-            floor = SPREAD * size
-            if 0.0 < size < math.inf and (
-                    not SCALED_BELOW <= size <= SCALED_ABOVE or 0.0 < f < floor
-                    or 0.0 < df_size < floor or 0.0 < d2_size < floor or 0.0 < bound < floor
-                    or 0.0 < jerk < floor):
-                # the squares below would underflow (or overflow), or the values are too far
-                # apart for their products to keep their precision: rescale by powers of 2
-                # (exact)
-                f, df, d2, bound, jerk, unit = balanced(f, df, d2, bound, jerk)
-        if bound <= 0.0:  # f is linear from here on
-            if df < 0.0:
-                self.root = a + unit * (f / -df)
-            else:
-                self.a = math.inf
-            return
-        disc = sqrt(df * df + 2.0 * bound * f)
-        h_free = unit * ((df + disc) / bound if df >= 0.0 else 2.0 * f / (disc - df))
-        max_step = self.max_step
         clearance = signal.clearance  # (one lookup: a method is bound anew at each)
-        if clearance is not None:
-            cleared = clearance(a)
-            if cleared > h_free:  # max(), written out (this runs at every step)
-                h_free = cleared
-        if df >= 0.0:
-            # f' >= df + d2 s - jerk s^2 / 2 stays >= 0 up to h_rise: f cannot fall below f(a)
-            if jerk > 0.0:
-                h_rise = unit * ((d2 + sqrt(d2 * d2 + 2.0 * jerk * df)) / jerk)
-            else:
-                h_rise = math.inf if d2 >= 0.0 else unit * (df / -d2)
-            if h_rise > h_free:
-                h_free = h_rise
-        else:
-            # f' <= df + d2 s + jerk s^2 / 2 stays < 0 up to h_mono: at most one root there
-            h_mono = -df / bound
-            if jerk > 0.0:
-                root = sqrt(d2 * d2 - 2.0 * jerk * df)
-                if d2 < 0.0:
-                    h_jerk = (root - d2) / jerk
-                    if h_jerk > h_mono:
-                        h_mono = h_jerk
-                elif d2 + root > 0.0:  # (both 0: d2^2 and jerk df underflowed; K's stretch holds)
-                    h_jerk = -2.0 * df / (d2 + root)
-                    if h_jerk > h_mono:
-                        h_mono = h_jerk
-            elif d2 <= 0.0:
-                h_mono = math.inf
-            h_mono *= unit
-            if h_mono > h_free:
-                span = FOREVER if FOREVER < h_mono else h_mono  # min(h_mono, FOREVER, max_step)
-                if max_step < span:
-                    span = max_step
-                b = a + span
-                if b > a:
-                    if signal.value_and_rate is not None:
-                        self._descend(signal, a, f, df, d2, b, unit)
-                        return
-                    if signal.value(b) < 0.0:  # exactly one crossing in (a, b)
-                        self.root = self._bracketed_root(signal, a, b)
-                        return
-                    self.a = b
-                    return
-        if h_free > FOREVER and max_step == math.inf:
-            self.a = math.inf
-            return
-        step = max_step if max_step < h_free else h_free  # min(h_free, max_step)
-        eps = self.time_eps + TIME_RESOLUTION * a  # a few ulps of the absolute time
-        if step < eps:
-            if df < 0.0 or self.iterations > MAX_ITERATIONS:
-                # tangent approach to within rounding: f here is below bound*eps^2, a touch
-                self.root = a
-                return
-            # f = f' = 0 to rounding (a degenerate start): creep out with doubling steps so that
-            # the work stays bounded; a crossing is still caught by the sign test at b
-            step = eps * 2.0 ** min(self.creep, 1000)
-            self.creep += 1
-        else:
+        cleared = 0.0 if clearance is None else clearance(a)
+        if cleared != cleared:  # (NaN proves nothing)
+            cleared = 0.0
+        what, b = plan(a, f, df, d2, bound, jerk, cleared, 1.0, self.max_step, self.time_eps,
+                       self.iterations, self.creep, False)
+        unit = 1.0
+        if what == OFF_PATH:  # (rarely)
+            f, df, d2, bound, jerk, unit = _rescaled(f, df, d2, bound, jerk)
+            what, b = plan(a, f, df, d2, bound, jerk, cleared, unit, self.max_step,
+                           self.time_eps, self.iterations, self.creep, True)
+        if what == FREE:
             self.creep = 0
-        b = a + step
-        # the sign test at b by the full probe, which the next step starts from
+            self._sign_test(signal, a, b)
+        elif what == MONOTONE:
+            if signal.value_and_rate is not None:
+                self._descend(signal, a, f, df, d2, b, unit)
+            elif signal.value(b) < 0.0:  # exactly one crossing in (a, b)
+                self.root = self._brentq(signal.value, a, b)
+            else:
+                self.a = b
+        elif what == BEYOND or what == LINEAR_BEYOND:
+            self.a = math.inf
+        elif what == CREEP:
+            self.creep += 1
+            self._sign_test(signal, a, b)
+        else:  # AT_FRONTIER, LINEAR_ROOT, TOUCH: the root is b
+            self.root = b
+
+    def _sign_test(self, signal: Any, a: float, b: float) -> None:
+        """The end b of a root-free step [a, b): the full probe there, which the next step
+        starts from; below zero at b (rounding at the frontier: [a, b) is root-free), the root
+        is bracketed in [a, b]."""
         probed = signal.probe(b)
-        if probed[0] < 0.0:  # rounding at the frontier: root-free before b, so it is b
+        if probed[0] < 0.0:
             self.root = self._bracketed_root(signal, a, b)
             return
         self.a = self._probed_at = b
@@ -331,89 +273,23 @@ class RootSearch:
 
     def _descend(self, signal: Any, a: float, f: float, df: float, d2: float, b: float,
                  unit: float = 1.0) -> None:
-        """Newton's method from a (f(a) = f >= 0, f'(a) = df < 0, f''(a) = d2, in the time
-        ``unit`` of :func:`balanced`) on the monotone stretch [a, b]: set the root if it is in
-        [a, b], else move the frontier to b.
-
-        f decreases on [a, b], so a point t with f(t) >= 0 leaves [a, t] root-free (the
-        frontier moves on), and one with f(t) < 0 brackets the only root in (a, t). The first
-        point is the root of the second-order Taylor polynomial at a (one Newton step fewer),
-        the next ones Newton points."""
-        value_and_rate = signal.value_and_rate  # (one lookup: a method is bound anew at each)
-        t, f_t, df_t = a, f, df
-        disc = df * df - 2.0 * f * d2
-        # first step: root of f + df h + d2 h^2 / 2 (cancellation-free form), else Newton's
-        step = unit * (2.0 * f / (sqrt(disc) - df) if disc >= 0.0 else f / -df)
-        for _ in range(DESCENT_STEPS):
-            if not df_t < 0.0:  # f' vanishing to rounding inside the stretch
-                break
-            nxt = t + step
-            if nxt >= b:  # any root is close to b: the sign test there decides
-                break
-            # converged from above, to tolerance (|t| written out: a call of abs() costs more)
-            if step <= ROOT_XTOL + ROOT_RTOL * (t if t >= 0.0 else -t):
-                self.root = t
-                return
-            f_n, df_n = value_and_rate(nxt)
-            if f_n < 0.0:  # the root is in (t, nxt)
-                self.root = self._bracketed_root(signal, t, nxt, nxt, f_n, df_n)
-                return
-            if f_n == 0.0:
-                self.root = nxt
-                return
-            t, f_t, df_t = nxt, f_n, df_n
-            step = f_t / -df_t if df_t < 0.0 else math.inf
-        if signal.value(b) < 0.0:  # exactly one crossing in (t, b)
-            self.root = self._bracketed_root(signal, t, b)
-        else:
+        """Newton's method on the monotone stretch [a, b] (:func:`~.step.descend`, f(a) = f,
+        f'(a) = df < 0, f''(a) = d2 in the time ``unit`` of :func:`balanced`): set the root if
+        it is in [a, b], else move the frontier to b."""
+        found, root, _, _ = descend(a, f, df, d2, b, unit, None, signal.value_and_rate)
+        if found == PASSED:
             self.a = b
+        else:
+            self.root = root
 
-    def _bracketed_root(self, signal: Any, a: float, b: float, t: float | None = None,
-                        f_t: float = 0.0, df_t: float = 0.0) -> float:
+    def _bracketed_root(self, signal: Any, a: float, b: float) -> float:
         """The crossing in [a, b] (f(a) >= 0 > f(b)), to near machine precision: safeguarded
-        Newton from t (with f(t) = f_t, f'(t) = df_t, else from b) if rates are given, else
-        brentq."""
+        Newton from b (:func:`~.step.bracketed`) if rates are given, else brentq."""
         value_and_rate = signal.value_and_rate
         if value_and_rate is None:
             return self._brentq(signal.value, a, b)
-        if t is None:
-            t = b
-            f_t, df_t = value_and_rate(b)
-        lo, hi = a, b
-        step = step_before = hi - lo
-        for _ in range(BRACKET_STEPS):
-            nxt = t - f_t / df_t if df_t != 0.0 else math.nan
-            if not lo < nxt < hi or 2.0 * abs(nxt - t) > step_before:
-                if abs(nxt - t) <= ROOT_XTOL + ROOT_RTOL * abs(t):
-                    # Newton's step from t is within the tolerance but rounds to t itself (a
-                    # step below half an ulp of t) or past the bracket's end at t: the root is
-                    # within the tolerance of t (bisection here halved the whole bracket again,
-                    # some 40 evaluations, to land as close). Below zero at t: t is the first
-                    # point below zero. Above (t = lo): the next float, if f is not above zero
-                    # there (else bisection goes on from it).
-                    if f_t < 0.0:
-                        return t
-                    after = math.nextafter(t, math.inf)
-                    if after < hi:
-                        f_after, _ = value_and_rate(after)
-                        if f_after <= 0.0:
-                            return after
-                        lo = after
-                nxt = lo + 0.5 * (hi - lo)  # bisection when Newton leaves or stalls
-            step_before, step = step, abs(nxt - t)
-            converged = step <= ROOT_XTOL + ROOT_RTOL * abs(nxt)
-            if converged or not lo < nxt < hi:
-                # converged: the last point evaluated is within the tolerance of the root
-                return t if converged else nxt
-            t = nxt
-            f_t, df_t = value_and_rate(t)
-            if f_t < 0.0:
-                hi = t
-            elif f_t > 0.0:
-                lo = t
-            else:
-                return t
-        return t
+        point = value_and_rate(b)
+        return bracketed(a, b, b, point[0], point[1], b, point, value_and_rate)[0]
 
     def _brentq(self, value: Callable[[float], float], a: float, b: float) -> float:
         """The crossing in [a, b] (f(a) >= 0 > f(b)) by brentq, to near machine precision.
