@@ -453,3 +453,23 @@ def test_a_rollback_gives_the_search_back_whole(handed_back):
     solver.rollback(saved)
     assert solver.seg.search is search and search.checkpoint() == before
     assert search.handed_back is handed_back
+
+
+def test_a_probe_at_hypots_scales_hands_the_step_back(pure_function):
+    """An over-damped structure a hair's breadth (1e-150 m) from its rest position: the probe's
+    amplitude bounds are at the scales of their math.hypot form, which only RootSearch takes.
+    flight_root hands the step back (it does not answer "no root before the horizon" from a
+    frontier short of it), and the search finds the impact RootSearch finds."""
+    sim = Simulator(Scene(structure_c=88000.0))
+    sim.advance(1.0)
+    solver = sim.solver
+    results = []
+    for by_root_search in (False, True):
+        flight = Flight(solver, 0.0, 1e-150, 0.0, -0.01, 0.3, 0.5)
+        if by_root_search:
+            flight.search = rootfind.RootSearch(0.0, flight.search.time_eps)
+        found = flight.search.next_root_of(5.0, flight)
+        results.append((found, flight.search.root, flight.search.iterations))
+    assert results[0] == results[1]
+    assert results[0][0] is not None and 0.0 < results[0][0] < 5.0
+    assert pure_function.outcomes[GENERIC] >= 1

@@ -247,6 +247,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
             bound = size_x + size
             jerk = jerk_x + j_z
             if bound != bound or jerk != jerk:
+                outcome = GENERIC  # (not PASSED: the frontier is short of the horizon)
                 break  # (RootSearch's probe: hypot's scales)
         # Flight.clearance (0 with the ice at or past x = offset; NaN where Python's Flight
         # computes it)
