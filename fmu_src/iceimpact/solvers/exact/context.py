@@ -28,8 +28,12 @@ class SegmentContext:
     - ``osc``: the structure's closed form without a flow, for the segments that start now (a
       structure from another FMU is re-anchored here by its solver at each segment start);
     - ``flight_cls``: the kind of flight (``Flight``, or ``DraggedFlight`` under the quadratic
-      Morison drag); ``rules``: the contact rules; ``max_impacts``: the impacts a step may
-      take (the march of bounces reads these three).
+      Morison drag); ``rules``: the contact rules (built on ``free_accels``, then set here by
+      the solver); ``max_impacts``: the impacts a step may take (the march of bounces reads
+      these three);
+    - ``structure_osc(u)``, ``structure_bounds(x, v, u)``, ``free_accels(x, v, w, u)``: the
+      structure's closed form in a flow, its acceleration bounds, the bodies' free
+      accelerations (the contact rules ask these at every impact).
 
     Segments only read it. Its fields are plain slots, read at the cost of a solver's
     attributes (no properties: a flight is built at every impact)."""

@@ -259,13 +259,15 @@ class ExternalSolver(EventSolver):
                                  self.other_force_rate, start=hold)
         self._set_sticking(True, t)
 
-    # the riding ice's contact impulses of the step, kept for jacobi_force (flights add 0.0)
     def impulse_to(self, tau_event: float) -> float:
+        """:meth:`EventSolver.impulse_to`, also summed in :attr:`stick_impulse` (the riding
+        ice's contact impulse of the step, for :meth:`jacobi_force`; a flight adds 0.0)."""
         impulse = super().impulse_to(tau_event)
         self.stick_impulse += impulse
         return impulse
 
     def finish(self, t_end: float) -> float:
+        """:meth:`EventSolver.finish`, its impulse also summed in :attr:`stick_impulse`."""
         impulse = super().finish(t_end)
         self.stick_impulse += impulse
         return impulse
