@@ -22,6 +22,7 @@ from iceimpact.simulator import run
 from iceimpact.solvers import contact_rules
 from iceimpact.solvers import fixed_step as fixed_step_solver
 from iceimpact.solvers import ode as ode_solver
+from iceimpact.solvers.exact import context as exact_context
 from iceimpact.solvers.exact import solver as event_solver
 from ode_reference import simulate as ode_simulate
 
@@ -49,7 +50,8 @@ def _forbid_morison_code(monkeypatch) -> None:
     def forbidden(*args, **kwargs):
         raise AssertionError("Morison code ran with the terms off")
     for module, names in (
-            (event_solver, ("morison_oscillator", "DraggedStructure", "DraggedFlight")),
+            (event_solver, ("DraggedStructure", "DraggedFlight")),
+            (exact_context, ("morison_oscillator",)),
             (fixed_step_solver, ("morison_oscillator",)),
             (contact_rules, ("TogetherWithStructureDrag",)),
             (ode_solver, ("_DraggedFlight",))):

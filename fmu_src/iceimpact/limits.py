@@ -9,7 +9,7 @@ behind each constant). The solvers read only :data:`TIME_RESOLUTION` from here.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from .contract import (
     CHATTER_FRACTION,
@@ -22,22 +22,70 @@ from .contract import (
 )
 from .errors import ParameterError
 
-if TYPE_CHECKING:
-    from .scene import Scene
+
+class SceneFields(Protocol):
+    """A scene as the work limits read it: the fields of :class:`iceimpact.scene.Scene` they
+    use, read only (validation calls these rules on a Scene; naming the fields here keeps this
+    module below the scene module, which imports it)."""
+
+    @property
+    def solver_method(self) -> int: ...  # the method: 1 exact, 2 fixed step, 3 ODE
+    @property
+    def solver_ode_method(self) -> int: ...  # method 3's integrator
+    @property
+    def solver_rtol(self) -> float: ...  # method 3's relative tolerance
+    @property
+    def solver_chatter_fraction(self) -> float: ...  # chatter time / structure period
+    @property
+    def structure_m(self) -> float: ...  # the structure's mass, kg
+    @property
+    def structure_mass(self) -> float: ...  # the mass moving with the structure, m + m_a, kg
+    @property
+    def structure_c(self) -> float: ...  # the structure's damping, N.s/m
+    @property
+    def structure_k(self) -> float: ...  # the structure's stiffness, N/m
+    @property
+    def structure_x0(self) -> float: ...  # the structure's initial displacement, m
+    @property
+    def structure_v0(self) -> float: ...  # the structure's initial velocity, m/s
+    @property
+    def structure_drag_on(self) -> bool: ...  # the flow drags the structure
+    @property
+    def structure_drag_B(self) -> float: ...  # Morison B_s, kg/m
+    @property
+    def structure_drag_b(self) -> float: ...  # Morison b_s, kg/s
+    @property
+    def omega_n(self) -> float: ...  # the structure's natural circular frequency, rad/s
+    @property
+    def external(self) -> bool: ...  # the structure lives in another FMU
+    @property
+    def ice_M(self) -> float: ...  # the ice's mass, kg
+    @property
+    def ice_v0(self) -> float: ...  # the ice's initial velocity, m/s
+    @property
+    def drag_model(self) -> int: ...  # the ice's drag law: linear or quadratic
+    @property
+    def drag_B(self) -> float: ...  # the ice's quadratic drag constant, kg/m
+    @property
+    def drag_b(self) -> float: ...  # the ice's linearised drag constant, kg/s
+    @property
+    def drag_v_lin(self) -> float: ...  # the speed of the drag's linearisation, m/s
+    @property
+    def flow_u(self) -> float: ...  # the flow speed, m/s
 
 
-def integrates_quadratic_drag(scene: Scene) -> bool:
+def integrates_quadratic_drag(scene: SceneFields) -> bool:
     """Method 1 or 3 with quadratic drag: a rate 2 B |speed| / M is integrated."""
     return (scene.drag_model == QUADRATIC_DRAG
             and scene.solver_method in (METHOD_EXACT, METHOD_ODE))
 
 
-def drag_rate(scene: Scene, speed: float) -> float:
+def drag_rate(scene: SceneFields, speed: float) -> float:
     """Relaxation rate 2 B speed / M of the quadratic drag at a relative speed (1/s)."""
     return 2.0 * scene.drag_B * speed / scene.ice_M
 
 
-def drag_rate_text(scene: Scene, limit: float, what: str) -> str:
+def drag_rate_text(scene: SceneFields, limit: float, what: str) -> str:
     return (f"{what} <= {limit:.3g} m/s with quadratic drag and solver.method = "
             f"{scene.solver_method}{_integrator_text(scene)}: the drag rate 2 B {what} / ice.M "
             f"must stay <= {rate_limit(scene):g} 1/s, the stiffest the integration of "
@@ -45,7 +93,7 @@ def drag_rate_text(scene: Scene, limit: float, what: str) -> str:
             f"{scene.drag_B:.6g} kg/m){_implicit_hint(scene)}")
 
 
-def rate_limit(scene: Scene) -> float:
+def rate_limit(scene: SceneFields) -> float:
     """Largest relaxation rate (1/s) the scene's method integrates in bounded work: method 3
     with an explicit integrator (RK45, DOP853), ODE_EXPLICIT_RATE_MAX; method 1 and method 3
     with LSODA or Radau, DRAG_RATE_MAX (docs/explanation/robustness/limits.md). Method 1's sticking
@@ -56,7 +104,7 @@ def rate_limit(scene: Scene) -> float:
     return DRAG_RATE_MAX
 
 
-def omega_limit(scene: Scene) -> float:
+def omega_limit(scene: SceneFields) -> float:
     """Largest omega_n (rad/s) the scene's method resolves in bounded work: OMEGA_MAX_EXACT
     times min(1, solver.chatter_fraction / 1e-2) (method 1), OMEGA_MAX_ODE (method 3), and
     with Radau RADAU_OMEGA_MAX scaled by (solver.rtol / RADAU_OMEGA_RTOL)^(1/4), its steps per
@@ -71,14 +119,14 @@ def omega_limit(scene: Scene) -> float:
     return OMEGA_MAX_ODE
 
 
-def integrates_taylor_sticking(scene: Scene) -> bool:
+def integrates_taylor_sticking(scene: SceneFields) -> bool:
     """Method 1 with quadratic drag and the built-in structure: its sticking phase is integrated
     by explicit Taylor steps (solvers/search/taylor.py)."""
     return (scene.solver_method == METHOD_EXACT and scene.drag_model == QUADRATIC_DRAG
             and not scene.external)
 
 
-def sticking_rates(scene: Scene, speed: float) -> tuple[float, float, float]:
+def sticking_rates(scene: SceneFields, speed: float) -> tuple[float, float, float]:
     """The rates (1/s) of method 1's quadratic-drag sticking equation (m + M) x'' + c x' + k x =
     (B + B_s) |u - x'| (u - x') at a relative speed |u - x'| = ``speed`` (m/s): its stiffness
     sqrt(k / (m + M)), damping c / (m + M) and drag 2 (B + B_s) speed / (m + M) (the drag's
@@ -88,7 +136,7 @@ def sticking_rates(scene: Scene, speed: float) -> tuple[float, float, float]:
     return (math.sqrt(s.structure_k / total), s.structure_c / total, 2.0 * B * speed / total)
 
 
-def _sticking_constants(scene: Scene) -> tuple[float, float]:
+def _sticking_constants(scene: SceneFields) -> tuple[float, float]:
     """The mass m + M (kg, m with its added mass) and drag constant B + B_s (kg/m) of method 1's
     quadratic-drag sticking equation."""
     s = scene
@@ -96,7 +144,7 @@ def _sticking_constants(scene: Scene) -> tuple[float, float]:
             s.drag_B + (s.structure_drag_B if s.structure_drag_on else 0.0))
 
 
-def check_sticking_rate(scene: Scene, speed: float, flow: float | None = None) -> None:
+def check_sticking_rate(scene: SceneFields, speed: float, flow: float | None = None) -> None:
     """Refuse a method-1 quadratic-drag scene whose sticking phase the Taylor steps cannot
     integrate in bounded work: the largest of :func:`sticking_rates` above TAYLOR_RATE_MAX, the
     drag's at ``speed`` (the scene's speed bound up front; |flow.u| for a new ``flow``)."""
@@ -124,7 +172,7 @@ def check_sticking_rate(scene: Scene, speed: float, flow: float | None = None) -
         f"{why}; use drag.model = 1, whose sticking phase is closed form")
 
 
-def _integrator_text(scene: Scene) -> str:
+def _integrator_text(scene: SceneFields) -> str:
     """The integrator a method-3 rate limit depends on, for messages ('' for method 1)."""
     if scene.solver_method != METHOD_ODE:
         return ""
@@ -132,7 +180,7 @@ def _integrator_text(scene: Scene) -> str:
             f"{EXPLICIT_ODE_METHODS.get(scene.solver_ode_method, 'implicit')})")
 
 
-def _implicit_hint(scene: Scene) -> str:
+def _implicit_hint(scene: SceneFields) -> str:
     """What to do instead, when an implicit integrator would accept the rate."""
     if scene.solver_method == METHOD_ODE and scene.solver_ode_method in EXPLICIT_ODE_METHODS:
         return (f"; solver.ode_method = 3 (LSODA, which switches to an implicit method when "
@@ -140,7 +188,7 @@ def _implicit_hint(scene: Scene) -> str:
     return ""
 
 
-def integrated_rate(scene: Scene, u: float, ice_speed: float | None = None,
+def integrated_rate(scene: SceneFields, u: float, ice_speed: float | None = None,
                     structure_speed: float | None = None, together: bool = False) -> float:
     """The fastest relaxation rate (1/s) method 3 integrates at flow speed u, the largest of
     the rates the validation bounds (check_work): the structure's damping c / m, the ice's
@@ -182,7 +230,7 @@ def integrated_rate(scene: Scene, u: float, ice_speed: float | None = None,
     return max(rates)
 
 
-def _speed_bound(scene: Scene, u: float) -> float:
+def _speed_bound(scene: SceneFields, u: float) -> float:
     """The speed relative to a flow u that the integrated quadratic drag can meet (m/s): the
     ice's own, or what an impact gives it, up to twice the structure's speed, which never
     exceeds sqrt(v0^2 + omega_n^2 x0^2) (its energy only decays in free motion)."""
@@ -190,7 +238,7 @@ def _speed_bound(scene: Scene, u: float) -> float:
     return abs(u) + abs(s.ice_v0) + 2.0 * math.hypot(s.structure_v0, s.omega_n * s.structure_x0)
 
 
-def _structure_drag_rate(scene: Scene, speed: float) -> float | None:
+def _structure_drag_rate(scene: SceneFields, speed: float) -> float | None:
     """Relaxation rate of the Morison drag on the structure that a method integrates (1/s):
     2 B_s speed / (m + m_a) with quadratic drag (methods 1 and 3), b_s / (m + m_a) with the
     linearised drag (method 3); None where closed forms carry it."""
@@ -202,7 +250,7 @@ def _structure_drag_rate(scene: Scene, speed: float) -> float | None:
     return None
 
 
-def check_structure_drag_rate(scene: Scene, speed: float, name: str) -> None:
+def check_structure_drag_rate(scene: SceneFields, speed: float, name: str) -> None:
     """Refuse a Morison drag on the structure too stiff for the explicit integrators (the same
     DRAG_RATE_MAX as the ice's drag); ``speed`` is the relative speed it acts at (m/s), named
     ``name`` (the quadratic law's rate grows with it; the linearised one's is a constant)."""
@@ -221,7 +269,7 @@ def check_structure_drag_rate(scene: Scene, speed: float, name: str) -> None:
                              f"{_implicit_hint(scene)}")
 
 
-def check_work(scene: Scene) -> None:
+def check_work(scene: SceneFields) -> None:
     """Refuse scenes whose time scales the method cannot resolve in bounded work (see
     OMEGA_MAX_EXACT, OMEGA_MAX_ODE, DRAG_RATE_MAX; docs/explanation/robustness/limits.md)."""
     s = scene

@@ -127,7 +127,7 @@ def test_the_sticking_clearance_agrees_with_the_written_out_contact_force(fracti
     u = scene.flow_u
     t = np.linspace(0.0, 50.0 * period, 200_001)
     values = lam(t)
-    seg = LinearStick(solver, 0.0, x_eq, v0, u)
+    seg = LinearStick(solver.context, 0.0, x_eq, v0, u)
     root = seg.next_event(50.0 * period)
     if fraction < 1.0:
         assert seg.clearance(0.0) == math.inf and root is None
@@ -244,7 +244,7 @@ def test_only_a_tension_too_slight_to_part_the_pair_resolvably_is_held(excess):
     runs: 3e-2 is held, 0.1 parts where the written-out force crosses zero."""
     scene, y_rest, v0, lam, period = _ringing_pair(1.0 + excess)
     solver = Simulator(scene).solver
-    seg = LinearStick(solver, 0.0, y_rest, v0, scene.flow_u)
+    seg = LinearStick(solver.context, 0.0, y_rest, v0, scene.flow_u)
     t = np.linspace(0.0, 50.0 * period, 400_001)
     values = lam(t)
     assert values.min() < 0.0  # the exact force does turn tensile
@@ -296,10 +296,10 @@ def test_a_tension_within_speed_rounding_that_opens_a_resolvable_gap_still_parts
     solver = Simulator(scene).solver
     b, u, k = scene.drag_b, scene.flow_u, scene.structure_k
     rest = b * u / k
-    seg = LinearStick(solver, 0.0, rest, -1.0, u)
+    seg = LinearStick(solver.context, 0.0, rest, -1.0, u)
     _, _, q, rate, _ = seg._force(0.0)
     v0 = -(1.0 + excess) * seg._push / seg.osc.amplitude_bound(q, rate)  # q is linear in v0
-    seg = LinearStick(solver, 0.0, rest, v0, u)
+    seg = LinearStick(solver.context, 0.0, rest, v0, u)
     assert seg.clearance(0.0) == 0.0
     period = 2.0 * math.pi / seg.osc.omega
     root = seg.next_event(period)

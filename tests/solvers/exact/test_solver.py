@@ -193,7 +193,7 @@ def test_flight_clearance_proves_the_gap_open(drag_model):
     solver = EventSolver(Scene(structure_k=1e9, drag_model=drag_model))
     omega = math.sqrt(1e9 / 1600.0)
     x0, v0, z0, w0, u = 1e-3, 0.3, -6e-3, 0.05, 0.1
-    flight = Flight(solver, 0.0, x0, v0, z0, w0, u)
+    flight = Flight(solver.context, 0.0, x0, v0, z0, w0, u)
     span = flight.clearance(0.0)
     reach = math.sqrt(x0 * x0 + v0 * v0 / omega ** 2)  # energy bound of the free structure
     assert span == pytest.approx((0.0 - reach - z0) / max(w0, u), rel=1e-9)
@@ -208,7 +208,7 @@ def test_flight_clearance_proves_the_gap_open(drag_model):
                                   / max(w1, u), rel=1e-9)
     # the ice at or past the equilibrium (x = 0): the envelope proves nothing
     for z_at in (0.0, 5e-4):
-        assert Flight(solver, 0.0, 2e-3, v0, z_at, w0, u).clearance(0.0) == 0.0
+        assert Flight(solver.context, 0.0, 2e-3, v0, z_at, w0, u).clearance(0.0) == 0.0
 
 
 # --- stepping ------------------------------------------------------------------------------------

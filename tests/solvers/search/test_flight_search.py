@@ -116,8 +116,8 @@ def test_the_functions_pieces_are_the_flights(x0, v0, dz, w0, u, c, model, t):
     from iceimpact.physics.structure import FORM_OVER
     scene = Scene(drag_model=model, structure_c=c, ice_A=2.0)
     solver = Simulator(scene).solver
-    offset = solver.osc.offset
-    flight = Flight(solver, 0.0, offset + x0, v0, offset - dz, w0, u)
+    offset = solver.context.osc.offset
+    flight = Flight(solver.context, 0.0, offset + x0, v0, offset - dz, w0, u)
     osc, drag = flight.osc, flight.drag
     xc, zc = osc.response_constants(offset + x0, v0), drag.flight_constants(w0, u)
     coef, quadratic = drag.law_constants
@@ -271,7 +271,7 @@ def test_search_from_a_flight_directly(pure_function):
     for v0, w0, gap in ((0.3, -0.2, 1e-3), (-0.05, 0.4, 1e-3), (0.0, 0.0, 0.0),
                         (1e-3, 1e-3, 1e-6), (0.2, 0.2, 0.0), (0.5, 0.1, 0.0)):
         x0 = 0.01 + gap
-        flights = [Flight(solver, 0.0, x0, v0, x0 - gap, w0, 0.5) for _ in range(2)]
+        flights = [Flight(solver.context, 0.0, x0, v0, x0 - gap, w0, 0.5) for _ in range(2)]
         flights[1].search = rootfind.RootSearch(0.0, flights[0].search.time_eps)
         assert isinstance(flights[0].search, FlightSearch)
         results = []

@@ -89,7 +89,7 @@ def evaluate(pieces, times):
 
 
 def segment(scene: Scene, x0: float, v0: float, u: float | None = None) -> QuadraticStick:
-    return QuadraticStick(EventSolver(scene), 0.0, x0, v0, scene.flow_u if u is None else u)
+    return QuadraticStick(EventSolver(scene).context, 0.0, x0, v0, scene.flow_u if u is None else u)
 
 
 def compare(scene: Scene, x0: float, v0: float, t_end: float, dt: float = 1e-2):
@@ -480,11 +480,11 @@ def test_compiled_runs_of_steps_equal_the_pure_steps(name, monkeypatch):
             return steps
         with monkeypatch.context() as patch:
             patch.setattr(StickingTaylor, "run", counted)
-            compiled = QuadraticStick(EventSolver(scene), 0.0, x0, v0, scene.flow_u, start)
+            compiled = QuadraticStick(EventSolver(scene).context, 0.0, x0, v0, scene.flow_u, start)
             event = compiled.next_event(t_end)
         with monkeypatch.context() as patch:
             patch.setattr(taylor, "KERNELS", None)
-            pure = QuadraticStick(EventSolver(scene), 0.0, x0, v0, scene.flow_u, start)
+            pure = QuadraticStick(EventSolver(scene).context, 0.0, x0, v0, scene.flow_u, start)
             assert pure.next_event(t_end) == event
         assert _steps(compiled) == _steps(pure)
         if name in ("figure18", "lockin_A2"):  # long phases: runs of many steps in one call

@@ -21,6 +21,8 @@ the contact force would turn tensile.
 
 The modules, one concern each:
 
+- :mod:`.context`: what a segment and the march of bounces read of their solver (the laws of
+  the bodies, built once by the solver) and, for the march, the few fields it writes;
 - :mod:`.segment`: what every segment shares (the searched segment, the time resolution at t);
 - :mod:`.flight`: the bodies free (:class:`Flight`, :class:`DraggedFlight`) and the clearances
   that prove a stretch of a flight free of contact;

@@ -52,7 +52,7 @@ from .sampling import first_sample_after
 from .segment import _time_eps
 
 if TYPE_CHECKING:
-    from .solver import EventSolver
+    from .context import BounceHost
 
 # The march's state, in two arrays the kernel reads and writes (F: floats, N: integers).
 # F: the current flight's anchor, start and time resolution; its search's frontier, the probe
@@ -322,11 +322,13 @@ class BounceMarch:
     the way from the solver's objects to them and back (the flight to go on with, the impacts,
     the sampler's records). ``kernel``: :func:`bounce_march`, compiled (or, in tests, as
     Python: :data:`DRAGGED_MARCH` for the quadratic Morison drag), for the solver's flights
-    (:class:`Flight`, or :class:`DraggedFlight` and its Taylor steps in arrays)."""
+    (:class:`Flight`, or :class:`DraggedFlight` and its Taylor steps in arrays). It reads and
+    writes of the solver only what :class:`~.context.BounceHost` names."""
 
-    def __init__(self, solver: EventSolver, kernel: Any = None):
+    def __init__(self, solver: BounceHost, kernel: Any = None):
         self.solver = solver
-        self.flight_type = solver._flight_cls
+        self.context = solver.context
+        self.flight_type = self.context.flight_cls
         self.dragged = self.flight_type is DraggedFlight
         if kernel is None:
             kernel = dragged_kernel() if self.dragged else COMPILED
@@ -364,21 +366,21 @@ class BounceMarch:
                 and not seg.handed_back and self.solver.zeno_end is None)
 
     def _params(self, seg: Any) -> None:
-        solver = self.solver
-        rules = solver.rules
-        e = solver.e
-        key = (seg.osc, seg.u, e, rules.follow_zeno, solver.scene.solver_max_impacts)
+        context = self.context
+        rules = context.rules
+        e = self.solver.e
+        key = (seg.osc, seg.u, e, rules.follow_zeno, context.max_impacts)
         if key == self._params_for:
             return
         self._params_for = key
-        osc, drag = seg.osc, solver.drag
+        osc, drag = seg.osc, context.drag
         coef, quadratic = drag.law_constants
         relative, absolute = rules.gap_noise
         self.P[:] = (osc.offset, osc.mass, osc.damping, osc.stiffness, osc.omega2, osc.sigma,
                      osc.omega, seg.u, coef, float(quadratic), rules.m, rules.M, rules.mu,
                      rules.omega_n, e, rules.chatter_time, float(rules.follow_zeno),
                      rules.budget_bounce(e), rules.time_resolution, relative, absolute,
-                     float(solver.scene.solver_max_impacts), osc._s_slow, osc._s_fast,
+                     float(context.max_impacts), osc._s_slow, osc._s_fast,
                      float(osc.form), seg.search.max_step)
 
     def _steps(self, seg: Any) -> None:
@@ -388,7 +390,7 @@ class BounceMarch:
         integrated = self.integrated
         if isinstance(integrated, int):
             integrated = self.integrated = dragged.new_steps(
-                seg.taylor, self.solver.dragged_structure.omega2)
+                seg.taylor, self.context.dragged_structure.omega2)
         q, ints = integrated[0], integrated[1]
         q[dragged.Q_U] = seg.u
         if seg is not self._steps_for:
@@ -421,7 +423,8 @@ class BounceMarch:
         was taken, else a new one; its search where the kernel left it."""
         solver = self.solver
         if N[EVENTS]:
-            seg = self.flight_type(solver, F[T0], F[X0], F[V0], F[Z0], F[W0], seg.u, F[START])
+            seg = self.flight_type(self.context, F[T0], F[X0], F[V0], F[Z0], F[W0], seg.u,
+                                   F[START])
             solver.seg = seg
             solver.tau = 0.0
         if self.dragged:
@@ -440,13 +443,8 @@ class BounceMarch:
 
     def _impacts(self, n: int) -> None:
         """The kernel's n impacts into the solver's count and list (as Solver._record)."""
-        if not n:
-            return
-        solver = self.solver
-        solver.impact_count += n
-        solver.t_last = float(self.impacts[n - 1, 0])
-        if solver.record_impacts:
-            solver.impacts.extend_rows(self.impacts[:n])
+        if n:
+            self.solver.record_rows(self.impacts[:n])
 
     def _begin(self) -> Any:
         """The solver's current flight, the scene's constants, the impact count and the budget

@@ -67,6 +67,7 @@ from ...record import Record
 from ...scene import Scene
 from ..base import Solver, State
 from ..contact_rules import Phase, separates
+from .context import SegmentContext
 from .solver import EventSolver
 
 
@@ -76,6 +77,7 @@ class ExternalStick:
     the drag ``D`` (linearised about the velocity at the anchor). The contact force
     ``lam = (m D - M F_o) / (m + M)`` is then linear in time, ``lam0 + lam1 tau``, and the
     bodies separate at its root if it falls within the step (the first instant it would pull).
+    ``other`` and ``other_rate`` are F_o at t0 (N) and its rate (N/s), the solver's estimate.
 
     With ``a0 = (F_o + D) / (m + M)`` and ``j = (F_o' + D' a0) / (m + M)`` (``D'`` = dD/dv) the
     motion is ``x0 + v0 tau + a0 tau^2 / 2 + j tau^3 / 6``; the contact impulse over an interval
@@ -86,13 +88,11 @@ class ExternalStick:
     phase = Phase.STICK
     PUSHES = True
 
-    def __init__(self, solver: ExternalSolver, t0: float, x0: float, v0: float, u: float,
-                 start: float = 0.0):
-        m, M = solver.m, solver.M
+    def __init__(self, context: SegmentContext, t0: float, x0: float, v0: float, u: float,
+                 other: float, other_rate: float, start: float = 0.0):
+        m, M = context.m, context.M
         total = m + M
-        other, other_rate = solver.other_force_at(t0), solver.other_force_rate
-        drag, drag_rate = solver.drag.force(v0, u), solver.drag.force_rate(v0, u)
-        self.solver = solver
+        drag, drag_rate = context.drag.force(v0, u), context.drag.force_rate(v0, u)
         self.t0, self.x0, self.v0, self.u, self.start = t0, x0, v0, u, start
         self.a = (other + drag) / total
         self.jerk = (other_rate + drag_rate * self.a) / total
@@ -123,9 +123,7 @@ class ExternalStick:
     def impulse(self, tau_a: float, tau_b: float) -> float:
         if tau_b <= tau_a:
             return 0.0
-        value = (self.lam0 + 0.5 * self.lam1 * (tau_a + tau_b)) * (tau_b - tau_a)
-        self.solver.stick_impulse += value
-        return value
+        return (self.lam0 + 0.5 * self.lam1 * (tau_a + tau_b)) * (tau_b - tau_a)
 
     def mean_force_ahead(self, tau: float, h: float) -> float:
         """Mean over [tau, tau + h] of lam continued as it is (0 once it would pull), N: what
@@ -239,7 +237,7 @@ class ExternalSolver(EventSolver):
 
     def _structure_at(self, t: float) -> None:
         """Anchor the extrapolated structure's acceleration F_o(t) / m for a segment from t."""
-        self.osc = ExtrapolatedStructure(self.other_force_at(t) / self.m)
+        self.context.osc = ExtrapolatedStructure(self.other_force_at(t) / self.m)
 
     # segments -----------------------------------------------------------------------------------
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
@@ -257,8 +255,22 @@ class ExternalSolver(EventSolver):
         super()._flight_end(t, x, v, w, u)
 
     def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
-        self.seg = ExternalStick(self, t, x, v, u, start=hold)
+        self.seg = ExternalStick(self.context, t, x, v, u, self.other_force_at(t),
+                                 self.other_force_rate, start=hold)
         self._set_sticking(True, t)
+
+    def impulse_to(self, tau_event: float) -> float:
+        """:meth:`EventSolver.impulse_to`, also summed in :attr:`stick_impulse` (the riding
+        ice's contact impulse of the step, for :meth:`jacobi_force`; a flight adds 0.0)."""
+        impulse = super().impulse_to(tau_event)
+        self.stick_impulse += impulse
+        return impulse
+
+    def finish(self, t_end: float) -> float:
+        """:meth:`EventSolver.finish`, its impulse also summed in :attr:`stick_impulse`."""
+        impulse = super().finish(t_end)
+        self.stick_impulse += impulse
+        return impulse
 
     def advance_to(self, t_end: float, u: float, stop_at_event: bool = False) -> float:
         x_in, v_in, a_in = self.inputs

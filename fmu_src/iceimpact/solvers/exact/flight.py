@@ -28,7 +28,7 @@ from ..search.taylor import StickingTaylor, TaylorStep, states_of_steps
 from .segment import STEPPED, _floats, _SearchedSegment
 
 if TYPE_CHECKING:
-    from .solver import EventSolver
+    from .context import SegmentContext
 
 
 #: The period search looks no further than omega_n t = this (rad): beyond, one ulp of the phase
@@ -57,11 +57,11 @@ class Flight(_SearchedSegment):
     #: RootSearch's methods (False: RootSearch, which the tests compare it with)
     _ONE_FUNCTION = True
 
-    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
+    def __init__(self, context: SegmentContext, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
         # (structure_osc called only with a Morison drag: a flight starts at each impact)
-        self.osc = osc = solver.structure_osc(u) if solver.structure_b else solver.osc
-        self.drag = drag = solver.drag
+        self.osc = osc = context.structure_osc(u) if context.structure_b else context.osc
+        self.drag = drag = context.drag
         # (one store a statement: a multiple assignment of six builds and unpacks a tuple)
         self.t0 = t0
         self.x0 = x0
@@ -357,23 +357,23 @@ class DraggedFlight(Flight):
     #: search that is RootSearch's): Python goes on with it
     handed_back = False
 
-    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, z0: float,
+    def __init__(self, context: SegmentContext, t0: float, x0: float, v0: float, z0: float,
                  w0: float, u: float, start: float = 0.0):
-        structure = self.structure = solver.dragged_structure
-        self.period = self.natural_period(solver)
+        structure = self.structure = context.dragged_structure
+        self.period = self.natural_period(context)
         self.taylor = StickingTaylor(structure.mass, structure.damping, structure.stiffness,
                                      0.0, u, 0.0, max_step=self.period,
                                      structure_B=structure.drag.B)
         self.steps: list[TaylorStep] = []  # from the one holding the current time on
         self.frontier = -math.inf          # the steps reach this far, s from the anchor
-        super().__init__(solver, t0, x0, v0, z0, w0, u, start)
+        super().__init__(context, t0, x0, v0, z0, w0, u, start)
         # a search step never asks for the flight more than a step past its frontier
         self.search.max_step = self.period
 
     @staticmethod
-    def natural_period(solver: EventSolver) -> float:
+    def natural_period(context: SegmentContext) -> float:
         """The structure's natural period, s: the longest Taylor step."""
-        return 2.0 * math.pi / math.sqrt(solver.k / solver.m)
+        return 2.0 * math.pi / math.sqrt(context.k / context.m)
 
     def _step_from(self, lo: float, y: tuple[float, float, float]) -> None:
         try:
@@ -459,11 +459,11 @@ class DraggedFlight(Flight):
         return data
 
     @classmethod
-    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
+    def read(cls, context: SegmentContext, rec: Record, u: float) -> Callable[[], Any]:
         """Validate a :meth:`snapshot` record; return the function that builds the segment."""
         rec.expect_keys(cls._SEARCHED_KEYS + ("integrated",))
         flight = Record({k: v for k, v in rec.data.items() if k != "integrated"}, rec.path)
-        make_flight = super().read(solver, flight, u)
+        make_flight = super().read(context, flight, u)
         start = None
         integrated = rec.record("integrated", allow_none=True)
         if integrated is not None:

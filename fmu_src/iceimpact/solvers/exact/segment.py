@@ -14,7 +14,7 @@ from ...record import Record
 from ..search.rootfind import RootSearch
 
 if TYPE_CHECKING:
-    from .solver import EventSolver
+    from .context import SegmentContext
 
 
 #: How the vectorised sampler (sampling.py) evaluates a kind of segment, as each segment class
@@ -79,7 +79,7 @@ class _SearchedSegment:
                 "search": self.search.frontier()}
 
     @classmethod
-    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], Any]:
+    def read(cls, context: SegmentContext, rec: Record, u: float) -> Callable[[], Any]:
         """Validate a :meth:`snapshot` record; return the function that builds the segment."""
         rec.expect_keys(cls._SEARCHED_KEYS)
         t0 = rec.real("t0", low=0.0)
@@ -88,7 +88,7 @@ class _SearchedSegment:
         frontier = RootSearch.read_frontier(rec.record("search"), start)
 
         def make() -> Any:
-            seg = cls(solver, t0, *anchor, u, start)
+            seg = cls(context, t0, *anchor, u, start)
             seg.search.set_frontier(frontier)
             return seg
         return make

@@ -12,11 +12,7 @@ import numpy as np
 from ...errors import StateError
 from ...limits import TIME_RESOLUTION
 from ...physics.ice import make_drag
-from ...physics.structure import (
-    DraggedStructure,
-    Oscillator,
-    morison_oscillator,
-)
+from ...physics.structure import DraggedStructure, Oscillator
 from ...record import Record
 from ...scene import Scene
 from ..base import Samples, State
@@ -30,6 +26,7 @@ from ..contact_rules import (
 )
 from ..march import EventMarch
 from . import bounces
+from .context import SegmentContext
 from .flight import DraggedFlight, Flight
 from .sampling import _SampleGroup, _sampling_kind, first_sample_after
 from .segment import MARCHED, _SearchedSegment
@@ -54,24 +51,23 @@ class EventSolver(EventMarch):
 
     def __init__(self, scene: Scene, record_impacts: bool = True):
         super().__init__(scene, record_impacts)
-        self.osc = self._structure()
         self.drag = make_drag(scene)
         # Morison drag on the structure (docs/explanation/morison.md): linearised, a damping b_s
-        # and an offset
-        # b_s u / k of the closed form (structure_osc); quadratic, an integrated flight
-        # (DraggedFlight). Off: b_s = 0 and the flight is today's closed form.
+        # and an offset b_s u / k of the closed form (SegmentContext.structure_osc); quadratic,
+        # an integrated flight (DraggedFlight). Off: b_s = 0 and the flight is today's closed
+        # form.
         drag_s = self._structure_drag()
-        self.structure_b = drag_s.b if drag_s is not None and not drag_s.quadratic else 0.0
         self.dragged_structure = (DraggedStructure(self.m, self.c, self.k, drag_s)
                                   if drag_s is not None and drag_s.quadratic else None)
         self._flight_cls = Flight if self.dragged_structure is None else DraggedFlight
-        self._osc_by_flow: tuple[float, Oscillator] | None = None
-        free_accels = (self._free_accels if self.structure_b or self.dragged_structure
-                       else self._free_accels_without_morison)
-        self.rules = ContactRules(self.m, self.M, scene.omega_n, free_accels, EXACT_POLICY,
-                                  scene.solver_chatter_fraction,
-                                  time_resolution=ZENO_RESOLUTION * TIME_RESOLUTION,
-                                  follow_zeno=self.FOLLOW_ZENO)
+        #: what the segments and the march of bounces read (the laws, built once)
+        self.context = context = SegmentContext(
+            self.m, self.c, self.k, self.M, self.drag, drag_s, self.dragged_structure,
+            self._structure(), self._flight_cls, scene.solver_max_impacts)
+        self.rules = context.rules = ContactRules(
+            self.m, self.M, scene.omega_n, context.free_accels, EXACT_POLICY,
+            scene.solver_chatter_fraction, time_resolution=ZENO_RESOLUTION * TIME_RESOLUTION,
+            follow_zeno=self.FOLLOW_ZENO)
         #: the estimated end of the bounces of a Zeno sequence closed before it (s): the bodies
         #: move together until then, not yet sticking; None otherwise
         self.zeno_end: float | None = None
@@ -99,36 +95,6 @@ class EventSolver(EventMarch):
         self._begin(0.0, s.x, s.v, s.z, s.w, self.u)
 
     # segment construction -----------------------------------------------------------------------
-    def structure_osc(self, u: float) -> Oscillator:
-        """The structure's closed form in a flow of speed u: the oscillator of m, c, k, with the
-        linearised Morison drag's damping and offset when it is on (the last one is kept)."""
-        if not self.structure_b:
-            return self.osc
-        if self._osc_by_flow is None or self._osc_by_flow[0] != u:
-            self._osc_by_flow = (u, morison_oscillator(self.m, self.c, self.k,
-                                                       self.structure_b, u))
-        return self._osc_by_flow[1]
-
-    def _structure_bounds(self, x: float, v: float, u: float) -> tuple[float, float, float]:
-        """The structure's acceleration and bounds on |x''| and |x'''| for all later times."""
-        if self.dragged_structure is not None:
-            return self.dragged_structure.bounds(x, v, u)
-        return self.structure_osc(u).bounds(x, v)
-
-    def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
-        if self.dragged_structure is not None:
-            a_x = self.dragged_structure.acceleration(x, v, u)
-        else:
-            # (structure_osc called only with a Morison drag: this runs at every impact)
-            osc = self.structure_osc(u) if self.structure_b else self.osc
-            a_x = osc.acceleration(x, v)
-        return a_x, self.drag.accel_bounds(w, u)[0]
-
-    def _free_accels_without_morison(self, x: float, v: float, w: float,
-                                     u: float) -> tuple[float, float]:
-        # _free_accels without the structure's Morison drag (asked at every impact)
-        return self.osc.acceleration(x, v), self.drag.accel_bounds(w, u)[0]
-
     def _begin(self, t: float, x: float, v: float, z: float, w: float, u: float,
                reanchor: bool = False, after_impact: bool = False) -> None:
         """Start the segment that follows time t from state (x, v, z, w) (``reanchor``: after a
@@ -149,7 +115,7 @@ class EventSolver(EventMarch):
             self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
 
     def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
-        self.seg = self._flight_cls(self, t, x, v, z, w, u, start)
+        self.seg = self._flight_cls(self.context, t, x, v, z, w, u, start)
         if self.sticking:  # (apart already: nothing to change)
             self._set_sticking(False, t)
 
@@ -167,7 +133,7 @@ class EventSolver(EventMarch):
             # the search's first stretch from 0 proves the opening: g(0) = 0, g'(0) = s > 0
             self._fly(t, x, v, x, w, u, 0.0)
             return
-        a_x, _, j_x_max = self._structure_bounds(x, v, u)
+        a_x, _, j_x_max = self.context.structure_bounds(x, v, u)
         a_z, _, j_z_max = self.drag.accel_bounds(w, u)
         curvature = a_x - a_z
         jerk_bound = j_x_max + j_z_max
@@ -179,7 +145,7 @@ class EventSolver(EventMarch):
     def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
         """Bodies together from time t; separation is not looked for before ``t + hold``."""
         cls = QuadraticStick if self.drag.quadratic else LinearStick
-        self.seg = cls(self, t, x, v, u, start=hold)
+        self.seg = cls(self.context, t, x, v, u, start=hold)
         self._set_sticking(True, t)
 
     def _impact(self, t: float, x: float, v_minus: float, w_minus: float, u: float) -> None:
@@ -189,6 +155,15 @@ class EventSolver(EventMarch):
         self.pending_impulse += impact.impulse
         self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
         self._zeno_tail(t)
+
+    def record_rows(self, rows: np.ndarray) -> None:
+        """Impacts the compiled march made, rows of
+        :class:`~iceimpact.solvers.impact_log.ImpactLog` in time order (at least one): counted
+        and listed as :meth:`_record` counts and lists each (the march kept the budget)."""
+        self.impact_count += len(rows)
+        self.t_last = float(rows[-1, 0])
+        if self.record_impacts:
+            self.impacts.extend_rows(rows)
 
     def _zeno_tail(self, t: float) -> None:
         """After an impact at time t that did not part the bodies: if it closed a Zeno sequence
@@ -217,7 +192,8 @@ class EventSolver(EventMarch):
             self.tau = 0.0
             # _fly, from a flight (so not sticking: a flight and the sticking flag never
             # coexist, as _read checks of a snapshot)
-            self.seg = self._flight_cls(self, t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
+            self.seg = self._flight_cls(self.context, t, x, impact.v_plus, x, impact.w_plus,
+                                        u, 0.0)
         else:
             self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
             self._zeno_tail(t)
@@ -466,7 +442,7 @@ class EventSolver(EventMarch):
             cls = self._flight_cls
         else:
             cls = QuadraticStick if self.drag.quadratic else LinearStick
-        make_segment = cls.read(self, seg_rec, u)
+        make_segment = cls.read(self.context, seg_rec, u)
 
         def apply() -> None:
             self.seg = make_segment()

@@ -33,7 +33,7 @@ from ..search.taylor import StepEnd, StickingTaylor, TaylorStep, states_of_steps
 from .segment import STEPPED, _entry, _SearchedSegment, _time_eps
 
 if TYPE_CHECKING:
-    from .solver import EventSolver
+    from .context import SegmentContext
 
 
 _NO_STATE = (math.nan, math.nan, math.nan)
@@ -69,23 +69,23 @@ class LinearStick(_SearchedSegment):
     ANCHOR = ("x0", "v0")
     PUSHES = True
 
-    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
+    def __init__(self, context: SegmentContext, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
-        self.M = solver.M
-        self.drag = solver.drag
-        self.b = b = solver.drag.b
+        self.M = context.M
+        self.drag = context.drag
+        self.b = b = context.drag.b
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
         self.start = start
-        b_s = solver.structure_b  # linearised drag on the structure (0 when off)
-        self.osc = osc = Oscillator(solver.m + solver.M, solver.c + b + b_s, solver.k,
-                                    offset=(b + b_s) * u / solver.k)
+        b_s = context.structure_b  # linearised drag on the structure (0 when off)
+        self.osc = osc = Oscillator(context.m + context.M, context.c + b + b_s, context.k,
+                                    offset=(b + b_s) * u / context.k)
         self._increment = osc.increment(x0, v0)
-        self._c = solver.c
+        self._c = context.c
         self._b_all = b + b_s
         self._lam0, self._q0, rate0 = self._anchor_force(x0, v0)
         self._q_increment = osc.deviation_increment(self._q0, rate0)
         self._push = b * u
-        self._mu = solver.m * solver.M / (solver.m + solver.M)  # reduced mass, kg
+        self._mu = context.m * context.M / (context.m + context.M)  # reduced mass, kg
         # well over-damped: q's two modes at the anchor (see _force)
         self._q_modes = osc.modes(self._q0, rate0) if osc.two_modes else None
         self._y_modes = osc.modes(x0 - osc.offset, v0) if osc.two_modes else None
@@ -349,13 +349,13 @@ class QuadraticStick:
     SAMPLING = STEPPED  # its dense output per segment (states_at)
     PUSHES = True
 
-    def __init__(self, solver: EventSolver, t0: float, x0: float, v0: float, u: float,
+    def __init__(self, context: SegmentContext, t0: float, x0: float, v0: float, u: float,
                  start: float = 0.0):
         self.t0, self.x0, self.v0, self.u = t0, x0, v0, u
         self.start = start
-        self.together = make_together(solver.m, solver.c, solver.k, solver.M, solver.drag, u,
-                                      inertia_from_net=False,
-                                      structure_drag=solver.structure_drag)
+        self.together = make_together(context.m, context.c, context.k, context.M, context.drag,
+                                      u, inertia_from_net=False,
+                                      structure_drag=context.structure_drag)
         self.taylor = _sticking_taylor(self.together)
         self.steps: list[TaylorStep] = []  # from the one holding the current time on
         self.separation: float | None = None
@@ -468,7 +468,8 @@ class QuadraticStick:
                 "start": self.start, "steps": [[s.lo, list(s.y_lo)] for s in steps]}
 
     @classmethod
-    def read(cls, solver: EventSolver, rec: Record, u: float) -> Callable[[], QuadraticStick]:
+    def read(cls, context: SegmentContext, rec: Record,
+             u: float) -> Callable[[], QuadraticStick]:
         """Validate a :meth:`snapshot` record; return the function that builds the segment."""
         rec.expect_keys(("phase", "t0", "anchor", "start", "steps"))
         t0 = rec.real("t0", low=0.0)
@@ -481,7 +482,7 @@ class QuadraticStick:
             steps.append((lo, tuple(entry.reals("y_lo", 3))))
 
         def make() -> QuadraticStick:
-            seg = cls(solver, t0, *anchor, u, start)
+            seg = cls(context, t0, *anchor, u, start)
             for lo, y in steps:
                 seg._append(seg._step_from(lo, y))
             return seg
