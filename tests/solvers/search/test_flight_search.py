@@ -465,7 +465,7 @@ def test_a_probe_at_hypots_scales_hands_the_step_back(pure_function):
     solver = sim.solver
     results = []
     for by_root_search in (False, True):
-        flight = Flight(solver, 0.0, 1e-150, 0.0, -0.01, 0.3, 0.5)
+        flight = Flight(solver.context, 0.0, 1e-150, 0.0, -0.01, 0.3, 0.5)
         if by_root_search:
             flight.search = rootfind.RootSearch(0.0, flight.search.time_eps)
         found = flight.search.next_root_of(5.0, flight)
