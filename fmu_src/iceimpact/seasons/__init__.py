@@ -6,17 +6,9 @@ year each case lasts, and a number of repetitions (the motion is sensitive to it
 so one run is one sample; repetition ``k`` starts the ice ``k`` steps of :func:`perturbation`
 further upstream). The runs go through the sweep engine (:func:`iceimpact.sweep.run_points`:
 process pool or dask, resumable, the same limits and refusals), one row per run; the rows are then
-combined (SI units throughout; docs/explanation/design-loads.md, "Design over an ice season"):
-
-- per case ``i``, over the cycles of its repetitions pooled (rainflow cycles of ``k x`` counted
-  per run by :mod:`iceimpact.studies.loads`; pooling adds their Miner sums ``D = sum n S^m``,
-  N^m, and their windows ``T``, s): ``DEL_i = (sum_r D_r / (f_eq sum_r T_r))^(1/m)`` at
-  ``f_eq = 1 Hz`` and ``(sum_r D_r / 1e7)^(1/m)`` for 1e7 cycles; extremes with their times;
-  impulse statistics; the spread of the runs' DELs over the repetitions;
-- over the life: ``DEL_life = (sum_i p_i DEL_i^m)^(1/m)`` at 1 Hz, ``p_i = h_i / sum_j h_j`` the
-  case's share of the ice hours, and ``DEL_life (f_eq T_ice / 1e7)^(1/m)`` for 1e7 cycles over the
-  life's ice time ``T_ice = life * sum_j h_j * 3600 s``; the case's share of the lifetime damage
-  ``p_i DEL_i^m / sum_j p_j DEL_j^m``; the largest extreme and the case it comes from.
+combined per case and over the life into damage-equivalent loads, damage shares and extremes
+(:mod:`~iceimpact.seasons.lifetime` gives the formulas; docs/explanation/design-loads.md, "Design
+over an ice season").
 
 Case files are outside data: TOML (``tomllib``) or CSV (``csv``), nothing evaluated; every field
 is checked, and an error (:class:`SeasonError`) names the file, the case, the field, the value and
