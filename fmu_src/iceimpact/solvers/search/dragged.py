@@ -209,8 +209,7 @@ def compiled_callees(numba: Any, kernels: Any, search: dict[str, Any]) -> dict[s
     clearance = jit(numba, (f8,) * 7 + (i8,) + (f8,) * 4 + (i8,), _no_clearance)
     root = compile_root(numba, steps, {"_motion": motion, "_structure_probe": probe,
                                        "_clearance": clearance,
-                                       "_ice_accel": search["_ice_accel"],
-                                       "_amplitude": search["_amplitude"]})
+                                       "_ice_accel": search["_ice_accel"]})
     k8 = numba.types.UniTuple(f8, 8)
     return {
         "flight_root": root,

@@ -423,7 +423,7 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
                         _accel_clearance=accel_clearance, _amplitude=amplitude)
         probe = jit(numba, probe_signature(numba, i8), _structure_probe, _amplitude=amplitude)
         callees = {"_motion": motion, "_ice_accel": ice_accel, "_clearance": clearance,
-                   "_amplitude": amplitude, "_structure_probe": probe}
+                   "_structure_probe": probe}
         _DISPATCHERS.update(callees, _ice_motion=ice_motion,
                             flight_root=compile_root(numba, i8, callees))
     return _DISPATCHERS
@@ -444,7 +444,7 @@ def probe_signature(numba: Any, integrated: Any) -> tuple:
 
 def compile_root(numba: Any, integrated: Any, callees: dict[str, Any]) -> Any:
     """:func:`flight_root` compiled on ``callees`` (the compiled functions it calls by name:
-    ``_motion``, ``_structure_probe``, ``_clearance``, ``_ice_accel``, ``_amplitude``), the
+    ``_motion``, ``_structure_probe``, ``_clearance``, ``_ice_accel``), the
     structure's steps of type ``integrated``: this module's closed forms, or another
     structure's motion (:mod:`.dragged`)."""
     f8, i8 = numba.float64, numba.int64
