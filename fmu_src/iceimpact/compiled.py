@@ -44,7 +44,7 @@ from typing import Any
 #: the digest a kernel's copy and its dispatcher carry (:func:`cache_key`)
 _KEY = "_iceimpact_cache_key"
 #: the first bytes of every cache file written here: a changed layout never reads an old one
-_SEAL = b"iceimpact numba cache 1\n"
+_HEADER = b"iceimpact numba cache 1\n"
 #: the compile options of every kernel (no fastmath: the pure path's floats; see the docstring)
 _OPTIONS = {"fastmath": False, "error_model": "python"}
 #: entries kept per kernel (the newest): sources edited, other versions of the package
@@ -403,7 +403,7 @@ def _seal(path: str, payload: bytes) -> None:
     fd, temporary = tempfile.mkstemp(dir=folder, prefix=".tmp-")
     try:
         with os.fdopen(fd, "wb") as fh:
-            fh.write(_SEAL + hashlib.sha256(payload).digest() + payload)
+            fh.write(_HEADER + hashlib.sha256(payload).digest() + payload)
         os.replace(temporary, path)
     except BaseException:
         try:
@@ -417,8 +417,8 @@ def _unsealed(path: str) -> Any:
     """What :func:`_seal` wrote at ``path``; ValueError if the file is not whole and unchanged."""
     with open(path, "rb") as fh:
         blob = fh.read()
-    head = len(_SEAL)
+    head = len(_HEADER)
     digest, payload = blob[head:head + 32], blob[head + 32:]
-    if not blob.startswith(_SEAL) or hashlib.sha256(payload).digest() != digest:
+    if not blob.startswith(_HEADER) or hashlib.sha256(payload).digest() != digest:
         raise ValueError(f"{path} is damaged")
     return pickle.loads(payload)  # numba's own pickle, written by _seal in a private folder

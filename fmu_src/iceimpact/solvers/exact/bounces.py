@@ -16,7 +16,9 @@ bit.
 
 Under the quadratic Morison drag on the structure (``DraggedFlight``: no closed form) the same
 source is compiled a second time, the structure's motion, samples and acceleration those of its
-Taylor steps (:mod:`~iceimpact.solvers.search.dragged`; :func:`dragged_kernel`).
+Taylor steps (:mod:`~iceimpact.solvers.search.dragged`; :func:`dragged_kernel`): the names
+swapped are one table, :data:`STRUCTURE_CALLEES`. The march's state is three arrays indexed by
+the fields of their tables, :data:`FLOATS`, :data:`INTS` and :data:`PARAMS`.
 
 It hands the march back to Python, before changing anything, at whatever else comes: the
 horizon, an impact after which the bodies do not part (a chatter or Zeno sequence closed, a
@@ -147,7 +149,7 @@ def _failed(integrated):
 #: :mod:`~iceimpact.solvers.search.dragged`'s functions instead (:func:`~iceimpact.compiled.
 #: rebound`, :func:`~iceimpact.compiled.jit`; each name checked to be one the march reads).
 #: Each takes ``integrated``, the structure's motion beyond its anchor: 0 for a closed form
-#: (which needs none: :func:`_new_flight` and :func:`_failed` are then no-ops numba removes),
+#: (which needs none: :func:`_new_flight` and :func:`_failed` then do nothing),
 #: the arrays of the Taylor steps (:func:`~iceimpact.solvers.search.dragged.new_steps`) under
 #: the drag. numba cannot cache a kernel that takes functions as arguments (its signature holds
 #: the functions: a miss in every process), so they are given by name.
@@ -206,11 +208,11 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
     max_impacts = int(P[PARAMS.MAX_IMPACTS])
     s_slow, s_fast, form = P[PARAMS.S_SLOW], P[PARAMS.S_FAST], int(P[PARAMS.FORM])
     max_step = P[PARAMS.MAX_STEP]
-    n = N[INTS.N_TIMES]
+    n_times = N[INTS.N_TIMES]
     while True:
         t0, x0, v0 = F[FLOATS.T0], F[FLOATS.X0], F[FLOATS.V0]
         z0, w0 = F[FLOATS.Z0], F[FLOATS.W0]
-        horizon = (times[n - 1] if n > 0 else F[FLOATS.T_END]) - t0
+        horizon = (times[n_times - 1] if n_times > 0 else F[FLOATS.T_END]) - t0
         # the flight's constants (Flight.kernel_constants' order)
         sk = response_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0)
         if quadratic:
@@ -218,8 +220,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
         else:
             rate, w0_c, r0 = linear_flight_constants(coef, w0, u)
         if F[FLOATS.ROOT_AT] != F[FLOATS.ROOT_AT]:  # the search goes on
-            (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
-             w) = flight_root(horizon, F[FLOATS.A], N[INTS.ITERATIONS], N[INTS.CREEP],
+            (outcome, a, root, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk, dx, v,
+             dz, w) = flight_root(horizon, F[FLOATS.A], N[INTS.ITERATIONS], N[INTS.CREEP],
                               F[FLOATS.PROBED_AT], F[FLOATS.PF], F[FLOATS.PDF], F[FLOATS.PD2],
                               F[FLOATS.PBOUND], F[FLOATS.PJERK], F[FLOATS.TIME_EPS], x0 - z0,
                               x0, z0, offset, mass, damping, stiffness, omega2, sigma, s_slow,
@@ -229,8 +231,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
                 N[INTS.STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
                 return
             F[FLOATS.A], N[INTS.ITERATIONS], N[INTS.CREEP] = a, iterations, creep
-            F[FLOATS.PROBED_AT], F[FLOATS.PF], F[FLOATS.PDF] = probed_at, f, df
-            F[FLOATS.PD2], F[FLOATS.PBOUND], F[FLOATS.PJERK] = d2, bound, jerk
+            F[FLOATS.PROBED_AT], F[FLOATS.PF], F[FLOATS.PDF] = probed_at, pf, pdf
+            F[FLOATS.PD2], F[FLOATS.PBOUND], F[FLOATS.PJERK] = pd2, pbound, pjerk
             if outcome == GENERIC:
                 N[INTS.STATUS] = EVENT
                 return
@@ -244,11 +246,11 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
             N[INTS.STATUS] = END
             return
         j = 0
-        if n > 0:  # the first sample at or after the event (EventSolver._sample's test)
+        if n_times > 0:  # the first sample at or after the event (EventSolver._sample's test)
             i = N[INTS.SAMPLE]
             if times[i] - t0 >= tau:
                 j = i
-            elif i + 1 == n or times[i + 1] - t0 >= tau:
+            elif i + 1 == n_times or times[i + 1] - t0 >= tau:
                 j = i + 1
             else:
                 j = first_sample_after(times, i + 2, t0, tau)
@@ -272,7 +274,7 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
             N[INTS.STATUS] = EVENT
             return
         limit = N[INTS.LIMIT]
-        if n > 0 and N[INTS.INTERVAL] != j:
+        if n_times > 0 and N[INTS.INTERVAL] != j:
             limit = N[INTS.COUNT] + max_impacts
         if N[INTS.COUNT] >= limit:  # (Solver._record refuses it)
             N[INTS.STATUS] = EVENT
@@ -287,7 +289,7 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
         impacts[k, 4], impacts[k, 5], impacts[k, 6], impacts[k, 7] = v_plus, w_plus, impulse, e
         N[INTS.N_IMPACTS] = k + 1
         N[INTS.COUNT] += 1
-        if n > 0:
+        if n_times > 0:
             for k in range(N[INTS.SAMPLE], j):  # the flight's samples
                 xs[k], vs[k], zs[k], ws[k] = _flight_sample(times[k] - t0, x0, v0, z0, w0, form,
                                                             sk, rate, w0_c, r0, quadratic,
@@ -310,7 +312,7 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
         F[FLOATS.PD2] = F[FLOATS.PBOUND] = F[FLOATS.PJERK] = math.nan
         N[INTS.ITERATIONS], N[INTS.CREEP] = 0, 0
         N[INTS.EVENTS] += 1
-        if (n == 0 and N[INTS.STOP_AT_EVENT] != 0
+        if (n_times == 0 and N[INTS.STOP_AT_EVENT] != 0
                 and F[FLOATS.T_START] < t < F[FLOATS.T_END]):
             N[INTS.STATUS] = STOPPED
             return
@@ -321,15 +323,15 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
 #: :data:`DRAGGED_CALLEES`
 DRAGGED_MARCH = rebound(bounce_march, **_structure_callees(DRAGGED_CALLEES))
 
-_SCALARS: dict[str, Any] = {}
+_RULES: dict[str, Any] = {}
 
 
-def _scalars(numba: Any) -> dict[str, Any]:
+def _compiled_rules(numba: Any) -> dict[str, Any]:
     """The compiled rules the march calls (either structure's: the same functions, compiled
     once), by the names it calls them."""
-    if not _SCALARS:
+    if not _RULES:
         f8, i8 = numba.float64, numba.int64
-        _SCALARS.update({
+        _RULES.update({
             "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants,
                                       under_constants=jit(numba, (f8,) * 6, under_constants)),
             "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
@@ -343,7 +345,7 @@ def _scalars(numba: Any) -> dict[str, Any]:
             "first_sample_after": jit(numba, (f8[::1], i8, f8, f8), first_sample_after),
             "_time_eps": jit(numba, (f8,), _time_eps),
         })
-    return _SCALARS
+    return _RULES
 
 
 def _march_signature(numba: Any, integrated: Any) -> tuple:
@@ -368,7 +370,7 @@ def _compile(numba: Any) -> Any:
         "_failed": jit(numba, (i8,), _failed),
     })
     kernel = jit(numba, _march_signature(numba, i8), bounce_march,
-                 _ice_accel=search["_ice_accel"], **structure, **_scalars(numba))
+                 _ice_accel=search["_ice_accel"], **structure, **_compiled_rules(numba))
     return entry_point(kernel)
 
 
@@ -385,7 +387,7 @@ def _compile_dragged(numba: Any) -> Any:
     structure = _structure_callees(dragged.compiled_callees(numba, taylor.KERNELS.dispatchers,
                                                             search))
     kernel = jit(numba, _march_signature(numba, dragged.steps_type(numba)), bounce_march,
-                 _ice_accel=search["_ice_accel"], **structure, **_scalars(numba))
+                 _ice_accel=search["_ice_accel"], **structure, **_compiled_rules(numba))
     return entry_point(kernel)
 
 
@@ -579,10 +581,10 @@ class BounceMarch:
             if status != FULL:
                 break
             N[INTS.N_IMPACTS] = 0
-        floats, ints = F.tolist(), N.tolist()
-        self._flight(seg, floats, ints)
-        impulse = floats[FLOATS.IMPULSE]
-        return impulse, (floats[FLOATS.T0] if status == STOPPED else None)
+        f_values, n_values = F.tolist(), N.tolist()
+        self._flight(seg, f_values, n_values)
+        impulse = f_values[FLOATS.IMPULSE]
+        return impulse, (f_values[FLOATS.T0] if status == STOPPED else None)
 
     def sample(self, times: np.ndarray, i: int, interval: int, out: Any, targets: Any,
                values: Any) -> tuple[int, int]:
@@ -607,9 +609,9 @@ class BounceMarch:
             if int(N[INTS.STATUS]) != FULL:
                 break
             N[INTS.N_IMPACTS] = N[INTS.N_TARGETS] = 0
-        floats, ints = F.tolist(), N.tolist()
-        self._flight(seg, floats, ints)
-        limit = ints[INTS.LIMIT]
+        f_values, n_values = F.tolist(), N.tolist()
+        self._flight(seg, f_values, n_values)
+        limit = n_values[INTS.LIMIT]
         solver.impact_limit = limit if limit < NO_LIMIT else math.inf
-        solver.step_start = floats[FLOATS.STEP_START]
-        return ints[INTS.SAMPLE], ints[INTS.INTERVAL]
+        solver.step_start = f_values[FLOATS.STEP_START]
+        return n_values[INTS.SAMPLE], n_values[INTS.INTERVAL]
