@@ -258,3 +258,65 @@ def test_every_kernel_compiles_where_numba_is():
                 "loads": loads._COUNT, "bounces under the quadratic Morison drag":
                 bounces.dragged_kernel()}
     assert [name for name, kernel in compiled.items() if kernel is None] == []
+
+
+# -- one source run on other functions: the names given, and the state's fields ---------------
+
+_OTHER = 2.0  # a global of this module that _kernel does not read
+
+
+def test_a_callee_is_given_only_by_a_name_the_function_reads():
+    """rebound (and so jit, before numba sees the function) refuses a name the function does
+    not read (a misspelling, a global it does not use) and a name it reads that is not a global
+    of its module, each naming the function and the name; a name it reads is given."""
+    assert compiled.rebound(_kernel, LIMIT=0.5)(3.0) == 0.5
+    for name in ("LIMTI", "_OTHER"):
+        with pytest.raises(TypeError, match=f"_kernel does not read the name '{name}'"):
+            compiled.rebound(_kernel, **{name: 0.5})
+        with pytest.raises(TypeError, match=name):
+            compiled.jit(_NUMBA, "f8(f8)", _kernel, **{name: 0.5})
+    with pytest.raises(TypeError, match="'min' is not a global of .*_kernel reads it"):
+        compiled.rebound(_kernel, min=max)
+    assert _kernel(3.0) == LIMIT  # the module's function keeps its own
+
+
+_TABLE = compiled.fields("Table", "FIRST", "SECOND")
+
+
+def _reads_table(a):
+    return a[_TABLE.SECOND]
+
+
+def test_fields_number_a_table_of_names_and_key_the_kernels_that_read_them(monkeypatch):
+    """fields numbers its names 0, 1, ... (its length the array's size); a kernel that reads
+    the table has a key that changes when the table's names or order change."""
+    assert (_TABLE.FIRST, _TABLE.SECOND, len(_TABLE)) == (0, 1, 2)
+    assert _reads_table([5.0, 7.0]) == 7.0
+    key = compiled.cache_key(_NUMBA, _reads_table, "f8(f8[::1])")
+    assert key is not None
+    for other in (compiled.fields("Table", "SECOND", "FIRST"),
+                  compiled.fields("Table", "FIRST", "OTHER"),
+                  compiled.fields("Table", "FIRST", "SECOND", "THIRD")):
+        monkeypatch.setattr(sys.modules[__name__], "_TABLE", other)
+        assert compiled.cache_key(_NUMBA, _reads_table, "f8(f8[::1])") != key
+
+
+def test_the_march_of_bounces_is_given_its_structure_by_the_names_of_one_table(monkeypatch):
+    """The march's state arrays are sized and indexed by their tables, every field once; the
+    structure's callees under the quadratic Morison drag are exactly those the table names,
+    each read by the march; the march's cache key follows its tables."""
+    from iceimpact.solvers.exact import bounces
+
+    for table in (bounces.FLOATS, bounces.INTS, bounces.PARAMS):
+        assert list(table) == list(range(len(table)))
+        assert len(set(table._fields)) == len(table)
+    assert set(bounces.DRAGGED_CALLEES) == set(bounces.STRUCTURE_CALLEES)
+    read = compiled._names_read(bounces.bounce_march.__code__)
+    assert set(bounces.STRUCTURE_CALLEES) <= read
+    with pytest.raises(KeyError):
+        bounces._structure_callees({**bounces.DRAGGED_CALLEES, "_motion": None})
+    key = compiled.cache_key(_NUMBA, bounces.bounce_march, "march")
+    assert key is not None
+    swapped = compiled.fields("Ints", *reversed(bounces.INTS._fields))
+    monkeypatch.setattr(bounces, "INTS", swapped)
+    assert compiled.cache_key(_NUMBA, bounces.bounce_march, "march") != key

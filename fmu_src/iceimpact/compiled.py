@@ -29,6 +29,7 @@ kernel compiled at each import, uncached. Deleting the folder is always safe.
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import os
 import pickle
@@ -43,7 +44,7 @@ from typing import Any
 #: the digest a kernel's copy and its dispatcher carry (:func:`cache_key`)
 _KEY = "_iceimpact_cache_key"
 #: the first bytes of every cache file written here: a changed layout never reads an old one
-_SEAL = b"iceimpact numba cache 1\n"
+_HEADER = b"iceimpact numba cache 1\n"
 #: the compile options of every kernel (no fastmath: the pure path's floats; see the docstring)
 _OPTIONS = {"fastmath": False, "error_model": "python"}
 #: entries kept per kernel (the newest): sources edited, other versions of the package
@@ -70,11 +71,33 @@ def numba_or_none() -> Any:
 def rebound(function: Callable, **callees: Any) -> Callable:
     """A copy of ``function`` whose calls of the names in ``callees`` call those instead (its
     module's names keep theirs): one source run on other functions, as :func:`jit` compiles
-    it."""
+    it.
+
+    Each name must be a global of ``function``'s module that its code reads (TypeError
+    otherwise, naming both): a misspelt or unused name would leave the module's function in
+    place, silently."""
+    read = _names_read(function.__code__)
+    for name in callees:
+        if name not in read:
+            raise TypeError(f"{function.__qualname__} does not read the name {name!r}: "
+                            "it cannot be given in its place")
+        if name not in function.__globals__:
+            raise TypeError(f"{name!r} is not a global of {function.__module__}, where "
+                            f"{function.__qualname__} reads it: nothing to give in its place")
     copy = types.FunctionType(function.__code__, {**function.__globals__, **callees},
                               function.__name__)
     copy.__qualname__ = function.__qualname__
     return copy
+
+
+def fields(typename: str, *names: str) -> Any:
+    """The fields of a kernel's state array, numbered 0, 1, ... in the order of ``names``: a
+    named tuple of ints (``fields("State", "T", "X").X == 1``), its length the array's size.
+
+    A kernel indexes the array by them (``F[FLOATS.T0]``): numba freezes a global tuple as a
+    constant and folds the attribute, the same machine code as a literal index; the tuple's
+    names and numbers are in the kernel's cache key (:func:`cache_key`)."""
+    return collections.namedtuple(typename, names)(*range(len(names)))
 
 
 def jit(numba: Any, signature: Any, function: Callable, **callees: Any) -> Any:
@@ -210,7 +233,9 @@ def _describe(value: Any) -> str:
     if isinstance(value, complex):
         return f"complex {value.real.hex()} {value.imag.hex()}"
     if isinstance(value, (tuple, list)):
-        return f"{type(value).__name__} ({', '.join(map(_describe, value))})"
+        names = getattr(type(value), "_fields", ())  # a named tuple's (:func:`fields`)
+        return (f"{type(value).__name__}{names or ''} "
+                f"({', '.join(map(_describe, value))})")
     if isinstance(value, types.ModuleType):
         return f"module {value.__name__}"
     key = getattr(value, _KEY, False)
@@ -378,7 +403,7 @@ def _seal(path: str, payload: bytes) -> None:
     fd, temporary = tempfile.mkstemp(dir=folder, prefix=".tmp-")
     try:
         with os.fdopen(fd, "wb") as fh:
-            fh.write(_SEAL + hashlib.sha256(payload).digest() + payload)
+            fh.write(_HEADER + hashlib.sha256(payload).digest() + payload)
         os.replace(temporary, path)
     except BaseException:
         try:
@@ -392,8 +417,8 @@ def _unsealed(path: str) -> Any:
     """What :func:`_seal` wrote at ``path``; ValueError if the file is not whole and unchanged."""
     with open(path, "rb") as fh:
         blob = fh.read()
-    head = len(_SEAL)
+    head = len(_HEADER)
     digest, payload = blob[head:head + 32], blob[head + 32:]
-    if not blob.startswith(_SEAL) or hashlib.sha256(payload).digest() != digest:
+    if not blob.startswith(_HEADER) or hashlib.sha256(payload).digest() != digest:
         raise ValueError(f"{path} is damaged")
     return pickle.loads(payload)  # numba's own pickle, written by _seal in a private folder

@@ -33,12 +33,16 @@ from ..compiled import compile_or_none, entry_point, jit
 __all__ = ["cos", "cosh", "exp", "expm1", "log1p", "sin", "sinh"]
 
 
+#: the function :func:`_map` applies: each compiled copy is given its own in its place
+_f: Callable[[float], float] = math.exp
+
+
 def _map(x: np.ndarray, out: np.ndarray) -> bool:
     """out[i] = _f(x[i]), compiled by numba for each function ``_f`` (:func:`_compile`);
     whether every element is finite."""
     finite = True
     for i in range(x.shape[0]):
-        r = _f(x[i])  # noqa: F821 (each compiled copy's own function)
+        r = _f(x[i])
         out[i] = r
         if not (r - r == 0.0):  # (inf or NaN)
             finite = False

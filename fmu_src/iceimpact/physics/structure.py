@@ -345,8 +345,9 @@ class Oscillator:
 
     @property
     def exponents(self) -> tuple[float, float]:
-        """(s1, s2): the slow and the fast exponent of the well over-damped response (see
-        :meth:`modes`), 1/s."""
+        """(s1, s2): the slow and the fast exponent of the over-damped response (see
+        :meth:`modes`), 1/s, as the closed forms take them in every regime (s1 = 0 and
+        s2 = -(sigma + omega) unless over-damped)."""
         return self._s_slow, self._s_fast
 
     def mode_values(self, a: float, b: float, t: float) -> tuple[float, float]:

@@ -16,7 +16,9 @@ bit.
 
 Under the quadratic Morison drag on the structure (``DraggedFlight``: no closed form) the same
 source is compiled a second time, the structure's motion, samples and acceleration those of its
-Taylor steps (:mod:`~iceimpact.solvers.search.dragged`; :func:`dragged_kernel`).
+Taylor steps (:mod:`~iceimpact.solvers.search.dragged`; :func:`dragged_kernel`): the names
+swapped are one table, :data:`STRUCTURE_CALLEES`. The march's state is three arrays indexed by
+the fields of their tables, :data:`FLOATS`, :data:`INTS` and :data:`PARAMS`.
 
 It hands the march back to Python, before changing anything, at whatever else comes: the
 horizon, an impact after which the bodies do not part (a chatter or Zeno sequence closed, a
@@ -39,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...compiled import compile_or_none, entry_point, jit, rebound
+from ...compiled import compile_or_none, entry_point, fields, jit, rebound
 from ...physics.contact import contact_force, impact, impact_impulse
 from ...physics.ice import linear_flight_constants, quadratic_flight_constants
 from ...physics.structure import response_constants, under_constants
@@ -54,26 +56,55 @@ from .segment import _time_eps
 if TYPE_CHECKING:
     from .context import BounceHost
 
-# The march's state, in two arrays the kernel reads and writes (F: floats, N: integers).
-# F: the current flight's anchor, start and time resolution; its search's frontier, the probe
-# kept there, the root found (NaN: none) and the state there; the march's impulse, the step's
-# start (the sampler's impact budget), the end of the march, its start.
-(T0, X0, V0, Z0, W0, START, TIME_EPS, A, PROBED_AT, PF, PDF, PD2, PBOUND, PJERK, ROOT_AT,
- RDX, RV, RDZ, RW, IMPULSE, STEP_START, T_END, T_START) = range(23)
-N_FLOATS = 23
-# N: the search's counters, the next sample, the sample interval whose budget runs, the impact
-# count and the budget's limit, the records written, the outcome, the events taken, the flag
-# stop_at_event, the number of sample times (0: a march to T_END).
-(ITERATIONS, CREEP, SAMPLE, INTERVAL, COUNT, LIMIT, N_IMPACTS, N_TARGETS, STATUS, EVENTS,
- STOP_AT_EVENT, N_TIMES) = range(12)
-N_INTS = 12
-# P: the scene's constants: the structure's oscillator (with the linearised Morison drag, if
-# on), the flow speed, the ice's drag law, the contact rules'.
-(P_OFFSET, P_MASS, P_DAMPING, P_STIFFNESS, P_OMEGA2, P_SIGMA, P_OMEGA, P_U, P_COEF,
- P_QUADRATIC, P_m, P_M, P_MU, P_OMEGA_N, P_E, P_CHATTER, P_FOLLOW_ZENO, P_BUDGET,
- P_TIME_RESOLUTION, P_GAP_RELATIVE, P_GAP_ABSOLUTE, P_MAX_IMPACTS, P_S_SLOW, P_S_FAST,
- P_FORM, P_MAX_STEP) = range(26)
-N_PARAMS = 26
+# The march's state, in three arrays the kernel reads (P) and reads and writes (F, N), each
+# indexed by the fields of its table: F[FLOATS.T0], N[INTS.STATUS], P[PARAMS.MASS].
+
+#: F, the march's floats
+FLOATS = fields(
+    "Floats",
+    # the current flight: its anchor (t, x, v, z, w), its start and its time resolution
+    "T0", "X0", "V0", "Z0", "W0", "START", "TIME_EPS",
+    # its search: the frontier, the probe kept there (f, f', f'', the bound of f'', the jerk)
+    "A", "PROBED_AT", "PF", "PDF", "PD2", "PBOUND", "PJERK",
+    # the root found (NaN: none) and the state there (x - x0, v, z - z0, w)
+    "ROOT_AT", "RDX", "RV", "RDZ", "RW",
+    # the march's impulse, the step's start (the sampler's impact budget), the march's end and
+    # start
+    "IMPULSE", "STEP_START", "T_END", "T_START",
+)
+#: N, the march's integers
+INTS = fields(
+    "Ints",
+    # the search's counters
+    "ITERATIONS", "CREEP",
+    # the next sample, the sample interval whose impact budget runs, the impact count and the
+    # budget's limit
+    "SAMPLE", "INTERVAL", "COUNT", "LIMIT",
+    # the records written (impacts, impulses), the outcome (END ...), the events taken
+    "N_IMPACTS", "N_TARGETS", "STATUS", "EVENTS",
+    # whether the march stops at its first impact; the number of sample times (0: a march to
+    # F[FLOATS.T_END])
+    "STOP_AT_EVENT", "N_TIMES",
+)
+#: P, the scene's constants
+PARAMS = fields(
+    "Params",
+    # the structure's oscillator (with the linearised Morison drag, if on): its offset, mass,
+    # damping, stiffness, omega_n^2, decay rate and damped frequency, its over-damped
+    # exponents (Oscillator.exponents) and the form of its closed form
+    "OFFSET", "MASS", "DAMPING", "STIFFNESS", "OMEGA2", "SIGMA", "OMEGA", "S_SLOW", "S_FAST",
+    "FORM",
+    # the flow speed, the ice's drag law (its coefficient, 1.0 if quadratic else 0.0)
+    "U", "COEF", "QUADRATIC",
+    # the contact rules': the structure's and the ice's masses at an impact and their reduced
+    # mass (kg), omega_n, the restitution coefficient, the chatter time, whether a Zeno
+    # sequence is followed (1.0) or closed, the bounce's budget, the time resolution, the gap's
+    # rounding noise (relative, absolute)
+    "STRUCTURE_MASS", "ICE_MASS", "REDUCED_MASS", "OMEGA_N", "E", "CHATTER", "FOLLOW_ZENO",
+    "BUDGET", "TIME_RESOLUTION", "GAP_RELATIVE", "GAP_ABSOLUTE",
+    # the impacts allowed per step; the root search's longest step
+    "MAX_IMPACTS", "MAX_STEP",
+)
 
 #: The outcomes: the flight reaches the end with no event before it; its next event is
 #: Python's to take; an impact ended the march (stop_at_event); the records are full (the
@@ -101,151 +132,203 @@ def _structure_accel(x, v, offset, mass, damping, stiffness, u, integrated):
 
 
 def _new_flight(integrated, x0, v0):
-    """A flight starts from (x0, v0): nothing to reset for a closed form."""
+    """A flight starts from (x0, v0): nothing to reset for a closed form (the dragged
+    structure's Taylor steps start again there)."""
 
 
 def _failed(integrated):
-    """Whether the structure's motion could not be made (never, for a closed form)."""
+    """Whether the structure's motion could not be made: never for a closed form (the dragged
+    structure's Taylor steps may fail)."""
     return False
 
 
+#: What :func:`bounce_march` calls, by the name it calls, that depends on how the structure
+#: moves in flight. The march is one source run two ways: as written, on the closed forms of
+#: the damped oscillator (this module's functions and the flight search's), and, under the
+#: quadratic Morison drag, which has no closed form, with these names given
+#: :mod:`~iceimpact.solvers.search.dragged`'s functions instead (:func:`~iceimpact.compiled.
+#: rebound`, :func:`~iceimpact.compiled.jit`; each name checked to be one the march reads).
+#: Each takes ``integrated``, the structure's motion beyond its anchor: 0 for a closed form
+#: (which needs none: :func:`_new_flight` and :func:`_failed` then do nothing),
+#: the arrays of the Taylor steps (:func:`~iceimpact.solvers.search.dragged.new_steps`) under
+#: the drag. numba cannot cache a kernel that takes functions as arguments (its signature holds
+#: the functions: a miss in every process), so they are given by name.
+STRUCTURE_CALLEES = {
+    "flight_root": "the flight's root search (the first contact, or the frontier reached)",
+    "_flight_sample": "the state at a sample time of the flight",
+    "_structure_accel": "the structure's acceleration (the contact force after an impact)",
+    "_new_flight": "a flight starts at the contact: the structure's motion made afresh there",
+    "_failed": "whether the structure's motion could not be made (the march hands back)",
+}
+
+#: :data:`STRUCTURE_CALLEES` under the quadratic Morison drag, as Python: the flight search on
+#: :mod:`.dragged`'s gap (:data:`~iceimpact.solvers.search.dragged.PYTHON_ROOT`), and its
+#: sample, acceleration and steps
+DRAGGED_CALLEES = {"flight_root": dragged.PYTHON_ROOT, **dragged.MARCH_CALLEES}
+
+
+def _structure_callees(callees: dict[str, Any]) -> dict[str, Any]:
+    """``callees``, checked to be exactly :data:`STRUCTURE_CALLEES`' names (KeyError
+    otherwise): a structure gives the march every one of them, and nothing else."""
+    if set(callees) != set(STRUCTURE_CALLEES):
+        raise KeyError(f"the march's structure callees are {sorted(STRUCTURE_CALLEES)}, not "
+                       f"{sorted(callees)}")
+    return callees
+
+
 def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integrated):
-    """March bounces from the flight in F (see the layout above) until something else comes.
+    """March bounces from the flight in F (see :data:`FLOATS`) until something else comes.
 
-    A march to ``F[T_END]`` (``N[N_TIMES]`` = 0) adds each impact's impulse to ``F[IMPULSE]``
-    in the order :meth:`EventMarch.march` adds them. A sampled march (``times``, the first
-    ``N[N_TIMES]`` of them, from sample ``N[SAMPLE]`` on) writes what
-    :meth:`EventSolver.sample` would: the states at the samples of each flight it ends
-    (``xs``, ``vs``, ``zs``, ``ws``: the flight search's closed forms, the same floats as the
-    sampler's array closed forms, ``Flight.state_array``), per impact its sample and impulse
-    (``targets``, ``values``), and runs each sample interval's impact budget. Every impact goes
-    to ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``N[STATUS]`` says why it returned.
+    A march to ``F[FLOATS.T_END]`` (``N[INTS.N_TIMES]`` = 0) adds each impact's impulse to
+    ``F[FLOATS.IMPULSE]`` in the order :meth:`EventMarch.march` adds them. A sampled march
+    (``times``, the first ``N[INTS.N_TIMES]`` of them, from sample ``N[INTS.SAMPLE]`` on)
+    writes what :meth:`EventSolver.sample` would: the states at the samples of each flight it
+    ends (``xs``, ``vs``, ``zs``, ``ws``: the flight search's closed forms, the same floats as
+    the sampler's array closed forms, ``Flight.state_array``), per impact its sample and
+    impulse (``targets``, ``values``), and runs each sample interval's impact budget. Every
+    impact goes to ``impacts`` (t, x, v-, w-, v+, w+, impulse, e). ``N[INTS.STATUS]`` says why
+    it returned.
 
-    ``integrated`` is the structure's Taylor steps where it has no closed form: the march is
-    then compiled with the motion, samples and acceleration of :mod:`~iceimpact.solvers.search.
-    dragged` (its ``_flight_sample``, ``_structure_accel``, ``_new_flight``, ``_failed``) in
-    place of this module's; unused here."""
-    offset, mass, damping = P[P_OFFSET], P[P_MASS], P[P_DAMPING]
-    stiffness, omega2 = P[P_STIFFNESS], P[P_OMEGA2]
-    sigma, omega, u, coef = P[P_SIGMA], P[P_OMEGA], P[P_U], P[P_COEF]
-    quadratic = 1 if P[P_QUADRATIC] != 0.0 else 0
-    m, M, mu, omega_n, e = P[P_m], P[P_M], P[P_MU], P[P_OMEGA_N], P[P_E]
-    chatter, follow_zeno, budget = P[P_CHATTER], P[P_FOLLOW_ZENO] != 0.0, P[P_BUDGET]
-    time_resolution = P[P_TIME_RESOLUTION]
-    gap_relative, gap_absolute = P[P_GAP_RELATIVE], P[P_GAP_ABSOLUTE]
-    max_impacts = int(P[P_MAX_IMPACTS])
-    s_slow, s_fast, form = P[P_S_SLOW], P[P_S_FAST], int(P[P_FORM])
-    max_step = P[P_MAX_STEP]
-    n = N[N_TIMES]
+    ``integrated`` is the structure's motion beyond its anchor, which the functions of
+    :data:`STRUCTURE_CALLEES` take: 0 for the closed forms, the Taylor steps' arrays under the
+    quadratic Morison drag (:data:`DRAGGED_MARCH`, :func:`dragged_kernel`)."""
+    offset, mass, damping = P[PARAMS.OFFSET], P[PARAMS.MASS], P[PARAMS.DAMPING]
+    stiffness, omega2 = P[PARAMS.STIFFNESS], P[PARAMS.OMEGA2]
+    sigma, omega, u, coef = P[PARAMS.SIGMA], P[PARAMS.OMEGA], P[PARAMS.U], P[PARAMS.COEF]
+    quadratic = 1 if P[PARAMS.QUADRATIC] != 0.0 else 0
+    structure_mass, ice_mass = P[PARAMS.STRUCTURE_MASS], P[PARAMS.ICE_MASS]
+    reduced_mass, omega_n, e = P[PARAMS.REDUCED_MASS], P[PARAMS.OMEGA_N], P[PARAMS.E]
+    chatter, budget = P[PARAMS.CHATTER], P[PARAMS.BUDGET]
+    follow_zeno = P[PARAMS.FOLLOW_ZENO] != 0.0
+    time_resolution = P[PARAMS.TIME_RESOLUTION]
+    gap_relative, gap_absolute = P[PARAMS.GAP_RELATIVE], P[PARAMS.GAP_ABSOLUTE]
+    max_impacts = int(P[PARAMS.MAX_IMPACTS])
+    s_slow, s_fast, form = P[PARAMS.S_SLOW], P[PARAMS.S_FAST], int(P[PARAMS.FORM])
+    max_step = P[PARAMS.MAX_STEP]
+    n_times = N[INTS.N_TIMES]
     while True:
-        t0, x0, v0, z0, w0 = F[T0], F[X0], F[V0], F[Z0], F[W0]
-        horizon = (times[n - 1] if n > 0 else F[T_END]) - t0
+        t0, x0, v0 = F[FLOATS.T0], F[FLOATS.X0], F[FLOATS.V0]
+        z0, w0 = F[FLOATS.Z0], F[FLOATS.W0]
+        horizon = (times[n_times - 1] if n_times > 0 else F[FLOATS.T_END]) - t0
         # the flight's constants (Flight.kernel_constants' order)
         sk = response_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0)
         if quadratic:
             rate, w0_c, r0 = quadratic_flight_constants(coef, w0, u)
         else:
             rate, w0_c, r0 = linear_flight_constants(coef, w0, u)
-        if F[ROOT_AT] != F[ROOT_AT]:  # the search goes on
-            (outcome, a, root, iterations, creep, probed_at, f, df, d2, bound, jerk, dx, v, dz,
-             w) = flight_root(horizon, F[A], N[ITERATIONS], N[CREEP], F[PROBED_AT], F[PF],
-                              F[PDF], F[PD2], F[PBOUND], F[PJERK], F[TIME_EPS], x0 - z0, x0, z0,
-                              offset, mass, damping, stiffness, omega2, sigma, s_slow, s_fast,
-                              form, sk[0], sk[1], sk[2], sk[3], sk[4], sk[5], sk[6], sk[7],
-                              rate, w0_c, r0, u, coef, quadratic, max_step, integrated)
+        if F[FLOATS.ROOT_AT] != F[FLOATS.ROOT_AT]:  # the search goes on
+            (outcome, a, root, iterations, creep, probed_at, pf, pdf, pd2, pbound, pjerk, dx, v,
+             dz, w) = flight_root(horizon, F[FLOATS.A], N[INTS.ITERATIONS], N[INTS.CREEP],
+                              F[FLOATS.PROBED_AT], F[FLOATS.PF], F[FLOATS.PDF], F[FLOATS.PD2],
+                              F[FLOATS.PBOUND], F[FLOATS.PJERK], F[FLOATS.TIME_EPS], x0 - z0,
+                              x0, z0, offset, mass, damping, stiffness, omega2, sigma, s_slow,
+                              s_fast, form, sk[0], sk[1], sk[2], sk[3], sk[4], sk[5], sk[6],
+                              sk[7], rate, w0_c, r0, u, coef, quadratic, max_step, integrated)
             if a != a or (outcome == ROOT and root != root) or _failed(integrated):
-                N[STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
+                N[INTS.STATUS] = EVENT  # (FlightSearch hands this search to RootSearch)
                 return
-            F[A], N[ITERATIONS], N[CREEP] = a, iterations, creep
-            F[PROBED_AT], F[PF], F[PDF], F[PD2], F[PBOUND], F[PJERK] = (probed_at, f, df, d2,
-                                                                       bound, jerk)
+            F[FLOATS.A], N[INTS.ITERATIONS], N[INTS.CREEP] = a, iterations, creep
+            F[FLOATS.PROBED_AT], F[FLOATS.PF], F[FLOATS.PDF] = probed_at, pf, pdf
+            F[FLOATS.PD2], F[FLOATS.PBOUND], F[FLOATS.PJERK] = pd2, pbound, pjerk
             if outcome == GENERIC:
-                N[STATUS] = EVENT
+                N[INTS.STATUS] = EVENT
                 return
             if outcome != ROOT:
-                N[STATUS] = END
+                N[INTS.STATUS] = END
                 return
-            F[ROOT_AT], F[RDX], F[RV], F[RDZ], F[RW] = root, dx, v, dz, w
-        tau = F[ROOT_AT]
+            F[FLOATS.ROOT_AT], F[FLOATS.RDX], F[FLOATS.RV] = root, dx, v
+            F[FLOATS.RDZ], F[FLOATS.RW] = dz, w
+        tau = F[FLOATS.ROOT_AT]
         if tau > horizon:
-            N[STATUS] = END
+            N[INTS.STATUS] = END
             return
         j = 0
-        if n > 0:  # the first sample at or after the event (EventSolver._sample's test)
-            i = N[SAMPLE]
+        if n_times > 0:  # the first sample at or after the event (EventSolver._sample's test)
+            i = N[INTS.SAMPLE]
             if times[i] - t0 >= tau:
                 j = i
-            elif i + 1 == n or times[i + 1] - t0 >= tau:
+            elif i + 1 == n_times or times[i + 1] - t0 >= tau:
                 j = i + 1
             else:
                 j = first_sample_after(times, i + 2, t0, tau)
         # the flight's end at the contact: ContactRules.impact_at_contact, parting only
         t = t0 + tau
-        x, v, w = x0 + F[RDX], F[RV], F[RW]
+        x, v, w = x0 + F[FLOATS.RDX], F[FLOATS.RV], F[FLOATS.RW]
         closing = w - v
         if not closing > 0.0 or rounding_closing(closing, x, v, w, u, omega_n) or e == 0.0:
-            N[STATUS] = EVENT
+            N[INTS.STATUS] = EVENT
             return
-        v_plus, w_plus = impact(v, w, m, M, e)
+        v_plus, w_plus = impact(v, w, structure_mass, ice_mass, e)
         a_x = _structure_accel(x, v_plus, offset, mass, damping, stiffness, u, integrated)
-        lam = contact_force(a_x, _ice_accel(w_plus, u, coef, quadratic)[0], m, M)
-        close, _ = bounce_closure(t, x, e, lam, v_plus - w_plus, mu, chatter, follow_zeno,
-                                  budget, time_resolution, gap_relative, gap_absolute)
+        lam = contact_force(a_x, _ice_accel(w_plus, u, coef, quadratic)[0], structure_mass,
+                            ice_mass)
+        close, _ = bounce_closure(t, x, e, lam, v_plus - w_plus, reduced_mass, chatter,
+                                  follow_zeno, budget, time_resolution, gap_relative,
+                                  gap_absolute)
         closing = w_plus - v_plus
         if close or not (closing < 0.0
                          and not rounding_closing(closing, x, v_plus, w_plus, u, omega_n)):
-            N[STATUS] = EVENT
+            N[INTS.STATUS] = EVENT
             return
-        limit = N[LIMIT]
-        if n > 0 and N[INTERVAL] != j:
-            limit = N[COUNT] + max_impacts
-        if N[COUNT] >= limit:  # (Solver._record refuses it)
-            N[STATUS] = EVENT
+        limit = N[INTS.LIMIT]
+        if n_times > 0 and N[INTS.INTERVAL] != j:
+            limit = N[INTS.COUNT] + max_impacts
+        if N[INTS.COUNT] >= limit:  # (Solver._record refuses it)
+            N[INTS.STATUS] = EVENT
             return
-        if N[N_IMPACTS] == impacts.shape[0] or N[N_TARGETS] == targets.shape[0]:
-            N[STATUS] = FULL
+        if N[INTS.N_IMPACTS] == impacts.shape[0] or N[INTS.N_TARGETS] == targets.shape[0]:
+            N[INTS.STATUS] = FULL
             return
         # the impact: recorded, its impulse where the march adds it
-        impulse = impact_impulse(v, v_plus, m)
-        k = N[N_IMPACTS]
+        impulse = impact_impulse(v, v_plus, structure_mass)
+        k = N[INTS.N_IMPACTS]
         impacts[k, 0], impacts[k, 1], impacts[k, 2], impacts[k, 3] = t, x, v, w
         impacts[k, 4], impacts[k, 5], impacts[k, 6], impacts[k, 7] = v_plus, w_plus, impulse, e
-        N[N_IMPACTS] = k + 1
-        N[COUNT] += 1
-        if n > 0:
-            for k in range(N[SAMPLE], j):  # the flight's samples
+        N[INTS.N_IMPACTS] = k + 1
+        N[INTS.COUNT] += 1
+        if n_times > 0:
+            for k in range(N[INTS.SAMPLE], j):  # the flight's samples
                 xs[k], vs[k], zs[k], ws[k] = _flight_sample(times[k] - t0, x0, v0, z0, w0, form,
                                                             sk, rate, w0_c, r0, quadratic,
                                                             integrated)
-            k = N[N_TARGETS]
+            k = N[INTS.N_TARGETS]
             targets[k], values[k] = j, 0.0 + impulse
-            N[N_TARGETS] = k + 1
-            if N[INTERVAL] != j:  # (Solver.begin_step of sample j's interval)
-                N[INTERVAL], N[LIMIT], F[STEP_START] = j, limit, times[j - 1]
-            N[SAMPLE] = j
+            N[INTS.N_TARGETS] = k + 1
+            if N[INTS.INTERVAL] != j:  # (Solver.begin_step of sample j's interval)
+                N[INTS.INTERVAL], N[INTS.LIMIT], F[FLOATS.STEP_START] = j, limit, times[j - 1]
+            N[INTS.SAMPLE] = j
         else:
-            F[IMPULSE] = (F[IMPULSE] + 0.0) + (0.0 + impulse)
+            F[FLOATS.IMPULSE] = (F[FLOATS.IMPULSE] + 0.0) + (0.0 + impulse)
         # the next flight, from the contact, its search from 0 (Flight, FlightSearch)
-        F[T0], F[X0], F[V0], F[Z0], F[W0], F[START] = t, x, v_plus, x, w_plus, 0.0
+        F[FLOATS.T0], F[FLOATS.X0], F[FLOATS.V0] = t, x, v_plus
+        F[FLOATS.Z0], F[FLOATS.W0], F[FLOATS.START] = x, w_plus, 0.0
         _new_flight(integrated, x, v_plus)
-        F[TIME_EPS] = _time_eps(t)
-        F[A], F[ROOT_AT] = 0.0, math.nan
-        F[PROBED_AT] = F[PF] = F[PDF] = F[PD2] = F[PBOUND] = F[PJERK] = math.nan
-        N[ITERATIONS], N[CREEP] = 0, 0
-        N[EVENTS] += 1
-        if n == 0 and N[STOP_AT_EVENT] != 0 and F[T_START] < t < F[T_END]:
-            N[STATUS] = STOPPED
+        F[FLOATS.TIME_EPS] = _time_eps(t)
+        F[FLOATS.A], F[FLOATS.ROOT_AT] = 0.0, math.nan
+        F[FLOATS.PROBED_AT] = F[FLOATS.PF] = F[FLOATS.PDF] = math.nan
+        F[FLOATS.PD2] = F[FLOATS.PBOUND] = F[FLOATS.PJERK] = math.nan
+        N[INTS.ITERATIONS], N[INTS.CREEP] = 0, 0
+        N[INTS.EVENTS] += 1
+        if (n_times == 0 and N[INTS.STOP_AT_EVENT] != 0
+                and F[FLOATS.T_START] < t < F[FLOATS.T_END]):
+            N[INTS.STATUS] = STOPPED
             return
 
 
-_SCALARS: dict[str, Any] = {}
+#: :func:`bounce_march` for the structure under the quadratic Morison drag, run as Python (the
+#: tests' reference for the compiled one): :data:`STRUCTURE_CALLEES` given
+#: :data:`DRAGGED_CALLEES`
+DRAGGED_MARCH = rebound(bounce_march, **_structure_callees(DRAGGED_CALLEES))
+
+_RULES: dict[str, Any] = {}
 
 
-def _scalars(numba: Any) -> dict[str, Any]:
-    """The compiled rules the march calls (either structure's), compiled once."""
-    if not _SCALARS:
+def _compiled_rules(numba: Any) -> dict[str, Any]:
+    """The compiled rules the march calls (either structure's: the same functions, compiled
+    once), by the names it calls them."""
+    if not _RULES:
         f8, i8 = numba.float64, numba.int64
-        _SCALARS.update({
+        _RULES.update({
             "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants,
                                       under_constants=jit(numba, (f8,) * 6, under_constants)),
             "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
@@ -259,7 +342,7 @@ def _scalars(numba: Any) -> dict[str, Any]:
             "first_sample_after": jit(numba, (f8[::1], i8, f8, f8), first_sample_after),
             "_time_eps": jit(numba, (f8,), _time_eps),
         })
-    return _SCALARS
+    return _RULES
 
 
 def _march_signature(numba: Any, integrated: Any) -> tuple:
@@ -270,20 +353,21 @@ def _march_signature(numba: Any, integrated: Any) -> tuple:
 
 
 def _compile(numba: Any) -> Any:
-    """:func:`bounce_march` compiled by numba, on the compiled functions it calls."""
+    """:func:`bounce_march` compiled by numba on the closed forms: :data:`STRUCTURE_CALLEES`
+    the compiled forms of this module's and the flight search's functions."""
     f8, i8 = numba.float64, numba.int64
-    callees = flight_search.compiled_callees(numba)
+    search = flight_search.compiled_callees(numba)
     k8 = numba.types.UniTuple(f8, 8)
-    march = {
+    structure = _structure_callees({
+        "flight_root": search["flight_root"],
         "_flight_sample": jit(numba, (f8,) * 5 + (i8, k8, f8, f8, f8, i8, i8), _flight_sample,
-                              _motion=callees["_motion"]),
+                              _motion=search["_motion"]),
         "_structure_accel": jit(numba, (f8,) * 7 + (i8,), _structure_accel),
         "_new_flight": jit(numba, (i8, f8, f8), _new_flight),
         "_failed": jit(numba, (i8,), _failed),
-    }
+    })
     kernel = jit(numba, _march_signature(numba, i8), bounce_march,
-                 flight_root=callees["flight_root"], _ice_accel=callees["_ice_accel"],
-                 **march, **_scalars(numba))
+                 _ice_accel=search["_ice_accel"], **structure, **_compiled_rules(numba))
     return entry_point(kernel)
 
 
@@ -292,18 +376,15 @@ def _compile(numba: Any) -> Any:
 COMPILED = (compile_or_none("the march of bounces", _compile)
             if flight_search.COMPILED is not None else None)
 
-#: :func:`bounce_march` for the structure under the quadratic Morison drag, run as Python (the
-#: tests' reference for the compiled one): the search and the march on :mod:`.dragged`'s
-#: functions
-DRAGGED_MARCH = rebound(bounce_march, **dragged.MARCH_CALLEES, flight_root=dragged.PYTHON_ROOT)
-
 
 def _compile_dragged(numba: Any) -> Any:
-    """:func:`bounce_march` compiled for the structure under the quadratic Morison drag."""
+    """:func:`bounce_march` compiled for the structure under the quadratic Morison drag:
+    :data:`STRUCTURE_CALLEES` the compiled forms of :data:`DRAGGED_CALLEES`."""
     search = flight_search.compiled_callees(numba)
-    callees = dragged.compiled_callees(numba, taylor.KERNELS.dispatchers, search)
+    structure = _structure_callees(dragged.compiled_callees(numba, taylor.KERNELS.dispatchers,
+                                                            search))
     kernel = jit(numba, _march_signature(numba, dragged.steps_type(numba)), bounce_march,
-                 _ice_accel=search["_ice_accel"], **callees, **_scalars(numba))
+                 _ice_accel=search["_ice_accel"], **structure, **_compiled_rules(numba))
     return entry_point(kernel)
 
 
@@ -336,9 +417,9 @@ class BounceMarch:
         #: the dragged flight whose Taylor steps the arrays hold (0: a closed form's, none)
         self.integrated: Any = 0
         self._steps_for: Any = None
-        self.F = np.zeros(N_FLOATS)
-        self.N = np.zeros(N_INTS, dtype=np.int64)
-        self.P = np.zeros(N_PARAMS)
+        self.F = np.zeros(len(FLOATS))
+        self.N = np.zeros(len(INTS), dtype=np.int64)
+        self.P = np.zeros(len(PARAMS))
         self.no_times = np.zeros(1)
         self._params_for: tuple | None = None
 
@@ -366,6 +447,8 @@ class BounceMarch:
                 and not seg.handed_back and self.solver.zeno_end is None)
 
     def _params(self, seg: Any) -> None:
+        """The scene's constants into P, each by its field (:data:`PARAMS`), unless they are
+        those already there."""
         context = self.context
         rules = context.rules
         e = self.solver.e
@@ -375,13 +458,19 @@ class BounceMarch:
         self._params_for = key
         osc, drag = seg.osc, context.drag
         coef, quadratic = drag.law_constants
-        relative, absolute = rules.gap_noise
-        self.P[:] = (osc.offset, osc.mass, osc.damping, osc.stiffness, osc.omega2, osc.sigma,
-                     osc.omega, seg.u, coef, float(quadratic), rules.m, rules.M, rules.mu,
-                     rules.omega_n, e, rules.chatter_time, float(rules.follow_zeno),
-                     rules.budget_bounce(e), rules.time_resolution, relative, absolute,
-                     float(context.max_impacts), osc._s_slow, osc._s_fast,
-                     float(osc.form), seg.search.max_step)
+        gap_relative, gap_absolute = rules.gap_noise
+        s_slow, s_fast = osc.exponents
+        self.P[:] = type(PARAMS)(
+            OFFSET=osc.offset, MASS=osc.mass, DAMPING=osc.damping, STIFFNESS=osc.stiffness,
+            OMEGA2=osc.omega2, SIGMA=osc.sigma, OMEGA=osc.omega, S_SLOW=s_slow, S_FAST=s_fast,
+            FORM=float(osc.form),
+            U=seg.u, COEF=coef, QUADRATIC=float(quadratic),
+            STRUCTURE_MASS=rules.m, ICE_MASS=rules.M, REDUCED_MASS=rules.mu,
+            OMEGA_N=rules.omega_n, E=e, CHATTER=rules.chatter_time,
+            FOLLOW_ZENO=float(rules.follow_zeno), BUDGET=rules.budget_bounce(e),
+            TIME_RESOLUTION=rules.time_resolution, GAP_RELATIVE=gap_relative,
+            GAP_ABSOLUTE=gap_absolute, MAX_IMPACTS=float(context.max_impacts),
+            MAX_STEP=seg.search.max_step)
 
     def _steps(self, seg: Any) -> None:
         """A dragged flight's Taylor steps into the arrays: those made there already if the
@@ -411,34 +500,35 @@ class BounceMarch:
             root_state = last if last[0] == root else (root, *seg._motion(root)[1:])
         if self.dragged:
             self._steps(seg)
-        self.F[:ROOT_AT + 5] = (seg.t0, seg.x0, seg.v0, seg.z0, seg.w0, seg.start,
-                                search.time_eps, search.a, search._probed_at, *probed,
-                                *root_state)
+        self.F[:FLOATS.RW + 1] = (seg.t0, seg.x0, seg.v0, seg.z0, seg.w0, seg.start,
+                                 search.time_eps, search.a, search._probed_at, *probed,
+                                 *root_state)
         N = self.N
-        N[ITERATIONS], N[CREEP], N[N_IMPACTS], N[N_TARGETS] = search.iterations, search.creep, 0, 0
-        N[EVENTS] = 0
+        N[INTS.ITERATIONS], N[INTS.CREEP] = search.iterations, search.creep
+        N[INTS.N_IMPACTS] = N[INTS.N_TARGETS] = N[INTS.EVENTS] = 0
 
     def _flight(self, seg: Any, F: list[float], N: list[int]) -> Any:
         """The flight the kernel ended on, as the solver's segment: ``seg`` itself if no event
         was taken, else a new one; its search where the kernel left it."""
         solver = self.solver
-        if N[EVENTS]:
-            seg = self.flight_type(self.context, F[T0], F[X0], F[V0], F[Z0], F[W0], seg.u,
-                                   F[START])
+        if N[INTS.EVENTS]:
+            seg = self.flight_type(self.context, *F[FLOATS.T0:FLOATS.W0 + 1], seg.u,
+                                   F[FLOATS.START])
             solver.seg = seg
             solver.tau = 0.0
         if self.dragged:
             self._steps_for = seg
-            if N[STATUS] == EVENT:  # (its search, or its steps, are Python's from here)
+            if N[INTS.STATUS] == EVENT:  # (its search, or its steps, are Python's from here)
                 seg.handed_back = True
         search = seg.search
-        search.a, search.iterations, search.creep = F[A], N[ITERATIONS], N[CREEP]
-        search._probed_at = F[PROBED_AT]
-        search._probed = tuple(F[PF:PJERK + 1])
-        root = F[ROOT_AT]
+        search.a, search.iterations = F[FLOATS.A], N[INTS.ITERATIONS]
+        search.creep = N[INTS.CREEP]
+        search._probed_at = F[FLOATS.PROBED_AT]
+        search._probed = tuple(F[FLOATS.PF:FLOATS.PJERK + 1])
+        root = F[FLOATS.ROOT_AT]
         if root == root:
             search.root = root
-            seg.remember((root, F[RDX], F[RV], F[RDZ], F[RW]))
+            seg.remember((root, F[FLOATS.RDX], F[FLOATS.RV], F[FLOATS.RDZ], F[FLOATS.RW]))
         return seg
 
     def _impacts(self, n: int) -> None:
@@ -454,8 +544,8 @@ class BounceMarch:
         self._params(seg)
         self._load(seg)
         limit = solver.impact_limit
-        self.N[COUNT], self.N[LIMIT] = (solver.impact_count,
-                                        limit if limit < NO_LIMIT else NO_LIMIT)
+        self.N[INTS.COUNT], self.N[INTS.LIMIT] = (solver.impact_count,
+                                                  limit if limit < NO_LIMIT else NO_LIMIT)
         return seg
 
     def _run(self, times: np.ndarray, xs: np.ndarray, vs: np.ndarray, zs: np.ndarray,
@@ -467,7 +557,7 @@ class BounceMarch:
             self.kernel(self.F, self.N, self.P, times, xs, vs, zs, ws, self.targets, self.values,
                         self.impacts, self.integrated)
         except HandBack:
-            self.N[STATUS] = EVENT
+            self.N[INTS.STATUS] = EVENT
 
     def march(self, t_end: float, stop_at_event: bool, t_start: float,
               impulse: float) -> tuple[float, float | None]:
@@ -476,20 +566,20 @@ class BounceMarch:
         ended the march with ``stop_at_event`` (None: the march goes on in Python)."""
         seg = self._begin()
         F, N = self.F, self.N
-        F[IMPULSE], F[T_END], F[T_START] = impulse, t_end, t_start
-        N[STOP_AT_EVENT], N[N_TIMES] = 1 if stop_at_event else 0, 0
+        F[FLOATS.IMPULSE], F[FLOATS.T_END], F[FLOATS.T_START] = impulse, t_end, t_start
+        N[INTS.STOP_AT_EVENT], N[INTS.N_TIMES] = 1 if stop_at_event else 0, 0
         while True:
             no = self.no_times
             self._run(no, no, no, no, no)
-            status = int(N[STATUS])
-            self._impacts(int(N[N_IMPACTS]))
+            status = int(N[INTS.STATUS])
+            self._impacts(int(N[INTS.N_IMPACTS]))
             if status != FULL:
                 break
-            N[N_IMPACTS] = 0
-        floats, ints = F.tolist(), N.tolist()
-        self._flight(seg, floats, ints)
-        impulse = floats[IMPULSE]
-        return impulse, (floats[T0] if status == STOPPED else None)
+            N[INTS.N_IMPACTS] = 0
+        f_values, n_values = F.tolist(), N.tolist()
+        self._flight(seg, f_values, n_values)
+        impulse = f_values[FLOATS.IMPULSE]
+        return impulse, (f_values[FLOATS.T0] if status == STOPPED else None)
 
     def sample(self, times: np.ndarray, i: int, interval: int, out: Any, targets: Any,
                values: Any) -> tuple[int, int]:
@@ -501,21 +591,22 @@ class BounceMarch:
         solver = self.solver
         seg = self._begin()
         F, N = self.F, self.N
-        F[STEP_START] = solver.step_start
-        N[SAMPLE], N[INTERVAL], N[STOP_AT_EVENT], N[N_TIMES] = i, interval, 0, len(times)
+        F[FLOATS.STEP_START] = solver.step_start
+        N[INTS.SAMPLE], N[INTS.INTERVAL] = i, interval
+        N[INTS.STOP_AT_EVENT], N[INTS.N_TIMES] = 0, len(times)
         while True:
             self._run(times, out.x, out.v, out.z, out.w)
-            self._impacts(int(N[N_IMPACTS]))
-            n_targets = int(N[N_TARGETS])
+            self._impacts(int(N[INTS.N_IMPACTS]))
+            n_targets = int(N[INTS.N_TARGETS])
             if n_targets:
                 targets.frombytes(self.targets[:n_targets].tobytes())
                 values.frombytes(self.values[:n_targets].tobytes())
-            if int(N[STATUS]) != FULL:
+            if int(N[INTS.STATUS]) != FULL:
                 break
-            N[N_IMPACTS] = N[N_TARGETS] = 0
-        floats, ints = F.tolist(), N.tolist()
-        self._flight(seg, floats, ints)
-        limit = ints[LIMIT]
+            N[INTS.N_IMPACTS] = N[INTS.N_TARGETS] = 0
+        f_values, n_values = F.tolist(), N.tolist()
+        self._flight(seg, f_values, n_values)
+        limit = n_values[INTS.LIMIT]
         solver.impact_limit = limit if limit < NO_LIMIT else math.inf
-        solver.step_start = floats[STEP_START]
-        return ints[SAMPLE], ints[INTERVAL]
+        solver.step_start = f_values[FLOATS.STEP_START]
+        return n_values[INTS.SAMPLE], n_values[INTS.INTERVAL]
