@@ -20,11 +20,11 @@ from iceimpact import compiled
 
 SRC = Path(__file__).resolve().parents[1] / "fmu_src" / "iceimpact"
 
-#: a fresh process: imports the core from sys.argv[1], runs a linear and a quadratic (sticking:
-#: the Taylor kernels) scene, reports numba's cache hits and misses and the results' digest
+#: a fresh process: imports the core from the folder on its PYTHONPATH, runs a linear and a
+#: quadratic (sticking: the Taylor kernels) scene, reports numba's cache hits and misses and the
+#: results' digest
 _PROBE = """
 import hashlib, json, sys
-sys.path.insert(0, sys.argv[1])
 import numpy as np
 import iceimpact
 from iceimpact import Scene, run
@@ -45,9 +45,9 @@ def _probe(source_parent: Path, cache: Path | str | None, pure: bool = False) ->
     env["ICEIMPACT_PURE"] = "1" if pure else "0"
     if cache is not None:
         env["ICEIMPACT_CACHE_DIR"] = str(cache)
-    done = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-c", _PROBE,
-                           str(source_parent)], env=env, capture_output=True, text=True,
-                          timeout=300)
+    env["PYTHONPATH"] = str(source_parent)  # the copy, ahead of the installed core
+    done = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-c", _PROBE],
+                          env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr[-3000:]
     seen = json.loads(done.stdout.strip().splitlines()[-1])
     assert seen["file"].startswith(str(source_parent))  # the copy ran, not the installed core

@@ -55,8 +55,6 @@ _WORKER = r"""
 import ctypes, glob, hashlib, json, os, sys
 import numpy as np
 from numpy.lib.introspect import opt_func_info
-sys.path.insert(0, sys.argv[1])
-sys.path.insert(0, os.path.join(sys.argv[1], os.pardir, "tools"))
 import random_scenes
 import reference_digests
 
@@ -72,16 +70,16 @@ def blas_kernel():
                 return function().decode()
     return "unknown"
 
-names = json.loads(sys.argv[2])
+names = json.loads(sys.argv[1])
 import math
-out = {"kernel": blas_kernel(), "libm_probe": math.exp(float.fromhex(sys.argv[5])).hex(),
+out = {"kernel": blas_kernel(), "libm_probe": math.exp(float.fromhex(sys.argv[4])).hex(),
        "exp_target": opt_func_info(func_name="^exp$", signature="float64")["exp"]["dd"]["current"],
        "digests": reference_digests.compute(names), "fmu": {}}
-out["random"] = random_scenes.digest(random_scenes.from_json(sys.argv[6]), compiled=True)
-fmu = sys.argv[3]
+out["random"] = random_scenes.digest(random_scenes.from_json(sys.argv[5]), compiled=True)
+fmu = sys.argv[2]
 if fmu:
     from fmpy import simulate_fmu
-    for i, changes in enumerate(json.loads(sys.argv[4])):
+    for i, changes in enumerate(json.loads(sys.argv[3])):
         result = simulate_fmu(fmu, stop_time=5.0, step_size=1e-2, output_interval=1e-2,
                               start_values=changes)
         digest = hashlib.sha256(np.ascontiguousarray(
@@ -171,11 +169,15 @@ def machine_runs(fmu) -> dict[tuple[str, str], dict]:
         reason = skip_reason(*config)
         if reason:
             return config, reason
-        done = subprocess.run([sys.executable, "-c", _WORKER, str(ROOT / "tests"),
-                               json.dumps(exact_cases()), str(fmu), json.dumps(FMU_RUNS),
-                               LIBM_PROBE.hex(), random_scenes.to_json(random_cases())],
-                              env=environment(*config), capture_output=True, text=True,
-                              timeout=600, cwd=ROOT)
+        # the worker imports the tests' helpers and tools/ by name
+        helpers = [str(ROOT / "tests"), str(ROOT / "tools"),
+                   *filter(None, [os.environ.get("PYTHONPATH")])]
+        done = subprocess.run([sys.executable, "-c", _WORKER, json.dumps(exact_cases()),
+                               str(fmu), json.dumps(FMU_RUNS), LIBM_PROBE.hex(),
+                               random_scenes.to_json(random_cases())],
+                              env={**environment(*config),
+                                   "PYTHONPATH": os.pathsep.join(helpers)},
+                              capture_output=True, text=True, timeout=600, cwd=ROOT)
         assert done.returncode == 0, f"{config}: {done.stderr[-3000:]}"
         return config, json.loads(done.stdout)
     with ThreadPoolExecutor(2) as pool:

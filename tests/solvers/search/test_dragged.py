@@ -202,7 +202,7 @@ def test_the_steps_are_taylors():
     dragged._dragged_new_flight(steps, seg.x0, seg.v0)
     dragged._dragged_structure(3.5 * seg.period, steps)
     seg._structure(3.5 * seg.period)
-    count = int(steps[1][dragged.I_COUNT])
+    count = int(steps[1][dragged.COUNTERS.COUNT])
     assert count == len(seg.steps) >= 4
     for i, step in enumerate(seg.steps):
         assert (steps[2][i], steps[3][i], steps[4][i]) == (step.lo, step.h, step.hi)

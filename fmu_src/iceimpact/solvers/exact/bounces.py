@@ -481,10 +481,10 @@ class BounceMarch:
             integrated = self.integrated = dragged.new_steps(
                 seg.taylor, self.context.dragged_structure.omega2)
         q, ints = integrated[0], integrated[1]
-        q[dragged.Q_U] = seg.u
+        q[dragged.FLIGHT.U] = seg.u
         if seg is not self._steps_for:
-            q[dragged.Q_X0], q[dragged.Q_V0] = seg.x0, seg.v0
-            ints[dragged.I_COUNT] = ints[dragged.I_FAILED] = 0
+            q[dragged.FLIGHT.X0], q[dragged.FLIGHT.V0] = seg.x0, seg.v0
+            ints[dragged.COUNTERS.COUNT] = ints[dragged.COUNTERS.FAILED] = 0
 
     def _load(self, seg: Any) -> None:
         """The flight ``seg`` and its search into F and N."""

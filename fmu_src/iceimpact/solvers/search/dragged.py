@@ -28,17 +28,19 @@ from typing import Any
 
 import numpy as np
 
+from ...compiled import fields
 from ...physics.structure import dragged_acceleration, dragged_bounds
 from .flight_search import _ice_motion, compile_root, python_root, signature
 from .taylor import StickingTaylor
 from .taylor_series import NO_ROOT, ORDER, SAMPLES, horner_columns, ordinary_step
 
-#: The flight's constants in the first array of the steps (Q): the flow speed, B_s, the
+#: The flight's constants, the fields of the first array of the steps: the flow speed, B_s, the
 #: structure's mass, damping, stiffness, omega_n^2, the longest step (a natural period) and the
 #: anchor (x0, v0).
-(Q_U, Q_B, Q_MASS, Q_DAMPING, Q_STIFFNESS, Q_OMEGA2, Q_PERIOD, Q_X0, Q_V0) = range(9)
-#: The counters in the second (I): the steps made, whether making one failed.
-I_COUNT, I_FAILED = 0, 1
+FLIGHT = fields("FlightConstants", "U", "B", "MASS", "DAMPING", "STIFFNESS", "OMEGA2", "PERIOD",
+                "X0", "V0")
+#: The counters, the fields of the second: the steps made, whether making one failed.
+COUNTERS = fields("StepCounters", "COUNT", "FAILED")
 
 #: Taylor steps a flight keeps (about as many natural periods): a longer flight is Python's.
 CAPACITY = 512
@@ -50,12 +52,12 @@ def new_steps(taylor: StickingTaylor, omega2: float, capacity: int = CAPACITY) -
     recurrence) and omega_n^2: (Q, I, the steps' starts, lengths, ends, coefficient tables
     (order, column) and end states, then :func:`~.taylor.ordinary_step`'s work arrays and
     constants)."""
-    q = np.zeros(9)
-    q[:Q_X0] = (taylor.u, taylor.structure_B, taylor.total, taylor.c, taylor.k, omega2,
+    q = np.zeros(len(FLIGHT))
+    q[:FLIGHT.X0] = (taylor.u, taylor.structure_B, taylor.total, taylor.c, taylor.k, omega2,
                 taylor.max_step)
     order_over, reciprocals, exponents = (np.ascontiguousarray(c, dtype=float)
                                           for c in taylor._constants)
-    return (q, np.zeros(2, dtype=np.int64), np.zeros(capacity), np.zeros(capacity),
+    return (q, np.zeros(len(COUNTERS), dtype=np.int64), np.zeros(capacity), np.zeros(capacity),
             np.zeros(capacity), np.zeros((capacity, ORDER + 1, 3)), np.zeros((capacity, 3)),
             np.zeros(ORDER + 1), np.zeros(ORDER), np.zeros((5, ORDER + 1)), np.zeros(ORDER + 1),
             np.zeros((2, SAMPLES + 2, ORDER + 1)), np.zeros((2, SAMPLES + 2, 8)),
@@ -69,20 +71,20 @@ def _make_step(integrated):
     step ending in a finite state after its start, or no room is left."""
     (q, ints, los, hs, his, tables, ends, rs, fs, table, powers, terms, partial, sums, proven,
      order_over, reciprocals, exponents) = integrated
-    count = ints[I_COUNT]
-    if ints[I_FAILED] != 0 or count == los.size:
-        ints[I_FAILED] = 1
+    count = ints[COUNTERS.COUNT]
+    if ints[COUNTERS.FAILED] != 0 or count == los.size:
+        ints[COUNTERS.FAILED] = 1
         return False
     if count == 0:
-        lo, x, v, p = 0.0, q[Q_X0], q[Q_V0], 0.0
+        lo, x, v, p = 0.0, q[FLIGHT.X0], q[FLIGHT.V0], 0.0
     else:
         lo, x, v, p = his[count - 1], ends[count - 1, 0], ends[count - 1, 1], ends[count - 1, 2]
     outcome, h, theta_end = ordinary_step(
-        lo, x, v, p, math.inf, False, q[Q_U], 0.0, q[Q_B], q[Q_DAMPING], q[Q_STIFFNESS], 0.0,
-        q[Q_PERIOD], order_over, reciprocals, exponents, rs, fs, table, powers, terms, partial,
-        sums, proven)
+        lo, x, v, p, math.inf, False, q[FLIGHT.U], 0.0, q[FLIGHT.B], q[FLIGHT.DAMPING],
+        q[FLIGHT.STIFFNESS], 0.0, q[FLIGHT.PERIOD], order_over, reciprocals, exponents, rs, fs,
+        table, powers, terms, partial, sums, proven)
     if outcome != NO_ROOT:  # (a sign change of u - v may lie on it: Python's _first_root)
-        ints[I_FAILED] = 1
+        ints[COUNTERS.FAILED] = 1
         return False
     step_table = tables[count]
     for n in range(ORDER + 1):
@@ -91,14 +93,14 @@ def _make_step(integrated):
     x_hi, v_hi, p_hi = horner_columns(step_table, theta_end)
     hi = lo + h
     if not (math.isfinite(x_hi) and math.isfinite(v_hi) and math.isfinite(p_hi) and hi >= lo):
-        ints[I_FAILED] = 1
+        ints[COUNTERS.FAILED] = 1
         return False
     if count > 0 and hi == lo and los[count - 1] == lo:  # (stalled: Python raises)
-        ints[I_FAILED] = 1
+        ints[COUNTERS.FAILED] = 1
         return False
     los[count], hs[count], his[count] = lo, h, hi
     ends[count, 0], ends[count, 1], ends[count, 2] = x_hi, v_hi, p_hi
-    ints[I_COUNT] = count + 1
+    ints[COUNTERS.COUNT] = count + 1
     return True
 
 
@@ -107,19 +109,19 @@ def _dragged_structure(t, integrated):
     t; NaN where they cannot be."""
     q, ints, los, hs, his, tables, ends = integrated[:7]
     if t <= 0.0:
-        return 0.0, q[Q_V0]
-    if ints[I_COUNT] == 0 and not _make_step(integrated):
+        return 0.0, q[FLIGHT.V0]
+    if ints[COUNTERS.COUNT] == 0 and not _make_step(integrated):
         return math.nan, math.nan
-    while t > his[ints[I_COUNT] - 1]:
+    while t > his[ints[COUNTERS.COUNT] - 1]:
         if not _make_step(integrated):
             return math.nan, math.nan
-    i = ints[I_COUNT] - 1
+    i = ints[COUNTERS.COUNT] - 1
     while i > 0 and los[i] > t:  # the last step starting at or before t
         i -= 1
     if t >= his[i]:
-        return ends[i, 0] - q[Q_X0], ends[i, 1]
+        return ends[i, 0] - q[FLIGHT.X0], ends[i, 1]
     x, v, _ = horner_columns(tables[i], (t - los[i]) / hs[i])
-    return x - q[Q_X0], v
+    return x - q[FLIGHT.X0], v
 
 
 def _dragged_gap_point(context, t):
@@ -136,7 +138,8 @@ def _dragged_probe(x, v, offset, mass, damping, stiffness, omega2, over, s_slow,
     """``flight_search._structure_probe`` for the structure under the quadratic Morison drag:
     :func:`~iceimpact.physics.structure.dragged_bounds` (``DraggedFlight.probe``)."""
     q = integrated[0]
-    return dragged_bounds(x, v, u, q[Q_MASS], q[Q_DAMPING], q[Q_STIFFNESS], q[Q_OMEGA2], q[Q_B])
+    return dragged_bounds(x, v, u, q[FLIGHT.MASS], q[FLIGHT.DAMPING], q[FLIGHT.STIFFNESS],
+                          q[FLIGHT.OMEGA2], q[FLIGHT.B])
 
 
 def _no_clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u, coef, quadratic):
@@ -157,20 +160,21 @@ def _dragged_accel(x, v, offset, mass, damping, stiffness, u, integrated):
     """``bounces._structure_accel`` under the quadratic Morison drag
     (``DraggedStructure.acceleration``)."""
     q = integrated[0]
-    return dragged_acceleration(x, v, u, q[Q_MASS], q[Q_DAMPING], q[Q_STIFFNESS], q[Q_B])
+    return dragged_acceleration(x, v, u, q[FLIGHT.MASS], q[FLIGHT.DAMPING], q[FLIGHT.STIFFNESS],
+                                q[FLIGHT.B])
 
 
 def _dragged_new_flight(integrated, x0, v0):
     """A new flight from (x0, v0): no steps yet."""
     q, ints = integrated[0], integrated[1]
-    q[Q_X0], q[Q_V0] = x0, v0
-    ints[I_COUNT] = 0
-    ints[I_FAILED] = 0
+    q[FLIGHT.X0], q[FLIGHT.V0] = x0, v0
+    ints[COUNTERS.COUNT] = 0
+    ints[COUNTERS.FAILED] = 0
 
 
 def _dragged_failed(integrated):
     """Whether a step could not be made (:func:`_make_step`)."""
-    return integrated[1][I_FAILED] != 0
+    return integrated[1][COUNTERS.FAILED] != 0
 
 
 #: The functions the search and the march call by name, for the structure in Taylor steps.
