@@ -346,6 +346,8 @@ def _compiled_rules(numba: Any) -> dict[str, Any]:
 
 
 def _march_signature(numba: Any, integrated: Any) -> tuple:
+    """The argument types of :func:`bounce_march`, the structure's motion of type
+    ``integrated``."""
     f8, i8 = numba.float64, numba.int64
     array1, array2 = f8[::1], f8[:, ::1]
     return (array1, i8[::1], array1, array1, array1, array1, array1, array1, i8[::1], array1,

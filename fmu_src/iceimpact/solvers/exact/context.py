@@ -79,6 +79,7 @@ class SegmentContext:
         return self.structure_osc(u).bounds(x, v)
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
+        """The free accelerations (structure, ice) at (x, v, w) under the flow u."""
         if self.dragged_structure is not None:
             a_x = self.dragged_structure.acceleration(x, v, u)
         else:
@@ -89,7 +90,7 @@ class SegmentContext:
 
     def _free_accels_without_morison(self, x: float, v: float, w: float,
                                      u: float) -> tuple[float, float]:
-        # _free_accels without the structure's Morison drag (asked at every impact)
+        """:meth:`_free_accels` without the structure's Morison drag (asked at every impact)."""
         return self.osc.acceleration(x, v), self.drag.accel_bounds(w, u)[0]
 
 
@@ -110,4 +111,5 @@ class BounceHost(Protocol):
     impact_limit: float
     step_start: float
 
-    def record_rows(self, rows: np.ndarray) -> None: ...
+    def record_rows(self, rows: np.ndarray) -> None:
+        """Count and list the impacts of ``rows`` (t, x, v-, w-, v+, w+, impulse, e)."""
