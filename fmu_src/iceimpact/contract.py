@@ -56,8 +56,16 @@ DEPENDENT = "dependent"
 LINEAR_DRAG, QUADRATIC_DRAG = 1, 2                        # drag.model
 METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE = 1, 2, 3     # solver.method
 DETECTION_WINDOW, DETECTION_SIGN = 1, 2                   # solver.detection
-STRUCTURE_BUILTIN, STRUCTURE_EXTERNAL = 1, 2              # structure.model
+STRUCTURE_BUILTIN, STRUCTURE_EXTERNAL, STRUCTURE_MODAL = 1, 2, 3  # structure.model
 SCHEME_GAUSS_SEIDEL, SCHEME_JACOBI = 1, 2                 # coupling.scheme
+
+#: Most modes of the built-in modal structure (structure.model = 3): FMI 2.0 has no arrays, so
+#: the FMU has structure.mode1.* to structure.mode5.*, of which the first structure.modes are used.
+MAX_MODES = 5
+# The built-in SDOF structure's defaults (m, c, k below) as mode 1's f, zeta and m.
+_M, _C, _K = 1600.0, 200.0, 1.0e6
+MODE_F = math.sqrt(_K / _M) / (2.0 * math.pi)  # Hz
+MODE_ZETA = _C / (2.0 * math.sqrt(_K * _M))    # 1
 
 #: Default of solver.max_impacts, and the largest FMI 2.0 Integer (a 32-bit fmi2Integer).
 MAX_IMPACTS = 100_000
@@ -139,6 +147,26 @@ def _enum(name: str, description: str, start: int, choices: dict[int, str]) -> V
 _POSITIVE = {"allowed": "> 0", "minimum": 0.0, "min_exclusive": True}
 _NON_NEGATIVE = {"allowed": ">= 0", "minimum": 0.0}
 
+
+def _mode_parameters(k: int) -> tuple[Variable, ...]:
+    """Mode k's parameters (structure.model = 3): defaults are the built-in SDOF structure as
+    mode 1 and modes 2 to 5 alike but with phi = 0, so that a mode switched on without values of
+    its own does not move the contact point."""
+    def real(field: str, unit: str, description: str, start: float, **kw) -> Variable:
+        return _real(f"structure.mode{k}.{field}", unit, f"modal structure, mode {k}: "
+                     f"{description}", start, **kw)
+
+    return (
+        real("f", "Hz", "natural frequency (undamped)", MODE_F, **_POSITIVE),
+        real("zeta", "1", "damping ratio (1 = critical; any value >= 0)", MODE_ZETA,
+             **_NON_NEGATIVE),
+        real("m", "kg", "modal mass", _M, **_POSITIVE),
+        real("phi", "1", "mode-shape value at the contact point (x = sum phi q; the contact "
+             "force F drives the mode with phi F)", 1.0 if k == 1 else 0.0),
+        real("q0", "m", "initial modal displacement", 0.0),
+        real("v0", "m/s", "initial modal velocity", 0.0),
+    )
+
 #: Parameters, in the order of their value references (append new ones at the end).
 PARAMETERS: tuple[Variable, ...] = (
     _real("structure.m", "kg", "structure mass", 1600.0, **_POSITIVE),
@@ -180,8 +208,11 @@ PARAMETERS: tuple[Variable, ...] = (
           "4 = Radau", 2, {1: "RK45", 2: "DOP853", 3: "LSODA", 4: "Radau"}),
     _enum("structure.model", "structure: 1 = built-in SDOF (structure.m, c, k, x0, v0), "
           "2 = external, in another FMU (inputs structure.x_in, v_in, a_in; structure.m is its "
-          "effective mass at the contact point; c, x0, v0 are ignored)", STRUCTURE_BUILTIN,
-          {STRUCTURE_BUILTIN: "built-in SDOF", STRUCTURE_EXTERNAL: "external"}),
+          "effective mass at the contact point; c, x0, v0 are ignored), 3 = built-in modal "
+          "structure (structure.modes and structure.mode<k>.*; structure.m, c, k, x0, v0 are "
+          "ignored)", STRUCTURE_BUILTIN,
+          {STRUCTURE_BUILTIN: "built-in SDOF", STRUCTURE_EXTERNAL: "external",
+           STRUCTURE_MODAL: "modal"}),
     _enum("coupling.scheme", "external structure (structure.model = 2): how the master passes "
           "contact.force to the structure. 1 = Gauss-Seidel, ice first (the structure feels a "
           "step's force over that same step, before its x, v reach the ice again); 2 = Jacobi "
@@ -228,6 +259,13 @@ PARAMETERS: tuple[Variable, ...] = (
           "counted against its budget (docs/explanation/accuracy.md). Method 2 does not use it",
           CHATTER_FRACTION, allowed="1e-6 <= chatter_fraction <= 0.5", minimum=1e-6,
           maximum=0.5),
+    # the modal structure (structure.model = 3; docs/explanation/modes.md): the same four
+    # numbers per mode as ModalStructure.fmu's, and its initial state
+    Variable("structure.modes", "structure_modes", PARAMETER, int, "",
+             f"modes of the modal structure (structure.model = 3): structure.mode1.* to "
+             f"structure.mode<modes>.* are used, 1 to {MAX_MODES}", 1,
+             allowed=f"1 <= modes <= {MAX_MODES}", minimum=1, maximum=MAX_MODES),
+    *(v for k in range(1, MAX_MODES + 1) for v in _mode_parameters(k)),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).
@@ -245,9 +283,17 @@ INPUTS: tuple[Variable, ...] = (
              "point at the start of the step under the last contact.force, for a second-order "
              "extrapolation (0 = not given)", 0.0, variability=CONTINUOUS),
 )
+INPUTS += tuple(
+    Variable(f"structure.mode{k}.load", f"structure_mode{k}_load", INPUT, float, "N",
+             f"modal structure (structure.model = 3), mode {k}: generalized force from the rest "
+             "of the system (wave, wind or rotor loads projected on the mode), held over a "
+             "communication step", 0.0, variability=CONTINUOUS)
+    for k in range(1, MAX_MODES + 1))
 FLOW_INPUT = INPUTS[0]
 #: The external structure's inputs (structure.model = 2), in the order x, v, a.
 STRUCTURE_INPUTS: tuple[Variable, ...] = INPUTS[1:4]
+#: The modal structure's load inputs (structure.model = 3), mode 1 to MAX_MODES.
+MODE_LOAD_INPUTS: tuple[Variable, ...] = INPUTS[4:4 + MAX_MODES]
 
 
 def _out(name: str, field: str, kind: type, unit: str, description: str,
@@ -264,7 +310,12 @@ def _out(name: str, field: str, kind: type, unit: str, description: str,
 #: the rounding level of its speeds; declared in full rather than as the few a scene exercises.
 START_CONTACT = tuple(p.name for p in PARAMETERS) + (FLOW_INPUT.name,)
 # The initial structure is structure.x0, v0 built in, the inputs' start values external.
-_X0, _V0 = ("structure.model", "structure.x0"), ("structure.model", "structure.v0")
+# The modal structure's contact point starts at sum phi q0, moving at sum phi v0.
+_MODAL = ("structure.modes",)
+_X0 = ("structure.model", "structure.x0") + _MODAL + tuple(
+    f"structure.mode{k}.{f}" for k in range(1, MAX_MODES + 1) for f in ("phi", "q0"))
+_V0 = ("structure.model", "structure.v0") + _MODAL + tuple(
+    f"structure.mode{k}.{f}" for k in range(1, MAX_MODES + 1) for f in ("phi", "v0"))
 
 #: Outputs: values at the end of the last communication step. Appended ones keep the value
 #: references of the older ones. Stored by fmi2DoStep, none depends on an input within a step
@@ -300,7 +351,8 @@ OUTPUTS: tuple[Variable, ...] = (
     _out("structure.force", "spring_force", float, "N",
          "spring force k x of the structure: the base shear of the SDOF idealisation, the load "
          "a design check takes (docs/explanation/design-loads.md); 0 with an external structure "
-         "(structure.model = 2), whose internal forces live in the other FMU",
+         "(structure.model = 2), whose internal forces live in the other FMU, and with the "
+         "modal structure (3), whose internal forces follow from structure.mode<k>.q",
          initial_depends_on=_X0 + ("structure.k",)),
     _out("coupling.force", "coupling_force", float, "N",
          "external structure (structure.model = 2): the force for the master to hold on the "
@@ -309,6 +361,13 @@ OUTPUTS: tuple[Variable, ...] = (
          "predicted for the next step, the structure feeling it one step late (what it "
          "predicts more than delivered is given back at the separation, so the impulses add "
          "up to the contact impulses)"),
+    *(_out(f"structure.mode{k}.{quantity}", f"mode{k}_{quantity}", float, unit,
+           f"modal structure (structure.model = 3), mode {k}: modal {meaning} (0 with another "
+           "structure or a mode not used)",
+           initial_depends_on=("structure.model",) + _MODAL + (f"structure.mode{k}.{start}",))
+      for k in range(1, MAX_MODES + 1)
+      for quantity, unit, meaning, start in (("q", "m", "displacement", "q0"),
+                                             ("v", "m/s", "velocity", "v0"))),
 )
 
 #: Every variable, in value-reference order per type as the slave registers them.

@@ -32,8 +32,10 @@ from .contract import (
     QUADRATIC_DRAG,
     SCENE_VARIABLES,
     SCHEME_JACOBI,
+    MODE_LOAD_INPUTS,
     STRUCTURE_EXTERNAL,
     STRUCTURE_INPUTS,
+    STRUCTURE_MODAL,
     Variable,
 )
 from .errors import ParameterError, real_number, value_text
@@ -99,6 +101,44 @@ class Scene:
     solver_max_impacts: int = _START["solver_max_impacts"]
     solver_max_evaluations: int = _START["solver_max_evaluations"]
     solver_chatter_fraction: float = _START["solver_chatter_fraction"]
+    # the modal structure (structure.model = 3): mode k's f (Hz), zeta, m (kg), phi, q0 (m),
+    # v0 (m/s), and its generalized load (N, an input)
+    structure_modes: int = _START["structure_modes"]
+    structure_mode1_f: float = _START["structure_mode1_f"]
+    structure_mode1_zeta: float = _START["structure_mode1_zeta"]
+    structure_mode1_m: float = _START["structure_mode1_m"]
+    structure_mode1_phi: float = _START["structure_mode1_phi"]
+    structure_mode1_q0: float = _START["structure_mode1_q0"]
+    structure_mode1_v0: float = _START["structure_mode1_v0"]
+    structure_mode2_f: float = _START["structure_mode2_f"]
+    structure_mode2_zeta: float = _START["structure_mode2_zeta"]
+    structure_mode2_m: float = _START["structure_mode2_m"]
+    structure_mode2_phi: float = _START["structure_mode2_phi"]
+    structure_mode2_q0: float = _START["structure_mode2_q0"]
+    structure_mode2_v0: float = _START["structure_mode2_v0"]
+    structure_mode3_f: float = _START["structure_mode3_f"]
+    structure_mode3_zeta: float = _START["structure_mode3_zeta"]
+    structure_mode3_m: float = _START["structure_mode3_m"]
+    structure_mode3_phi: float = _START["structure_mode3_phi"]
+    structure_mode3_q0: float = _START["structure_mode3_q0"]
+    structure_mode3_v0: float = _START["structure_mode3_v0"]
+    structure_mode4_f: float = _START["structure_mode4_f"]
+    structure_mode4_zeta: float = _START["structure_mode4_zeta"]
+    structure_mode4_m: float = _START["structure_mode4_m"]
+    structure_mode4_phi: float = _START["structure_mode4_phi"]
+    structure_mode4_q0: float = _START["structure_mode4_q0"]
+    structure_mode4_v0: float = _START["structure_mode4_v0"]
+    structure_mode5_f: float = _START["structure_mode5_f"]
+    structure_mode5_zeta: float = _START["structure_mode5_zeta"]
+    structure_mode5_m: float = _START["structure_mode5_m"]
+    structure_mode5_phi: float = _START["structure_mode5_phi"]
+    structure_mode5_q0: float = _START["structure_mode5_q0"]
+    structure_mode5_v0: float = _START["structure_mode5_v0"]
+    structure_mode1_load: float = _START["structure_mode1_load"]
+    structure_mode2_load: float = _START["structure_mode2_load"]
+    structure_mode3_load: float = _START["structure_mode3_load"]
+    structure_mode4_load: float = _START["structure_mode4_load"]
+    structure_mode5_load: float = _START["structure_mode5_load"]
 
     def __post_init__(self) -> None:
         validate(self)
@@ -123,8 +163,46 @@ class Scene:
     @property
     def structure_mass(self) -> float:
         """Mass that moves with the structure, m + m_a, kg: its inertia in eq. 8 and in the
-        impact law (eq. 12-17), the added mass moving with it (docs/explanation/morison.md)."""
+        impact law (eq. 12-17), the added mass moving with it (docs/explanation/morison.md).
+        With the modal structure (structure.model = 3), the mass its contact point opposes to an
+        impulse, :attr:`effective_mass`."""
+        if self.structure_model == STRUCTURE_MODAL:
+            return self.effective_mass
         return self.structure_m + self.added_mass
+
+    # the modal structure (structure.model = 3) ---------------------------------------------------
+    @property
+    def modal(self) -> bool:
+        """The structure is the built-in modal one (structure.model = 3)."""
+        return self.structure_model == STRUCTURE_MODAL
+
+    @property
+    def mode_table(self) -> tuple[tuple[float, float, float, float, float, float], ...]:
+        """The modes used, ``(f, zeta, m, phi, q0, v0)`` each (Hz, 1, kg, 1, m, m/s): modes 1 to
+        structure.modes."""
+        return tuple(tuple(getattr(self, f"structure_mode{k}_{name}") for name in _MODE_FIELDS)
+                     for k in range(1, self.structure_modes + 1))
+
+    @property
+    def mode_loads(self) -> tuple[float, ...]:
+        """The generalized loads of the modes used (N): the inputs structure.mode<k>.load."""
+        return tuple(getattr(self, f"structure_mode{k}_load")
+                     for k in range(1, self.structure_modes + 1))
+
+    @property
+    def effective_mass(self) -> float:
+        """The mass the modal structure's contact point opposes to an impulse, kg:
+        ``1 / sum(phi_k^2 / m_k)`` over the modes used (docs/explanation/modes.md)."""
+        return 1.0 / _modal_flexibility(self)
+
+    @property
+    def modal_start(self) -> tuple[float, float]:
+        """The modal structure's contact point at the start, ``(sum phi q0, sum phi v0)``."""
+        x = v = 0.0
+        for _, _, _, phi, q0, v0 in self.mode_table:  # (summed in mode order: fixed rounding)
+            x += phi * q0
+            v += phi * v0
+        return x, v
 
     @property
     def structure_drag_B(self) -> float:
@@ -149,7 +227,10 @@ class Scene:
     @property
     def omega_n(self) -> float:
         """Natural circular frequency sqrt(k / (m + m_a)) of the structure, rad/s (sqrt(k/m)
-        without added mass)."""
+        without added mass). With the modal structure, the highest 2 pi f_k of the modes seen
+        at the contact point (phi_k != 0): the time scale the contact rules resolve."""
+        if self.structure_model == STRUCTURE_MODAL:
+            return max(2.0 * math.pi * f for f, _, _, phi, _, _ in self.mode_table if phi != 0.0)
         return math.sqrt(self.structure_k / self.structure_mass)
 
     @property
@@ -187,6 +268,64 @@ class Scene:
     def from_fmi(cls, values: dict[str, Any]) -> Scene:
         """Build a scene from FMI-named values (``{"ice.M": 800.0, ...}``); others keep defaults."""
         return cls(**_fields(values))
+
+
+_MODE_FIELDS = ("f", "zeta", "m", "phi", "q0", "v0")
+
+
+def _modal_flexibility(scene: Scene) -> float:
+    """``sum phi_k^2 / m_k`` over the modes used, 1/kg, summed in mode order."""
+    total = 0.0
+    for _, _, m, phi, _, _ in scene.mode_table:
+        total += phi * phi / m
+    return total
+
+
+def _check_modes(scene: Scene) -> None:
+    """The modal structure (structure.model = 3): a contact point that some mode moves, an
+    effective mass and modal rates that are finite numbers, Morison terms off (not modelled on
+    several modes), the ice upstream of the contact point."""
+    s = scene
+    if s.morison_on:
+        name, value = (("structure.Ca", s.structure_Ca) if s.added_mass != 0.0
+                       else ("structure.Cd", s.structure_Cd))
+        raise ParameterError(name, value, "0 with structure.model = 3: Morison loads on the modal "
+                             "structure are not modelled (the drag at the contact point would "
+                             "couple the modes' damping); give the fluid's added mass and "
+                             "damping to the modes (modal mass, zeta), or use structure.model = 1")
+    if all(phi == 0.0 for _, _, _, phi, _, _ in s.mode_table):
+        raise ParameterError("structure.mode1.phi", s.structure_mode1_phi,
+                             f"not 0 for at least one of the {s.structure_modes} modes used "
+                             "(structure.modes): no mode moves the contact point")
+    flexibility = _modal_flexibility(s)
+    if not (math.isfinite(flexibility) and flexibility > 0.0
+            and math.isfinite(1.0 / flexibility)):
+        raise ParameterError("1 / sum(structure.mode<k>.phi^2 / structure.mode<k>.m)",
+                             1.0 / flexibility if flexibility else math.inf,
+                             f"the effective mass at the contact point (kg) finite and > 0: "
+                             f"{OVERFLOW}")
+    for k, (f, zeta, m, phi, q0, v0) in enumerate(s.mode_table, start=1):
+        omega = 2.0 * math.pi * f
+        checks = (
+            (f"(2 pi structure.mode{k}.f)^2", omega * omega, "omega_k^2 (1/s^2) finite and > 0"),
+            (f"2 structure.mode{k}.zeta 2 pi structure.mode{k}.f", 2.0 * zeta * omega,
+             "the mode's damping rate (1/s) finite"),
+            (f"structure.mode{k}.m (2 pi structure.mode{k}.f)^2", m * omega * omega,
+             "the mode's stiffness (N/m) finite and > 0"),
+            (f"structure.mode{k}.m (2 pi f q0)^2 / 2", 0.5 * m * (omega * q0) ** 2,
+             "the mode's initial strain energy (J) finite"),
+            (f"structure.mode{k}.m v0^2 / 2", 0.5 * m * v0 * v0,
+             "the mode's initial kinetic energy (J) finite"),
+            (f"structure.mode{k}.phi structure.mode{k}.q0", phi * q0,
+             "the mode's share of the contact point's displacement (m) finite"),
+        )
+        for name, value, allowed in checks:
+            if not math.isfinite(value) or ("> 0" in allowed and value <= 0.0):
+                raise ParameterError(name, value, f"{allowed}: {OVERFLOW}")
+    x0, _ = s.modal_start
+    if s.ice_z0 > x0:
+        raise ParameterError("ice.z0", s.ice_z0, f"<= sum phi q0 = {x0!r}, the contact point at "
+                             "the start (the ice starts upstream)")
 
 
 def _fields(values: dict[str, Any]) -> dict[str, Any]:
@@ -343,14 +482,21 @@ def validate(scene: Scene) -> None:
     for spec in PARAMETERS:
         _hold(scene, spec.field, _check_number(spec, getattr(scene, spec.field)))
     _hold(scene, FLOW_INPUT.field, validate_flow(scene.flow_u))
-    for spec in STRUCTURE_INPUTS:
+    for spec in STRUCTURE_INPUTS + MODE_LOAD_INPUTS:
         _hold(scene, spec.field, _check_number(spec, getattr(scene, spec.field)))
     if scene.external and scene.solver_method != METHOD_EXACT:
         raise ParameterError("structure.model", scene.structure_model,
                              f"1 with solver.method = {scene.solver_method}: the external "
                              "structure (structure.model = 2) needs solver.method = 1 (exact)")
-    _check_morison(scene)
-    if scene.ice_z0 > scene.structure_x0 and not scene.external:
+    if scene.modal and scene.solver_method != METHOD_EXACT:
+        raise ParameterError("structure.model", scene.structure_model,
+                             f"1 with solver.method = {scene.solver_method}: the modal structure "
+                             "(structure.model = 3) needs solver.method = 1 (exact)")
+    if scene.modal:
+        _check_modes(scene)
+    else:
+        _check_morison(scene)
+    if scene.ice_z0 > scene.structure_x0 and not scene.external and not scene.modal:
         raise ParameterError("ice.z0", scene.ice_z0,
                              f"<= structure.x0 = {scene.structure_x0!r} (the ice starts upstream)")
     _check_scales(scene)

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from .contract import SCENE_VARIABLES, STRUCTURE_INPUTS
+from .contract import MAX_MODES, SCENE_VARIABLES, STRUCTURE_INPUTS
 from .errors import NonFiniteError, ParameterError, SolverError, StateError, checked_real
 from .record import STATE_VERSION, Record, check_version
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_flow
@@ -45,6 +45,9 @@ def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
     with an external structure (structure.model = 2, method 1 only) :class:`ExternalSolver`."""
     if scene.external:
         return ExternalSolver(scene, record_impacts)
+    if scene.modal:
+        raise ParameterError("structure.model", scene.structure_model, "1 or 2: the modal "
+                             "structure's solver is not in this build yet")
     try:
         cls = _SOLVERS[scene.solver_method]
     except KeyError:
@@ -90,6 +93,16 @@ class StepReport:
     #                      an external structure (its forces live in the other FMU)
     coupling_force: float  # the force for the master to hold on an external structure over its
     #                        next step, N (= force, but with a Jacobi master while riding)
+    mode1_q: float = 0.0  # modal structure (structure.model = 3): mode 1's q_k, m (0: none)
+    mode1_v: float = 0.0  # and q_k', m/s
+    mode2_q: float = 0.0  # modal structure (structure.model = 3): mode 2's q_k, m (0: none)
+    mode2_v: float = 0.0  # and q_k', m/s
+    mode3_q: float = 0.0  # modal structure (structure.model = 3): mode 3's q_k, m (0: none)
+    mode3_v: float = 0.0  # and q_k', m/s
+    mode4_q: float = 0.0  # modal structure (structure.model = 3): mode 4's q_k, m (0: none)
+    mode4_v: float = 0.0  # and q_k', m/s
+    mode5_q: float = 0.0  # modal structure (structure.model = 3): mode 5's q_k, m (0: none)
+    mode5_v: float = 0.0  # and q_k', m/s
 
 
 _REPORT_FIELDS = tuple(f.name for f in fields(StepReport))
@@ -123,6 +136,19 @@ def _read_report(rec: Record) -> StepReport:
     return StepReport(**values)
 
 
+#: The modal outputs of a scene without the modal structure.
+_NO_MODES = {f"mode{k}_{quantity}": 0.0 for k in range(1, MAX_MODES + 1) for quantity in "qv"}
+
+
+def _modal_outputs(solver: Any) -> dict[str, float]:
+    """The modes' q_k and q_k' at the solver's time (modes not used: 0)."""
+    q, p = solver.modal_state()
+    out = dict(_NO_MODES)
+    for k, (qk, pk) in enumerate(zip(q, p, strict=True), start=1):
+        out[f"mode{k}_q"], out[f"mode{k}_v"] = qk, pk
+    return out
+
+
 class Simulator:
     """Marches one scene step by step: ``advance(h, u)`` is one communication step.
 
@@ -133,6 +159,7 @@ class Simulator:
     def __init__(self, scene: Scene, record_impacts: bool = True):
         self.scene = scene
         self.external = scene.external  # structure.model = 2: the structure is in another FMU
+        self.modal = scene.modal  # structure.model = 3: the built-in modal structure
         self.record_impacts = record_impacts
         self.solver = make_solver(scene, record_impacts)
         self._n_reported = 0  # impacts already reported (an impact at t = 0 goes to step 1)
@@ -281,7 +308,8 @@ class Simulator:
             "impact_count": count, "t_last": -1.0 if t_last is None else t_last,
             "sticking": solver.sticking,
             "spring_force": 0.0 if self.external else self.scene.structure_k * s.x,
-            "coupling_force": solver.coupling_force if self.external else force})
+            "coupling_force": solver.coupling_force if self.external else force,
+            **(_modal_outputs(solver) if self.modal else _NO_MODES)})
 
     def set_restitution(self, e: float) -> None:
         """Change ``impact.e`` (tunable) for impacts from now on; 0 <= e <= 1."""

@@ -61,7 +61,7 @@ class EventSolver(EventMarch):
                                   if drag_s is not None and drag_s.quadratic else None)
         self._flight_cls = Flight if self.dragged_structure is None else DraggedFlight
         #: what the segments and the march of bounces read (the laws, built once)
-        self.context = context = SegmentContext(
+        self.context = context = self._context_class(
             self.m, self.c, self.k, self.M, self.drag, drag_s, self.dragged_structure,
             self._structure(), self._flight_cls, scene.solver_max_impacts)
         self.rules = context.rules = ContactRules(
@@ -80,6 +80,20 @@ class EventSolver(EventMarch):
             self.bounces = bounces.BounceMarch(self)
 
     # what a subclass with a structure of its own changes ------------------------------------------
+    #: the laws its segments read
+    _context_class = SegmentContext
+
+    def _new_flight(self, t: float, x: float, v: float, z: float, w: float, u: float,
+                    start: float) -> Any:
+        """A flight from time t and state (x, v, z, w), searched from ``start``."""
+        return self._flight_cls(self.context, t, x, v, z, w, u, start)
+
+    def _segment_class(self, phase: str) -> Any:
+        """The class of a saved segment of this phase (``Phase`` value)."""
+        if phase == Phase.FLIGHT.value:
+            return self._flight_cls
+        return QuadraticStick if self.drag.quadratic else LinearStick
+
     def _structure(self) -> Oscillator:
         """The structure's closed form without a flow: the oscillator of m, c, k."""
         return Oscillator(self.m, self.c, self.k)
@@ -115,7 +129,7 @@ class EventSolver(EventMarch):
             self._fly_from_contact(t, x, decision.v, decision.w, u, decision.lam)
 
     def _fly(self, t, x, v, z, w, u, start: float = 0.0) -> None:
-        self.seg = self._flight_cls(self.context, t, x, v, z, w, u, start)
+        self.seg = self._new_flight(t, x, v, z, w, u, start)
         if self.sticking:  # (apart already: nothing to change)
             self._set_sticking(False, t)
 
@@ -192,8 +206,7 @@ class EventSolver(EventMarch):
             self.tau = 0.0
             # _fly, from a flight (so not sticking: a flight and the sticking flag never
             # coexist, as _read checks of a snapshot)
-            self.seg = self._flight_cls(self.context, t, x, impact.v_plus, x, impact.w_plus,
-                                        u, 0.0)
+            self.seg = self._new_flight(t, x, impact.v_plus, x, impact.w_plus, u, 0.0)
         else:
             self._begin(t, x, impact.v_plus, x, impact.w_plus, u, after_impact=True)
             self._zeno_tail(t)
@@ -438,11 +451,7 @@ class EventSolver(EventMarch):
         if (phase == Phase.STICK.value) != (rec.data["sticking"] or zeno_end is not None):
             raise StateError(seg_rec.field("phase"), phase,
                              "stick exactly when sticking is true or zeno_end is a time")
-        if phase == Phase.FLIGHT.value:
-            cls = self._flight_cls
-        else:
-            cls = QuadraticStick if self.drag.quadratic else LinearStick
-        make_segment = cls.read(self.context, seg_rec, u)
+        make_segment = self._segment_class(phase).read(self.context, seg_rec, u)
 
         def apply() -> None:
             self.seg = make_segment()
