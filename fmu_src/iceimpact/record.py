@@ -14,8 +14,9 @@ from typing import Any
 
 from .errors import StateError
 
-#: Version of the snapshot layout written by the solvers and the simulator.
-STATE_VERSION = 1
+#: Version of the snapshot layout written by the solvers and the simulator: 2 adds the modal
+#: structure's parameters, outputs and state (an earlier state is refused, never misread).
+STATE_VERSION = 2
 
 _MISSING = "<missing>"
 

@@ -20,12 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from .contract import MAX_MODES, SCENE_VARIABLES, STRUCTURE_INPUTS
+from .contract import MAX_MODES, MODE_LOAD_INPUTS, SCENE_VARIABLES, STRUCTURE_INPUTS
 from .errors import NonFiniteError, ParameterError, SolverError, StateError, checked_real
 from .record import STATE_VERSION, Record, check_version
 from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_flow
 from .solvers.base import GAP_ROUNDING, Impact, Samples, Solver
-from .solvers.exact import EventSolver, ExternalSolver
+from .solvers.exact import EventSolver, ExternalSolver, ModalSolver
 from .solvers.fixed_step import FixedStepSolver
 from .solvers.impact_log import ImpactLog
 from .solvers.ode import OdeSolver
@@ -45,9 +45,8 @@ def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
     with an external structure (structure.model = 2, method 1 only) :class:`ExternalSolver`."""
     if scene.external:
         return ExternalSolver(scene, record_impacts)
-    if scene.modal:
-        raise ParameterError("structure.model", scene.structure_model, "1 or 2: the modal "
-                             "structure's solver is not in this build yet")
+    if scene.modal and scene.solver_method == METHOD_EXACT:
+        return ModalSolver(scene, record_impacts)
     try:
         cls = _SOLVERS[scene.solver_method]
     except KeyError:
@@ -196,14 +195,16 @@ class Simulator:
 
     def advance(self, h: float, u: float | None = None,
                 structure: tuple[float, float, float] | None = None,
-                stop_at_event: bool = False) -> StepReport:
+                stop_at_event: bool = False, loads: Any = None) -> StepReport:
         """Advance by the communication step ``h`` (s) with flow speed ``u`` (m/s) held constant.
 
         ``u`` defaults to the scene's ``flow.u``. With an external structure (structure.model =
         2), ``structure`` is ``(x_in, v_in, a_in)``, the contact point's displacement (m),
         velocity (m/s) and acceleration (m/s2, 0 = not given) at the start of the step; it
         defaults to the scene's start values of those inputs (ignored with the built-in
-        structure). Raises :class:`ParameterError` for a step that
+        structure). With the modal structure (structure.model = 3), ``loads`` are the modes'
+        generalized loads (N, one per mode used) held over the step; they default to the
+        scene's structure.mode<k>.load. Raises :class:`ParameterError` for a step that
         is not a positive finite number, too small to advance the time (t + h == t), or a flow
         speed that is not finite, and :class:`SolverError` when the method cannot go on. Either
         way the simulator is exactly as before the call: a later step from the same time
@@ -223,17 +224,30 @@ class Simulator:
         if not t_end > t:
             raise ParameterError("communication step", h, f"a step that advances the time "
                                  f"t = {t!r} s: t + h > t (smaller steps are lost to rounding)")
-        return self._step(t_end, h, u, structure, stop_at_event)
+        return self._step(t_end, h, u, structure, stop_at_event, loads)
 
     def advance_to(self, t_end: float, u: float | None = None,
                    structure: tuple[float, float, float] | None = None,
-                   stop_at_event: bool = False) -> StepReport:
+                   stop_at_event: bool = False, loads: Any = None) -> StepReport:
         """Advance to the communication point ``t_end`` (s, > t), as :meth:`advance`."""
         t = self.solver.t
         if not (t_end.__class__ is float and t < t_end < _INF):
             t_end = checked_real("communication point", t_end, f"a finite time > t = {t!r} s",
                                  lambda value: value > t)
-        return self._step(t_end, t_end - t, u, structure, stop_at_event)
+        return self._step(t_end, t_end - t, u, structure, stop_at_event, loads)
+
+    def _mode_loads(self, loads: Any) -> tuple[float, ...]:
+        """The modal structure's generalized loads of a step (N), checked: one finite real number
+        per mode used (structure.modes), or None for the scene's structure.mode<k>.load."""
+        if loads is None:
+            return self.scene.mode_loads
+        n = self.scene.structure_modes
+        if (not isinstance(loads, tuple | list | np.ndarray) or getattr(loads, "ndim", 1) != 1
+                or len(loads) != n):
+            raise ParameterError("loads", loads, f"one generalized load (N) per mode used: "
+                                 f"{n} (structure.modes)")
+        return tuple(checked_real(spec.name, value, "a finite real number (N)")
+                     for spec, value in zip(MODE_LOAD_INPUTS, loads, strict=False))
 
     def _structure_inputs(self, structure: Any) -> tuple[float, float, float]:
         """The external structure's inputs of a step, checked: a tuple, list or 1-d array of
@@ -247,7 +261,8 @@ class Simulator:
                      for spec, value in zip(STRUCTURE_INPUTS, structure, strict=True))
 
     def _step(self, t_end: float, h: float, u: float | None,
-              structure: Any = None, stop_at_event: bool = False) -> StepReport:
+              structure: Any = None, stop_at_event: bool = False,
+              loads: Any = None) -> StepReport:
         if u is None:
             u = self.scene.flow_u
         elif not (u.__class__ is float and u == self._flow_checked[0]
@@ -255,11 +270,14 @@ class Simulator:
             u = validate_flow(u, self.scene)
             self._flow_checked = (u, self.scene)  # the same speed is not checked again
         inputs = self._structure_inputs(structure) if self.external else None
+        mode_loads = self._mode_loads(loads) if self.modal else None
         solver = self.solver
         checkpoint = solver.checkpoint()
         try:
             if inputs is not None:
                 solver.inputs = inputs
+            if mode_loads is not None:
+                solver.set_loads(mode_loads)
             solver.begin_step()
             if stop_at_event:
                 t_start = solver.state.t
@@ -381,7 +399,7 @@ class Simulator:
         """The whole state as plain JSON-compatible data, a few kB at any run length (for FMI
         get/set/serialize FMU state; no impact history)::
 
-            {"version": 1,
+            {"version": 2,
              "scene": {"structure.m": ..., ...},        # Scene.to_fmi()
              "solver": {...},                           # the method's snapshot
              "report": {"t": ..., ..., "sticking": ...},  # the last StepReport

@@ -25,7 +25,14 @@ from collections.abc import Callable
 from operator import itemgetter
 from typing import Any
 
-from ..contract import FLOW_INPUT, OUTPUTS, PARAMETERS, SCENE_VARIABLES, STRUCTURE_INPUTS
+from ..contract import (
+    FLOW_INPUT,
+    MODE_LOAD_INPUTS,
+    OUTPUTS,
+    PARAMETERS,
+    SCENE_VARIABLES,
+    STRUCTURE_INPUTS,
+)
 from ..errors import ParameterError, SolverError
 from ..scene import Scene
 from ..simulator import Simulator, StepReport
@@ -46,6 +53,8 @@ _REPORT_ROW = itemgetter(*(o.field for o in OUTPUTS))
 
 #: Parameters of the built-in structure that an external one (structure.model = 2) ignores.
 IGNORED_WITH_EXTERNAL = ("structure.c", "structure.x0", "structure.v0")
+#: Parameters of the SDOF structure that the modal one (structure.model = 3) ignores.
+IGNORED_WITH_MODES = ("structure.m", "structure.c", "structure.k", "structure.x0", "structure.v0")
 
 
 class FmuModel(FmuLifecycle):
@@ -60,8 +69,10 @@ class FmuModel(FmuLifecycle):
                  fail: Callable[[str], None] | None = None):
         super().__init__(log, fail)
         self.flow_u = float(FLOW_INPUT.start)
-        #: the external structure's inputs (structure.model = 2), by name
-        self.structure_in: dict[str, Any] = {v.name: v.start for v in STRUCTURE_INPUTS}
+        #: the structure's inputs by name: the external structure's (structure.model = 2) and
+        #: the modal structure's loads (3)
+        self.structure_in: dict[str, Any] = {v.name: v.start
+                                             for v in STRUCTURE_INPUTS + MODE_LOAD_INPUTS}
         self.sim: Simulator | None = None
         self.publish(Simulator(Scene()).report)
         self.penetration_logged = False
@@ -115,6 +126,13 @@ class FmuModel(FmuLifecycle):
                 self._log(WARNING, f"structure.model = 2 (external structure): "
                           f"{', '.join(ignored)} ignored; the structure's state comes from "
                           "the inputs structure.x_in, structure.v_in, structure.a_in")
+        if scene.modal:
+            ignored = [f"{name} = {self.values[name]!r}" for name in IGNORED_WITH_MODES
+                       if self.values[name] != SCENE_VARIABLES[name].start]
+            if ignored:
+                self._log(WARNING, f"structure.model = 3 (modal structure): "
+                          f"{', '.join(ignored)} ignored; the structure is structure.modes "
+                          "modes, structure.mode<k>.*")
 
     def advance(self, current_time: float, step_size: float) -> bool:
         sim = self.sim
@@ -126,15 +144,19 @@ class FmuModel(FmuLifecycle):
                     TUNERS[name](sim, value)
             structure = (tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS)
                          if sim.external else None)
+            loads = (tuple(self.structure_in[v.name]
+                           for v in MODE_LOAD_INPUTS[:sim.scene.structure_modes])
+                     if sim.modal else None)
             if self.early_return:
                 # to the master's point itself, so that the steps after an early return end
                 # on the master's grid (sim.t + step_size may differ from it by rounding)
                 end = current_time + step_size - self.start_time
-                report = sim.advance_to(end, self.flow_u, structure, stop_at_event=True)
+                report = sim.advance_to(end, self.flow_u, structure, stop_at_event=True,
+                                        loads=loads)
                 if report.t != end:
                     self.returned_at = report.t + self.start_time
             else:
-                report = sim.advance(step_size, self.flow_u, structure)
+                report = sim.advance(step_size, self.flow_u, structure, loads=loads)
         except (ParameterError, SolverError) as exc:
             if before is not None:
                 sim.restore(before)  # the tunables applied before the refusal are undone

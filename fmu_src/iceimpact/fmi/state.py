@@ -21,7 +21,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..contract import FLOW_INPUT, MODEL_IDENTIFIER, PARAMETERS, STRUCTURE_INPUTS, VERSION
+from ..contract import (
+    FLOW_INPUT,
+    MODE_LOAD_INPUTS,
+    MODEL_IDENTIFIER,
+    PARAMETERS,
+    STRUCTURE_INPUTS,
+    VERSION,
+)
 from ..errors import StateError
 from .state_codec import FORMAT, StateCodec, check_keys, check_number, check_values
 
@@ -34,7 +41,7 @@ _PARAMETER_NAMES = {p.name for p in PARAMETERS}
 _TUNABLE_NAMES = {p.name for p in PARAMETERS if p.tunable}
 _RECORD_KEYS = {"values", "flow_u", "structure_in", "start_time", "time", "pending", "error",
                 "penetration_logged", "simulator"}
-_STRUCTURE_INPUT_NAMES = {v.name for v in STRUCTURE_INPUTS}
+_STRUCTURE_INPUT_NAMES = {v.name for v in STRUCTURE_INPUTS + MODE_LOAD_INPUTS}
 
 
 def check_record(record: Any) -> dict[str, Any]:

@@ -4,7 +4,8 @@ A designer's structure is a table of modes from a finite-element model: for mode
 frequency f_k (omega_k = 2 pi f_k), a damping ratio zeta_k, a modal mass m_k and the value phi_k
 of its mode shape at the ice action point (docs/explanation/modes.md)::
 
-    m_k q_k'' + c_k q_k' + k_k q_k = phi_k F + L_k,    c_k = 2 zeta_k omega_k m_k,  k_k = m_k omega_k^2
+    m_k q_k'' + c_k q_k' + k_k q_k = phi_k F + L_k,   c_k = 2 zeta_k omega_k m_k,
+    k_k = m_k omega_k^2
     x = sum phi_k q_k,   v = sum phi_k q_k'
 
 F is the contact force on the structure and L_k a generalized load from the rest of the system,

@@ -34,14 +34,17 @@ The modules, one concern each:
   else;
 - :mod:`.solver`: :class:`EventSolver`, the method itself;
 - :mod:`.external`: :class:`ExternalSolver`, the same method against a structure from another
-  FMU.
+  FMU;
+- :mod:`.modal`: :class:`ModalSolver`, the same method with the modal structure (N modes at the
+  contact point: flights as sums of closed forms, riding by Taylor steps).
 """
 
 from ..base import Samples
 from .external import ExternalSolver
 from .flight import DraggedFlight, Flight
+from .modal import ModalFlight, ModalRide, ModalSolver
 from .solver import EventSolver
 from .sticking import LinearStick, QuadraticStick
 
 __all__ = ["DraggedFlight", "EventSolver", "ExternalSolver", "Flight", "LinearStick",
-           "QuadraticStick", "Samples"]
+           "ModalFlight", "ModalRide", "ModalSolver", "QuadraticStick", "Samples"]
