@@ -1,0 +1,118 @@
+"""Method 1 with the modal structure (solvers/exact/modal.py): what must hold whatever the
+modes, checked against the SDOF solver, which shares none of the modal segments' code."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from iceimpact import Scene, run
+from iceimpact.simulator import Simulator
+
+SDOF = Scene()
+F1 = SDOF.omega_n / (2.0 * math.pi)
+ZETA1 = SDOF.zeta
+#: The SDOF scenes compared with their modal twins: plain, riding, Zeno, quadratic drag,
+#: over-damped (windows short of where a chaotic scene amplifies rounding)
+SCENES = {
+    "bounces": (dict(drag_model=2, flow_u=0.3, ice_M=1200.0, impact_e=0.7), 10.0),
+    "riding": (dict(impact_e=0.0, flow_u=0.3), 20.0),
+    "zeno": (dict(impact_e=0.5, drag_model=2, flow_u=0.5, ice_M=800.0), 20.0),
+    "quadratic riding": (dict(impact_e=0.0, drag_model=2, flow_u=0.2), 20.0),
+    "over-damped": (dict(structure_c=2e5, impact_e=0.3, flow_u=0.3), 20.0),
+    "article": (dict(), 60.0),
+}
+
+
+def _one_mode(sdof: Scene, **modal) -> Scene:
+    """The SDOF (m, c, k, x0, v0) of ``sdof`` as mode 1 of the modal structure."""
+    f = math.sqrt(sdof.structure_k / sdof.structure_m) / (2.0 * math.pi)
+    zeta = sdof.structure_c / (2.0 * math.sqrt(sdof.structure_k * sdof.structure_m))
+    return sdof.replace(structure_model=3, structure_mode1_f=f, structure_mode1_zeta=zeta,
+                        structure_mode1_m=sdof.structure_m, structure_mode1_q0=sdof.structure_x0,
+                        structure_mode1_v0=sdof.structure_v0, **modal)
+
+
+def _assert_same_impacts(a, b, time_tol=1e-9, impulse_rtol=1e-6):
+    ia, ib = a.impacts, b.impacts
+    assert len(ia) == len(ib)
+    np.testing.assert_allclose(ib["t"], ia["t"], rtol=0, atol=time_tol)
+    np.testing.assert_allclose(ib["impulse"], ia["impulse"], rtol=impulse_rtol,
+                               atol=1e-12 * np.max(np.abs(ia["impulse"]), initial=0.0))
+    np.testing.assert_array_equal(a.sticking, b.sticking)
+    np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-9 * np.max(np.abs(a.x)))
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_a_second_mode_the_contact_point_does_not_see_changes_nothing(name):
+    kw, t_end = SCENES[name]
+    sdof = Scene(**kw)
+    modal = _one_mode(sdof, structure_modes=2, structure_mode2_f=11.0, structure_mode2_phi=0.0,
+                      structure_mode2_q0=1e-3)
+    _assert_same_impacts(run(sdof, t_end), run(modal, t_end))
+
+
+@pytest.mark.parametrize("name", ["bounces", "riding", "quadratic riding"])
+def test_two_identical_modes_of_half_the_modal_mass_are_one_mode(name):
+    """Mode 1 split in two equal halves, each of mass m/2 and phi = 1/2 (sum phi^2/m_k = 1/m):
+    the halves move together, their sum is the one mode."""
+    kw, t_end = SCENES[name]
+    one = _one_mode(Scene(**kw))
+    halves = one.replace(structure_modes=2, structure_mode1_m=800.0, structure_mode1_phi=0.5,
+                         structure_mode2_f=F1, structure_mode2_zeta=ZETA1,
+                         structure_mode2_m=800.0, structure_mode2_phi=0.5)
+    _assert_same_impacts(run(one, t_end), run(halves, t_end))
+
+
+def test_a_held_load_offsets_its_mode_by_l_over_k():
+    """Ice far upstream under no flow: mode 1 settles at L / k_1 (400 s: 25 decay times), mode 2
+    at its own."""
+    scene = Scene(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                  structure_mode2_zeta=0.05, structure_mode2_phi=0.6, flow_u=0.0, ice_v0=0.0,
+                  ice_z0=-10.0)
+    loads = (2.0e3, -500.0)
+    sim = Simulator(scene)
+    for _ in range(200):
+        report = sim.advance(2.0, loads=loads)
+    k1 = 1600.0 * (2 * math.pi * F1) ** 2
+    k2 = 1600.0 * (2 * math.pi * 11.0) ** 2
+    assert report.mode1_q == pytest.approx(loads[0] / k1, rel=1e-6)
+    assert report.mode2_q == pytest.approx(loads[1] / k2, rel=1e-6)
+    assert report.x == pytest.approx(loads[0] / k1 + 0.6 * loads[1] / k2, rel=1e-6)
+    assert report.impact_count == 0
+
+
+def test_a_saved_state_continues_identically_in_flight_and_while_riding():
+    scene = Scene(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                  structure_mode2_zeta=0.02, structure_mode2_phi=0.6, impact_e=0.0,
+                  drag_model=2, flow_u=0.3, ice_M=1200.0)
+    sim = Simulator(scene)
+    phases = set()
+    for i in range(6000):
+        loads = (800.0 * math.sin(2 * math.pi * 0.3 * i * 1e-3), 0.0)
+        sim.advance(1e-3, loads=loads)
+        if i % 700 == 0:
+            copy = Simulator.from_snapshot(json.loads(json.dumps(sim.save())))
+            phases.add(sim.sticking)
+            for j in range(i + 1, i + 300):
+                later = (800.0 * math.sin(2 * math.pi * 0.3 * j * 1e-3), 0.0)
+                assert copy.advance(1e-3, loads=later) == _peek(sim, later)
+            sim = copy
+    assert phases == {True, False}
+
+
+def _peek(sim: Simulator, loads) -> object:
+    return sim.advance(1e-3, loads=loads)
+
+
+def test_a_load_of_the_wrong_length_is_refused_and_changes_nothing():
+    sim = Simulator(Scene(structure_model=3, structure_modes=2, structure_mode2_phi=0.5))
+    before = sim.save()
+    with pytest.raises(Exception, match="one generalized load"):
+        sim.advance(1e-3, loads=(1.0,))
+    with pytest.raises(Exception, match="structure.mode2.load"):
+        sim.advance(1e-3, loads=(1.0, math.nan))
+    assert sim.save() == before
