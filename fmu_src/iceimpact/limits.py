@@ -386,6 +386,11 @@ DRAG_RATE_MAX = 1e6
 #: (at 1e6 1/s, the limit before, 4-11 s in those scenes; the random search's scenes at
 #: 3.7e5-5.4e5 1/s took 4.5-10 s).
 TAYLOR_RATE_MAX = 1e5
+#: Largest rate (1/s) of a mode of the modal structure, omega_k (zeta_k + sqrt(zeta_k^2 + 1)):
+#: the riding phase's Taylor steps (solvers/exact/modal.py, Python) span 2 / rate each at
+#: ~0.3-1.5 ms a step (1 to 5 modes), so 2e4 1/s costs up to ~15 s of CPU per simulated second
+#: of riding.
+MODAL_RATE_MAX = 2e4
 #: CPU time per (1/s) of rate per simulated second of method 1's sticking Taylor steps (s), the
 #: largest measured at 1e5 1/s and above (1.1e-5 to 1.7e-5 s; up to 3e-5 s at 1e4 1/s, where
 #: the flow changes at every 1 ms step add a fixed cost), on a machine shared with other work.

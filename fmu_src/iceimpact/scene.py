@@ -41,6 +41,7 @@ from .contract import (
 from .errors import ParameterError, real_number, value_text
 from .limits import (
     EULER_STABILITY_LIMIT,
+    MODAL_RATE_MAX,
     OVERFLOW,
     check_sticking_rate,
     check_structure_drag_rate,
@@ -306,6 +307,14 @@ def _check_modes(scene: Scene) -> None:
                              f"{OVERFLOW}")
     for k, (f, zeta, m, phi, q0, v0) in enumerate(s.mode_table, start=1):
         omega = 2.0 * math.pi * f
+        rate = omega * (zeta + math.sqrt(zeta * zeta + 1.0))
+        if rate > MODAL_RATE_MAX:
+            raise ParameterError(
+                f"2 pi structure.mode{k}.f (zeta + sqrt(zeta^2 + 1))", rate,
+                f"<= {MODAL_RATE_MAX:g} 1/s: the riding ice's Taylor steps span 2 / rate each, "
+                "so a faster mode costs over 15 s of CPU per simulated second of riding; leave "
+                "out modes far above the frequencies the impacts excite "
+                "(docs/how-to/put-my-structure-in.md)")
         checks = (
             (f"(2 pi structure.mode{k}.f)^2", omega * omega, "omega_k^2 (1/s^2) finite and > 0"),
             (f"2 structure.mode{k}.zeta 2 pi structure.mode{k}.f", 2.0 * zeta * omega,

@@ -96,6 +96,7 @@ def _modal(**kw) -> dict:
     (dict(structure_mode1_m=1e-320), "1 / sum(structure.mode<k>.phi^2", "effective mass"),
     (dict(structure_Ca=1.0, structure_V=1.0), "structure.Ca", "not modelled"),
     (dict(ice_z0=0.01), "ice.z0", "sum phi q0"),
+    (dict(structure_mode1_f=5e3), "2 pi structure.mode1.f", "<= 20000 1/s"),
 ])
 def test_a_bad_modal_parameter_is_refused_naming_it(changes, name, allowed):
     with pytest.raises(ParameterError) as info:
