@@ -28,6 +28,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from .structure import Oscillator
 
 
@@ -120,6 +122,16 @@ class Modes:
             centre += phi * osc.offset
             reach += (phi if phi > 0.0 else -phi) * osc.amplitude_bound(qk - osc.offset, pk)
         return centre, reach
+
+    def ride_table(self) -> np.ndarray:
+        """The modes as the riding phase's Taylor steps take them
+        (:mod:`iceimpact.solvers.search.modal_taylor`): rows phi_k, m_k, c_k, k_k, L_k, omega_k
+        and the load's offset L_k / k_k, a column per mode."""
+        return np.array([self.phi, self.mass,
+                         [osc.damping for osc in self.oscillators],
+                         [osc.stiffness for osc in self.oscillators], self.loads,
+                         [math.sqrt(osc.omega2) for osc in self.oscillators],
+                         [osc.offset for osc in self.oscillators]], dtype=float)
 
     def rates(self) -> float:
         """The fastest rate of the free modes, 1/s: the largest ``omega_k (zeta_k +

@@ -28,7 +28,7 @@ from bisect import bisect_right
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from scipy.optimize import brentq
+import numpy as np
 
 from ...errors import SolverError
 from ...physics.ice import downstream_speed_bound
@@ -37,20 +37,12 @@ from ...physics.structure import Oscillator
 from ...record import Record
 from ..base import GAP_ULPS, State
 from ..contact_rules import Phase, reanchor_on_flow_change
+from ..search import modal_taylor
+from ..search.modal_taylor import KERNELS
 from ..search.rootfind import RootSearch
 from .context import SegmentContext
 from .segment import MARCHED, _time_eps
 from .solver import EventSolver
-
-#: Order of the riding phase's Taylor steps, and the size of their last two terms relative to the
-#: motion's scale (the step-size rule of Jorba and Zou, 2005)
-ORDER = 24
-TOLERANCE = 1e-17
-#: A riding step spans at most this many units of the fastest rate (its series converge fast)
-RATE_SPAN = 2.0
-#: Grid of a step's root proof, and the halvings it may spend on it
-_GRID = 16
-_HALVINGS = 400
 
 
 class ModalContext(SegmentContext):
@@ -194,75 +186,12 @@ class ModalFlight:
         return make
 
 
-def _horner(coeffs: Sequence[float], theta: float) -> float:
-    value = 0.0
-    for c in reversed(coeffs):
-        value = value * theta + c
-    return value
-
-
-def first_negative(coeffs: Sequence[float], theta_from: float, theta_end: float) -> float | None:
-    """The first theta in [theta_from, theta_end] (within [0, 1]) where the polynomial
-    ``sum coeffs[n] theta^n`` goes below zero, or None. On an interval [a, b] where it is >= 0 at
-    both ends, ``min(p(a), p(b)) >= K (b - a)^2 / 8`` proves it >= 0 throughout (K a bound on
-    |p''| over [0, 1], from the coefficients); otherwise the interval is halved. A sign change is
-    then resolved by brentq; a zero it only touches closer than the halvings resolve is no
-    root."""
-    if theta_end < theta_from:
-        return None
-    value_from = _horner(coeffs, theta_from)
-    if value_from < 0.0:
-        return theta_from
-    curvature = 0.0
-    for n in range(2, len(coeffs)):
-        c = coeffs[n]
-        curvature += n * (n - 1) * (c if c >= 0.0 else -c)
-    rates = [n * c for n, c in enumerate(coeffs)][1:]
-    span = theta_end - theta_from
-    for i in range(_GRID):
-        budget = _HALVINGS
-        a = theta_from + span * i / _GRID
-        b = theta_end if i == _GRID - 1 else theta_from + span * (i + 1) / _GRID
-        stack = [(a, _horner(coeffs, a), b, _horner(coeffs, b))]
-        while stack:
-            a, pa, b, pb = stack.pop()
-            if pa < 0.0:
-                return a
-            if pb < 0.0:
-                root = brentq(lambda theta: _horner(coeffs, theta), a, b, xtol=1e-300,
-                              rtol=4.0 * 2.0 ** -52, maxiter=1100)
-                return root
-            if min(pa, pb) >= curvature * (b - a) ** 2 / 8.0 or budget <= 0:
-                continue
-            # rising from a (a zero there included): p >= p(a) + p'(a) s - K s^2 / 2 >= 0
-            rate = _horner(rates, a)
-            if rate > 0.0 and (b - a) * curvature <= 2.0 * rate:
-                continue
-            budget -= 1
-            mid = 0.5 * (a + b)
-            pm = _horner(coeffs, mid)
-            stack.append((mid, pm, b, pb))
-            stack.append((a, pa, mid, pm))
-    return None
-
-
-class _RideStep:
-    """One Taylor step of a riding phase from ``lo`` (s, from the segment's anchor): the
-    polynomials in theta = (tau - lo) / h of each mode's q and q', of the contact impulse P and
-    of the contact force lam, its end ``hi`` and whether the riding ends there."""
-
-    __slots__ = ("lo", "h", "hi", "q", "p", "impulse", "force", "separates")
-
-    def state(self, tau: float) -> tuple[list[float], list[float], float]:
-        theta = (tau - self.lo) / self.h if self.h > 0.0 else 0.0
-        return ([_horner(c, theta) for c in self.q], [_horner(c, theta) for c in self.p],
-                _horner(self.impulse, theta))
-
-
 class ModalRide:
     """The ice riding on the contact point of the modes (z = x), from the anchor (q0, q0') at t0,
     under the flow u; the riding ends at the first root of the contact force (not looked for
-    before ``start``, a degenerate contact's hold). See the module docstring."""
+    before ``start``, a degenerate contact's hold). Its Taylor steps are
+    :mod:`~iceimpact.solvers.search.modal_taylor`'s, each from the state the previous one ended
+    in (so a phase rebuilt from its anchor has the same steps, to the bit)."""
 
     phase = Phase.STICK
     PUSHES = True
@@ -272,141 +201,69 @@ class ModalRide:
     def __init__(self, context: ModalContext, t0: float, q0: Sequence[float],
                  p0: Sequence[float], u: float, start: float = 0.0):
         self.modes = modes = context.modes
-        self.drag = context.drag
-        self.M = context.M
+        drag = context.drag
+        M = context.M
         self.t0, self.u, self.start = t0, u, start
         self.q0, self.p0 = tuple(q0), tuple(p0)
         m_eff = modes.effective_mass
-        self._alpha = m_eff / (self.M + m_eff)
-        self._beta = self.M * self._alpha
-        self._quadratic = self.drag.quadratic
-        self._drag_coef = self.drag.B if self._quadratic else self.drag.b
-        drag_rate = (2.0 * self._drag_coef * (abs(u) + abs(modes.contact(q0, p0)[1]) + 1.0)
-                     if self._quadratic else self._drag_coef) / self.M
+        self._alpha = m_eff / (M + m_eff)
+        self._beta = M * self._alpha
+        self._quadratic = 1 if drag.quadratic else 0
+        self._coef = drag.B if drag.quadratic else drag.b
+        v0 = modes.contact(self.q0, self.p0)[1]
+        drag_rate = (2.0 * self._coef * (abs(u) + abs(v0)) if drag.quadratic
+                     else self._coef) / (M + m_eff)
         self._rate = modes.rates() + drag_rate
-        self._steps: list[_RideStep] = []
+        self._table = modes.ride_table()
+        n = modes.count
+        self._rows = 2 * n + 2
+        self._rs = np.empty(modal_taylor.ORDER + 1)
+        self._out = np.empty(self._rows)
         self._los: list[float] = []
+        self._hs: list[float] = []
+        self._his: list[float] = []
+        self._tables: list[np.ndarray] = []
+        self._ends: list[np.ndarray] = []
         self._end: float | None = None  # the separation, once found
         self._checked = 0  # the steps before this one are proven free of a separation
 
     # the Taylor steps --------------------------------------------------------------------------
-    def _series(self, q: Sequence[float], p: Sequence[float], sign: float) -> tuple:
-        """Taylor coefficients (in time, s) of each mode's q, q', the impulse P and lam from the
-        state (q, q'), to ORDER (see the module docstring); ``sign`` the relative flow's sign
-        under the quadratic drag."""
-        modes = self.modes
-        n_modes = modes.count
-        phis, masses = modes.phi, modes.mass
-        oscs = modes.oscillators
-        damp = [osc.damping for osc in oscs]
-        stiff = [osc.stiffness for osc in oscs]
-        loads = modes.loads
-        alpha, beta, coef, u = self._alpha, self._beta, self._drag_coef, self.u
-        qs = [[q[k]] for k in range(n_modes)]
-        ps = [[p[k]] for k in range(n_modes)]
-        rs: list[float] = []
-        force: list[float] = []
-        for n in range(ORDER + 1):
-            v = 0.0
-            for k in range(n_modes):
-                v += phis[k] * ps[k][n]
-            r = (u if n == 0 else 0.0) - v
-            rs.append(r)
-            if self._quadratic:
-                square = 0.0
-                for i in range(n + 1):
-                    square += rs[i] * rs[n - i]
-                drag = sign * coef * square
-            else:
-                drag = coef * r
-            free = []
-            free_sum = 0.0
-            for k in range(n_modes):
-                fk = ((loads[k] if n == 0 else 0.0) - damp[k] * ps[k][n]
-                      - stiff[k] * qs[k][n]) / masses[k]
-                free.append(fk)
-                free_sum += phis[k] * fk
-            lam = alpha * drag - beta * free_sum
-            force.append(lam)
-            if n == ORDER:
-                break
-            for k in range(n_modes):
-                qs[k].append(ps[k][n] / (n + 1))
-                ps[k].append((free[k] + phis[k] * lam / masses[k]) / (n + 1))
-        impulse = [0.0] + [force[n] / (n + 1) for n in range(ORDER)]
-        return qs, ps, impulse, force, rs
-
-    def _step_length(self, qs: list, ps: list) -> float:
-        """The step: its last two terms below TOLERANCE of the motion's scale (the modes' speeds,
-        omega q and q'), at most RATE_SPAN over the fastest rate."""
-        omegas = [math.sqrt(osc.omega2) for osc in self.modes.oscillators]
-        scale = abs(self.u)
-        last = [0.0, 0.0]
-        for k, omega in enumerate(omegas):
-            scale += omega * abs(qs[k][0] - self.modes.oscillators[k].offset) + abs(ps[k][0])
-            for j, n in enumerate((ORDER - 1, ORDER)):
-                last[j] = max(last[j], omega * abs(qs[k][n]), abs(ps[k][n]))
-        h = RATE_SPAN / self._rate if self._rate > 0.0 else math.inf
-        if scale > 0.0:
-            for j, n in enumerate((ORDER - 1, ORDER)):
-                if last[j] > 0.0:
-                    h = min(h, (TOLERANCE * scale / last[j]) ** (1.0 / n))
-        if not math.isfinite(h):
-            h = 1.0
-        return h
-
-    def _make_step(self, lo: float, q: Sequence[float], p: Sequence[float],
-                   impulse0: float) -> _RideStep:
-        sign = 1.0
-        qs, ps, impulse, force, rs = self._series(q, p, sign)
-        if self._quadratic:
-            # the drag's sign is the relative flow's, or where it is 0 the one it moves to
-            lead = next((r for r in rs if r != 0.0), 1.0)
-            if lead < 0.0:
-                sign = -1.0
-                qs, ps, impulse, force, rs = self._series(q, p, sign)
-        h = self._step_length(qs, ps)
-        scaled = [[c * h ** n for n, c in enumerate(col)] for col in qs + ps]
-        step = _RideStep()
-        step.lo, step.h = lo, h
-        n_modes = self.modes.count
-        step.q, step.p = scaled[:n_modes], scaled[n_modes:]
-        step.impulse = [c * h ** n for n, c in enumerate(impulse)]
-        step.impulse[0] = impulse0
-        step.force = [c * h ** n for n, c in enumerate(force)]
-        end = 1.0
-        if self._quadratic:  # the step ends where the relative flow changes sign
-            relative = [sign * c * h ** n for n, c in enumerate(rs)]
-            theta = first_negative(relative, 0.0, 1.0)
-            if theta is not None:
-                end = theta
-        step.hi = lo + h * end
-        if step.hi <= lo:
-            raise SolverError(f"the riding phase's Taylor steps stalled at t = {self.t0 + lo!r} "
-                              f"s (modal state q = {list(q)}, q' = {list(p)})")
-        step.separates = False
-        return step
-
-    def _extend(self) -> _RideStep:
+    def _extend(self) -> None:
         """The next step, from the end of the last one (the first from the anchor)."""
-        if self._steps:
-            last = self._steps[-1]
-            q, p, impulse = last.state(last.hi)
-            lo = last.hi
+        n = self.modes.count
+        if self._ends:
+            end = self._ends[-1]
+            q, p, impulse, lo = end[:n].copy(), end[n:2 * n].copy(), end[2 * n], self._his[-1]
         else:
-            q, p, impulse, lo = list(self.q0), list(self.p0), 0.0, 0.0
-        step = self._make_step(lo, q, p, impulse)
-        self._steps.append(step)
+            q, p = np.array(self.q0, dtype=float), np.array(self.p0, dtype=float)
+            impulse, lo = 0.0, 0.0
+        table = np.empty((self._rows, modal_taylor.ORDER + 1))
+        h, theta_end = KERNELS["ride_step"](q, p, impulse, self._table, self.u, self._alpha,
+                                            self._beta, self._coef, self._quadratic,
+                                            self._rate, table, self._rs)
+        hi = lo + h * theta_end
+        end = np.empty(self._rows)
+        KERNELS["horner_rows"](table, theta_end, end)
+        if not (hi > lo and np.isfinite(end).all()):
+            raise SolverError(
+                f"the riding phase's Taylor steps stalled at t = {self.t0 + lo!r} s (modal "
+                f"state q = {q.tolist()} m, q' = {p.tolist()} m/s)")
         self._los.append(lo)
-        return step
+        self._hs.append(h)
+        self._his.append(hi)
+        self._tables.append(table)
+        self._ends.append(end)
 
-    def _step_at(self, tau: float) -> _RideStep:
-        while not self._steps or self._steps[-1].hi < tau:
-            if self._end is not None:
-                break
+    def _at(self, tau: float) -> np.ndarray:
+        """The rows (q, q', P, lam) at tau, in the last step starting at or before it."""
+        while self._end is None and (not self._his or self._his[-1] < tau):
             self._extend()
-        i = bisect_right(self._los, tau) - 1
-        return self._steps[max(i, 0)]
+        i = max(bisect_right(self._los, tau) - 1, 0)
+        if tau >= self._his[i]:
+            return self._ends[i]
+        out = np.empty(self._rows)
+        KERNELS["horner_rows"](self._tables[i], (tau - self._los[i]) / self._hs[i], out)
+        return out
 
     # the segment's interface -----------------------------------------------------------------
     def next_event(self, tau_end: float) -> float | None:
@@ -415,31 +272,28 @@ class ModalRide:
         if self._end is not None:
             return self._end if self._end <= tau_end else None
         i = self._checked
+        negative = KERNELS["first_negative"]
         while True:
-            if i == len(self._steps):
-                if self._steps and self._steps[-1].lo > tau_end:
-                    return None
+            if i == len(self._los):
                 self._extend()
-            step = self._steps[i]
+            lo, h, hi = self._los[i], self._hs[i], self._his[i]
             i += 1
-            if step.hi < self.start:
-                self._checked = i
-                continue
-            theta_from = max(0.0, (self.start - step.lo) / step.h)
-            theta_end = (step.hi - step.lo) / step.h
-            theta = first_negative(step.force, theta_from, theta_end)
-            if theta is not None:
-                self._end = tau = step.lo + theta * step.h
-                del self._steps[i:]
-                del self._los[i:]
-                return tau if tau <= tau_end else None
+            if hi >= self.start:
+                theta = negative(self._tables[i - 1][-1], max(0.0, (self.start - lo) / h),
+                                 (hi - lo) / h)
+                if theta >= 0.0:
+                    self._end = tau = lo + theta * h
+                    del self._los[i:], self._hs[i:], self._his[i:], self._tables[i:]
+                    del self._ends[i:]
+                    return tau if tau <= tau_end else None
             self._checked = i
-            if step.hi > tau_end:
+            if hi > tau_end:
                 return None
 
     def modal_state(self, tau: float) -> tuple[list[float], list[float]]:
-        q, p, _ = self._step_at(tau).state(tau)
-        return q, p
+        n = self.modes.count
+        row = self._at(tau)
+        return row[:n].tolist(), row[n:2 * n].tolist()
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
         q, p = self.modal_state(tau)
@@ -449,7 +303,8 @@ class ModalRide:
     def impulse(self, tau_a: float, tau_b: float) -> float:
         if tau_b <= tau_a:
             return 0.0
-        return self._step_at(tau_b).state(tau_b)[2] - self._step_at(tau_a).state(tau_a)[2]
+        n = self.modes.count
+        return float(self._at(tau_b)[2 * n]) - float(self._at(tau_a)[2 * n])
 
     _KEYS = ("phase", "t0", "q", "p", "start")
 

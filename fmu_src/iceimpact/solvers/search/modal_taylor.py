@@ -1,0 +1,259 @@
+"""High-order Taylor steps of the ice riding on the modal structure's contact point (method 1,
+structure.model = 3), as functions over plain floats and arrays: run as Python, or compiled by
+numba where it is installed, the same floats either way.
+
+While the ice rides (z = x = sum phi_k q_k) the modes are coupled through the contact force on
+the structure, ``lam = alpha D - beta sum phi_k f_k`` (alpha = m_eff / (M + m_eff), beta = M alpha,
+f_k = (L_k - c_k q_k' - k_k q_k) / m_k mode k's free acceleration, D the drag on the ice at the
+contact point's speed v): ``q_k'' = f_k + phi_k lam / m_k`` (docs/explanation/modes.md). Under
+the linear drag ``D = b (u - v)`` the system is linear; under the quadratic drag ``D = s B r^2``
+(r = u - v) while the sign s of r holds. Either way the Taylor coefficients follow exactly by
+recurrence (``(r^2)_n`` the Cauchy product of r with itself)::
+
+    q_k[n+1] = q_k'[n] / (n + 1)
+    q_k'[n+1] = (f_k[n] + phi_k lam[n] / m_k) / (n + 1)
+    P[n+1] = lam[n] / (n + 1)                           (P the contact impulse)
+
+A step of order ``ORDER`` is as long as its last two terms stay below ``TOLERANCE`` of the motion's
+scale (the step-size rule of Jorba and Zou, 2005), and spans at most ``RATE_SPAN`` over the
+fastest rate of the modes and the drag. Under the quadratic drag a step ends where r changes sign;
+the riding ends at the first root of lam's polynomial. Both roots are found without a miss by
+:func:`first_negative` (a curvature bound from the coefficients proves each interval it skips).
+
+**The same bits on every machine**: ``+ - * /``, ``sqrt`` and the C library's ``pow`` for the step
+length only, in an order these functions fix; no numpy reduction, no BLAS; powers h^n by repeated
+multiplication.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ...compiled import compile_or_none, entry_point, jit
+
+#: Order of the steps, the size of their last two terms relative to the motion's scale, and the
+#: longest step in units of the fastest rate (1 / rate)
+ORDER = 24
+TOLERANCE = 1e-17
+RATE_SPAN = 2.0
+#: The root proof's grid on a step, and the halvings it may spend on each interval of it
+GRID = 16
+HALVINGS = 60
+#: Iterations of the bracketing that resolves a sign change
+BRACKET_ITERATIONS = 200
+
+#: The rows of the modes' table: phi_k, m_k, c_k, k_k, L_k, omega_k, the load's offset L_k / k_k
+PHI, MASS, DAMP, STIFF, LOAD, OMEGA, OFFSET = range(7)
+
+
+def horner(coeffs, theta):
+    """``sum coeffs[n] theta^n`` by Horner's rule (a 1-d array)."""
+    value = 0.0
+    for n in range(coeffs.size - 1, -1, -1):
+        value = value * theta + coeffs[n]
+    return value
+
+
+def horner_rows(table, theta, out):
+    """:func:`horner` of each row of ``table`` at theta, into ``out``."""
+    for j in range(table.shape[0]):
+        out[j] = horner(table[j], theta)
+
+
+def first_negative(coeffs, theta_from, theta_end):
+    """The first theta in [theta_from, theta_end] where the polynomial ``sum coeffs[n] theta^n``
+    goes below zero, or -1.0 if none. On an interval [a, b] where it is >= 0 at both ends,
+    ``min(p(a), p(b)) >= K (b - a)^2 / 8`` proves it >= 0 throughout (K a bound on |p''| over
+    [0, 1] from the coefficients), as does a rise from a (``p(a) + p'(a) s - K s^2 / 2 >= 0`` for
+    ``s <= 2 p'(a) / K``); otherwise the interval is halved. A sign change is then bracketed to
+    within a few ulps; a zero the polynomial only touches closer than the halvings resolve is
+    no root."""
+    if theta_end < theta_from:
+        return -1.0
+    if horner(coeffs, theta_from) < 0.0:
+        return theta_from
+    size = coeffs.size
+    curvature = 0.0
+    for n in range(2, size):
+        c = coeffs[n]
+        curvature += n * (n - 1) * (c if c >= 0.0 else -c)
+    span = theta_end - theta_from
+    stack = np.empty((HALVINGS + 2, 4))
+    for i in range(GRID):
+        a0 = theta_from + span * i / GRID
+        b0 = theta_end if i == GRID - 1 else theta_from + span * (i + 1) / GRID
+        stack[0, 0], stack[0, 1] = a0, horner(coeffs, a0)
+        stack[0, 2], stack[0, 3] = b0, horner(coeffs, b0)
+        top = 1
+        budget = HALVINGS
+        while top > 0:
+            top -= 1
+            a, pa, b, pb = stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3]
+            if pa < 0.0:
+                return a
+            if pb < 0.0:
+                return _crossing(coeffs, a, b)
+            if min(pa, pb) >= curvature * (b - a) * (b - a) / 8.0 or budget <= 0:
+                continue
+            rate = 0.0  # p'(a), by Horner's rule on n c_n
+            for n in range(size - 1, 0, -1):
+                rate = rate * a + n * coeffs[n]
+            if rate > 0.0 and (b - a) * curvature <= 2.0 * rate:
+                continue
+            budget -= 1
+            mid = 0.5 * (a + b)
+            pm = horner(coeffs, mid)
+            stack[top, 0], stack[top, 1], stack[top, 2], stack[top, 3] = mid, pm, b, pb
+            stack[top + 1, 0], stack[top + 1, 1] = a, pa
+            stack[top + 1, 2], stack[top + 1, 3] = mid, pm
+            top += 2
+    return -1.0
+
+
+def _crossing(coeffs, lo, hi):
+    """The first point below zero of the polynomial on [lo, hi] (p(lo) >= 0 > p(hi)), to a few
+    ulps: regula falsi with the Illinois rule, bisection where it stalls."""
+    f_lo, f_hi = horner(coeffs, lo), horner(coeffs, hi)
+    side = 0
+    for _ in range(BRACKET_ITERATIONS):
+        if hi - lo <= 4.0 * 2.0 ** -52 * max(abs(lo), abs(hi)) + 1e-300:
+            break
+        t = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+        if not lo < t < hi:
+            t = 0.5 * (lo + hi)
+        f_t = horner(coeffs, t)
+        if f_t < 0.0:
+            hi, f_hi = t, f_t
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+        else:
+            lo, f_lo = t, f_t
+            if side == 1:
+                f_hi *= 0.5
+            side = 1
+    return hi
+
+
+def ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs):
+    """The Taylor coefficients (in time, s) from the modal state (q, q'): rows 0..N-1 of
+    ``table`` each mode's q, N..2N-1 its q', 2N the contact impulse P (from 0), 2N + 1 the
+    contact force lam; ``rs`` the relative flow r = u - v. ``modes`` the table of rows PHI ...
+    OFFSET (one column per mode); ``sign`` the quadratic drag's sign of r."""
+    n_modes = q.size
+    for k in range(n_modes):
+        table[k, 0] = q[k]
+        table[n_modes + k, 0] = p[k]
+    impulse, force = 2 * n_modes, 2 * n_modes + 1
+    table[impulse, 0] = 0.0
+    for n in range(ORDER + 1):
+        v = 0.0
+        for k in range(n_modes):
+            v += modes[PHI, k] * table[n_modes + k, n]
+        r = (u if n == 0 else 0.0) - v
+        rs[n] = r
+        if quadratic:
+            square = 0.0
+            for i in range(n + 1):
+                square += rs[i] * rs[n - i]
+            drag = sign * coef * square
+        else:
+            drag = coef * r
+        free_sum = 0.0
+        for k in range(n_modes):
+            free = ((modes[LOAD, k] if n == 0 else 0.0) - modes[DAMP, k] * table[n_modes + k, n]
+                    - modes[STIFF, k] * table[k, n]) / modes[MASS, k]
+            free_sum += modes[PHI, k] * free
+            if n < ORDER:
+                table[n_modes + k, n + 1] = free  # (the contact force's part is added below)
+        lam = alpha * drag - beta * free_sum
+        table[force, n] = lam
+        if n < ORDER:
+            table[impulse, n + 1] = lam / (n + 1)
+            for k in range(n_modes):
+                table[k, n + 1] = table[n_modes + k, n] / (n + 1)
+                table[n_modes + k, n + 1] = ((table[n_modes + k, n + 1]
+                                              + modes[PHI, k] * lam / modes[MASS, k]) / (n + 1))
+
+
+def step_length(table, modes, u, rate):
+    """The step (s): its last two terms below TOLERANCE of the motion's scale (each mode's
+    omega_k |q_k - offset_k| + |q_k'|, and |u|), at most RATE_SPAN / rate."""
+    n_modes = modes.shape[1]
+    scale = abs(u)
+    last1 = last2 = 0.0
+    for k in range(n_modes):
+        omega = modes[OMEGA, k]
+        scale += omega * abs(table[k, 0] - modes[OFFSET, k]) + abs(table[n_modes + k, 0])
+        last1 = max(last1, omega * abs(table[k, ORDER - 1]), abs(table[n_modes + k, ORDER - 1]))
+        last2 = max(last2, omega * abs(table[k, ORDER]), abs(table[n_modes + k, ORDER]))
+    h = RATE_SPAN / rate if rate > 0.0 else math.inf
+    if scale > 0.0:
+        if last1 > 0.0:
+            h = min(h, (TOLERANCE * scale / last1) ** (1.0 / (ORDER - 1)))
+        if last2 > 0.0:
+            h = min(h, (TOLERANCE * scale / last2) ** (1.0 / ORDER))
+    if not h < math.inf:
+        h = 1.0
+    return h
+
+
+def ride_step(q, p, impulse0, modes, u, alpha, beta, coef, quadratic, rate, table, rs):
+    """One step from the modal state (q, q') with the contact impulse ``impulse0`` so far:
+    ``table`` filled with the polynomials in theta = tau / h (rows as :func:`ride_series`, the
+    impulse's from impulse0); returns (h, theta_end), theta_end < 1 where the relative flow
+    changes sign under the quadratic drag (the step ends there)."""
+    sign = 1.0
+    ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs)
+    if quadratic:
+        lead = 1.0  # the sign of r, or where r = 0 the one it moves to
+        for n in range(ORDER + 1):
+            if rs[n] != 0.0:
+                lead = rs[n]
+                break
+        if lead < 0.0:
+            sign = -1.0
+            ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs)
+    h = step_length(table, modes, u, rate)
+    power = 1.0
+    for n in range(ORDER + 1):
+        for j in range(table.shape[0]):
+            table[j, n] *= power
+        rs[n] *= sign * power
+        power *= h
+    table[2 * q.size, 0] = impulse0
+    theta_end = 1.0
+    if quadratic:
+        theta = first_negative(rs, 0.0, 1.0)
+        if theta >= 0.0:
+            theta_end = theta
+    return h, theta_end
+
+
+KERNELS: dict[str, Any] = {}
+
+
+def _build(numba: Any) -> dict[str, Any]:
+    f8, i8 = numba.float64, numba.int64
+    a1, a2 = f8[::1], f8[:, ::1]
+    h = jit(numba, (a1, f8), horner)
+    rows = jit(numba, (a2, f8, a1), horner_rows, horner=h)
+    crossing = jit(numba, (a1, f8, f8), _crossing, horner=h)
+    negative = jit(numba, (a1, f8, f8), first_negative, horner=h, _crossing=crossing)
+    series = jit(numba, (a1, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_series)
+    length = jit(numba, (a2, a2, f8, f8), step_length)
+    step = jit(numba, (a1, a1, f8, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_step,
+               ride_series=series, step_length=length, first_negative=negative)
+    return {"horner_rows": entry_point(rows), "first_negative": entry_point(negative),
+            "ride_step": entry_point(step)}
+
+
+#: The compiled kernels where numba is (``fast`` extra), else None: the pure functions run
+COMPILED = compile_or_none("the modal riding steps", _build)
+if COMPILED is not None:
+    KERNELS.update(COMPILED)
+else:
+    KERNELS.update(horner_rows=horner_rows, first_negative=first_negative, ride_step=ride_step)
