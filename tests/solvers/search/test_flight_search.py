@@ -140,7 +140,7 @@ def test_the_functions_pieces_are_the_flights(x0, v0, dz, w0, u, c, model, t):
             assert got == want or (got != got and not 1e-140 < math.sqrt(
                 y * y + ydot * ydot / osc.omega2) < 1e140)
     cleared = flight_search._clearance(offset + x0, v0, offset - dz, w0, offset, osc.omega2,
-                                       osc.sigma, over, s_slow, s_fast, u, coef, quadratic)
+                                       osc.sigma, over, s_slow, s_fast, u, coef, quadratic, 0)
     if cleared == cleared:
         assert cleared == flight.clearance(0.0)
     else:  # an undamped structure, or an amplitude bound at the scales of math.hypot's form

@@ -33,11 +33,13 @@ import numpy as np
 from ...errors import SolverError
 from ...physics.ice import downstream_speed_bound
 from ...physics.modes import Modes
-from ...physics.structure import Oscillator
+from ...physics.structure import FORM_UNDER, Oscillator
 from ...record import Record
 from ..base import GAP_ULPS, State
 from ..contact_rules import Phase, reanchor_on_flow_change
-from ..search import modal_taylor
+from ..search import modal_search, modal_taylor
+from ..search.flight_search import FlightSearch
+from ..search.modal_search import STATE
 from ..search.modal_taylor import KERNELS
 from ..search.rootfind import RootSearch
 from .context import SegmentContext
@@ -68,12 +70,28 @@ class ModalContext(SegmentContext):
         return self.modes.bounds(q, p)
 
 
+class ModalFlightSearch(FlightSearch):
+    """The root search of a modal flight's gap: :func:`~.flight_search.flight_root` on the
+    modes' functions (:mod:`~iceimpact.solvers.search.modal_search`), compiled where numba is;
+    RootSearch on the flight's own probe and clearance where a step leaves its common path."""
+
+    kernel = staticmethod(modal_search.KERNEL)
+
+    def next_root_of(self, horizon: float, signal: Any) -> float | None:
+        if self.a == 0.0 and not self.handed_back:  # the search probes the anchor itself
+            state = signal.integrated[1]
+            state[STATE.DQ] = 0.0
+            state[STATE.P] = state[STATE.P0]
+        return super().next_root_of(horizon, signal)
+
+
 class ModalFlight:
     """Both bodies free: each mode on its closed form from the anchor (q0, q0'), the ice on its
     drag law from (z0, w0); the signal of the root search is the gap x - z."""
 
     __slots__ = ("modes", "drag", "t0", "q0", "p0", "z0", "w0", "u", "start", "x0", "v0",
-                 "gap0", "search", "_motions", "_z_motion", "_last")
+                 "gap0", "search", "_motions", "_z_motion", "_last", "integrated",
+                 "kernel_constants")
     phase = Phase.FLIGHT
     PUSHES = False
     FRONTIER_ONLY = True
@@ -92,7 +110,23 @@ class ModalFlight:
                               zip(modes.oscillators, self.q0, self.p0, strict=True))
         self._z_motion = drag.response(*drag.flight_constants(w0, u))
         self._last: tuple = (0.0, 0.0, self.v0, 0.0, w0, (0.0,) * modes.count, self.p0)
-        self.search = RootSearch(start, _time_eps(t0))
+        self.integrated = modal_search.new_modes(modes.oscillators, modes.phi, self.q0,
+                                                 self.p0)
+        # flight_root's constants (Flight.kernel_constants' order): the oscillator's and its
+        # free response's are the modes' (in integrated); an infinite offset asks the envelope
+        # clearance at every step; the anchor's speed is c5 of the under-damped form
+        self.kernel_constants = (self.gap0, self.x0, z0, math.inf, 1.0, 0.0, 1.0, 1.0, 0.0,
+                                 0.0, 0.0, FORM_UNDER, 0.0, 0.0, 0.0, 0.0, 0.0, self.v0, 0.0,
+                                 0.0, *drag.flight_constants(w0, u), u, *drag.law_constants,
+                                 math.inf, self.integrated)
+        self.search = ModalFlightSearch(start, _time_eps(t0))
+
+    def remember(self, state: tuple[float, float, float, float, float]) -> None:
+        """Keep ``(tau, x - x0, v, z - z0, w)`` of a root the search found, with the modal
+        state there (the last point it evaluated)."""
+        tau, dx, v, dz, w = state
+        modal = self.integrated[1]
+        self._last = (tau, dx, v, dz, w, modal[STATE.DQ].tolist(), modal[STATE.P].tolist())
 
     def _motion(self, tau: float) -> tuple:
         """(tau, x - x0, v, z - z0, w, (q_k - q_k0), (q_k')) at tau; the last one is kept (the

@@ -142,7 +142,8 @@ def _dragged_probe(x, v, offset, mass, damping, stiffness, omega2, over, s_slow,
                           q[FLIGHT.OMEGA2], q[FLIGHT.B])
 
 
-def _no_clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u, coef, quadratic):
+def _no_clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u, coef, quadratic,
+                  integrated):
     """``flight_search._clearance`` where the structure has no closed-form envelope
     (``DraggedFlight.clearance`` is None): nothing proven."""
     return 0.0

@@ -148,11 +148,13 @@ def _amplitude(y, ydot, omega2, over, s_slow, s_fast):
     return min(energy, modes * (1.0 + 1e-15))
 
 
-def _clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u, coef, quadratic):
+def _clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u, coef, quadratic,
+               integrated):
     """``Flight.clearance`` at a point where the ice is upstream of the structure's rest
     position (z < offset), written out for the oscillator (damping rate sigma; ``over`` and the
     exponents s1, s2 as :func:`_amplitude` takes them); NaN where the drift clearance or a
-    hypot-scaled amplitude bound would be asked (RootSearch's)."""
+    hypot-scaled amplitude bound would be asked (RootSearch's). ``integrated`` is unused (a
+    structure of another kind reads its motion there: :mod:`.modal_search`)."""
     reach = _amplitude(x - offset, v, omega2, over, s_slow, s_fast)
     if reach != reach:
         return math.nan  # (its math.hypot form: RootSearch's)
@@ -254,7 +256,7 @@ def flight_root(horizon, a, iterations, creep, probed_at, pf, pdf, pd2, pbound, 
         cleared = 0.0
         if not z0 + dz >= offset:
             cleared = _clearance(x0 + dx, v, z0 + dz, w, offset, omega2, sigma, over, s_slow,
-                                 s_fast, u, coef, quadratic)
+                                 s_fast, u, coef, quadratic, integrated)
         what, b = plan(a, f, df, d2, bound, jerk, cleared, 1.0, max_step, time_eps,
                        iterations + 1, creep, False)
         if what == AT_FRONTIER:
