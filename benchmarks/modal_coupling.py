@@ -62,8 +62,8 @@ MODE1 = (math.sqrt(1e6 / 1600.0) / (2.0 * math.pi), 200.0 / (2.0 * math.sqrt(1e6
          1600.0, 1.0)
 MODE2 = (11.0, 0.02, 1600.0, 0.6)
 MODES = (MODE1, MODE2)
-#: the smooth load at the contact point: F = A sin(2 pi f t)
-LOAD_A, LOAD_F = 2.0e4, 0.3
+#: the smooth loads at the contact point, F = A sin(2 pi f t): (A N, f Hz)
+LOADS = ((2.0e4, 0.1), (2.0e4, 0.3), (2.0e4, 0.5))
 #: approach speed over which an impact is counted and matched, m/s
 COUNTED = 1e-4
 
@@ -173,7 +173,7 @@ def reference(load=None) -> Reference:
                      scene.ice_z0, scene.ice_v0, load)
 
 
-# the runs ------------------------------------------------------------------------------------------
+# the runs ----------------------------------------------------------------------------------------
 def modal_scene(**extra) -> Scene:
     values = {"structure_model": 3, "structure_modes": 2}
     for k, (f, zeta, m, phi) in enumerate(MODES, start=1):
@@ -255,7 +255,8 @@ class Slave(system.Slave):
             super().set(name, value)
 
 
-def load_driven_run(fmus: Path, sine: Path, h: float) -> dict:
+def load_driven_run(fmus: Path, sine: Path, h: float, amplitude: float,
+                    frequency: float) -> dict:
     """IceImpact.fmu's modes driven by SineLoad.fmu, Jacobi: both step from the values at t."""
     ice = {"structure.model": 3, "structure.modes": 2, "drag.model": ICE["drag_model"],
            "ice.M": ICE["ice_M"], "impact.e": ICE["impact_e"], "flow.u": ICE["flow_u"]}
@@ -263,7 +264,7 @@ def load_driven_run(fmus: Path, sine: Path, h: float) -> dict:
         ice.update({f"structure.mode{k}.f": f, f"structure.mode{k}.zeta": zeta,
                     f"structure.mode{k}.m": m, f"structure.mode{k}.phi": phi})
     ice_fmu = Slave(fmus / "IceImpact.fmu", "ice", ice)
-    source = system.Slave(sine, "load", {"A": LOAD_A, "f": LOAD_F})
+    source = system.Slave(sine, "load", {"A": amplitude, "f": frequency})
     n = round(T_END / h)
     x = [ice_fmu.get("structure.x")]
     try:
@@ -281,11 +282,13 @@ def load_driven_run(fmus: Path, sine: Path, h: float) -> dict:
     return {"x": np.array(x), "count": int(count)}
 
 
-def sine_load(t: float) -> np.ndarray:
-    return np.array([mode[3] for mode in MODES]) * LOAD_A * math.sin(2.0 * math.pi * LOAD_F * t)
+def sine_load(amplitude: float, frequency: float):
+    """The generalized loads ``L_k(t) = phi_k A sin(2 pi f t)`` as a continuous function."""
+    phi = np.array([mode[3] for mode in MODES])
+    return lambda t: phi * amplitude * math.sin(2.0 * math.pi * frequency * t)
 
 
-# measures --------------------------------------------------------------------------------------------
+# measures ----------------------------------------------------------------------------------------
 def x_error(x: np.ndarray, x_ref: np.ndarray) -> float:
     n = min(len(x), len(x_ref))
     return float(np.max(np.abs(x[:n] - x_ref[:n])) / np.max(np.abs(x_ref[:n])))
@@ -309,11 +312,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     args = parser.parse_args(argv)
 
+    # built before any FMU runs: a loaded PythonFMU FMU puts its own bundled pythonfmu (removed
+    # with the FMU's folder when it is freed) first on sys.path
+    tmp = Path(tempfile.mkdtemp())
+    sine = build_sine_fmu(tmp)
     finest = np.arange(round(T_END / min(STEPS)) + 1) * min(STEPS)
     ref = reference()
     x_fine = ref.run(T_END, finest)
-    loaded = reference(sine_load)
-    x_fine_loaded = loaded.run(T_END, finest)
 
     def on_grid(x_f: np.ndarray, h: float) -> np.ndarray:
         return x_f[::round(h / min(STEPS))]
@@ -351,21 +356,22 @@ def main(argv: list[str] | None = None) -> None:
                 add(two, f"{label}, ModalStructure.fmu", str(order), h, result["x"],
                     (result["count"], n_ref), math.nan, time.perf_counter() - start,
                     on_grid(x_fine, h))
-    tmp = Path(tempfile.mkdtemp())
     try:
-        sine = build_sine_fmu(tmp)
-        n_loaded = len(loaded.impacts)
-        for h in STEPS:
-            start = time.perf_counter()
-            result = load_driven_run(args.fmus, sine, h)
-            add(f"two modes + SineLoad.fmu (A = {LOAD_A:g} N, f = {LOAD_F:g} Hz)",
-                "Jacobi, modes inside", "", h, result["x"], (result["count"], n_loaded),
-                math.nan, time.perf_counter() - start, on_grid(x_fine_loaded, h))
+        for amplitude, frequency in LOADS:
+            loaded = reference(sine_load(amplitude, frequency))
+            x_fine_loaded = loaded.run(T_END, finest)
+            for h in STEPS:
+                start = time.perf_counter()
+                result = load_driven_run(args.fmus, sine, h, amplitude, frequency)
+                add(f"two modes + SineLoad.fmu (A = {amplitude:g} N, f = {frequency:g} Hz)",
+                    "Jacobi, modes inside", "", h, result["x"],
+                    (result["count"], len(loaded.impacts)), math.nan,
+                    time.perf_counter() - start, on_grid(x_fine_loaded, h))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "modal_coupling.json").write_text(json.dumps(
-        {"t_end": T_END, "modes": MODES, "load": {"A": LOAD_A, "f": LOAD_F}, "rows": rows},
+        {"t_end": T_END, "modes": MODES, "loads": LOADS, "rows": rows},
         indent=1) + "\n")
     (args.out / "modal_coupling.md").write_text("\n".join(lines) + "\n")
 
