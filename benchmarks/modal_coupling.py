@@ -334,7 +334,9 @@ def main(argv: list[str] | None = None) -> None:
                "impact_time_error": dt, "wall": wall}
         rows.append(row)
         dt_text = "" if math.isnan(dt) else f"{dt:.1e}"
-        line = (f"| {system_name} | {master} | {order} | {h:g} | {row['x_error']:.2%} | "
+        err = row["x_error"]
+        err_text = f"{err:.2%}" if err >= 1e-4 else f"{err:.1e}"
+        line = (f"| {system_name} | {master} | {order} | {h:g} | {err_text} | "
                 f"{counts[0]} / {counts[1]} | {dt_text} | {wall:.2f} |")
         lines.append(line)
         print(line, flush=True)
