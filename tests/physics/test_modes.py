@@ -68,7 +68,7 @@ def test_the_bounds_hold_over_a_flight_and_the_closed_forms_match_an_integration
             assert q0[k] + dq == pytest.approx(y[k, i], abs=1e-12)
             assert pk == pytest.approx(y[n + k, i], abs=1e-11)
     # the contact point's acceleration and jerk never exceed the bounds from the start
-    _, a_max, j_max = modes.bounds(q0, p0)
+    _, a_max, j_max = modes.bounds(0.0, q0, p0)
     accel = np.zeros_like(t)
     for k, (f, zeta, m, phi) in enumerate(table):
         omega = 2 * math.pi * f
@@ -77,7 +77,9 @@ def test_the_bounds_hold_over_a_flight_and_the_closed_forms_match_an_integration
     jerk = np.gradient(accel, t)
     assert np.max(np.abs(jerk[5:-5])) <= j_max * (1 + 1e-6)
     # and the envelope holds the contact point
-    centre, reach = modes.envelope(q0, p0)
+    centre = sum(phi * off for (_, _, _, phi), off in zip(table, modes.offsets(0.0),
+                                                        strict=True))
+    reach = modes.reach(*modes.deviations(0.0, q0, p0))
     x = sum(phi * y[k] for k, (_, _, _, phi) in enumerate(table))
     assert np.max(np.abs(x - centre)) <= reach * (1 + 1e-12)
 

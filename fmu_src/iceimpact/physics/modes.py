@@ -4,15 +4,17 @@ A designer's structure is a table of modes from a finite-element model: for mode
 frequency f_k (omega_k = 2 pi f_k), a damping ratio zeta_k, a modal mass m_k and the value phi_k
 of its mode shape at the ice action point (docs/explanation/modes.md)::
 
-    m_k q_k'' + c_k q_k' + k_k q_k = phi_k F + L_k,   c_k = 2 zeta_k omega_k m_k,
-    k_k = m_k omega_k^2
-    x = sum phi_k q_k,   v = sum phi_k q_k'
+    m_k q_k'' + c_k q_k' + k_k q_k = phi_k F + L_k(t),   c_k = 2 zeta_k omega_k m_k,
+    k_k = m_k omega_k^2,   x = sum phi_k q_k,   v = sum phi_k q_k'
 
 F is the contact force on the structure and L_k a generalized load from the rest of the system,
-held over a communication step. Free of contact each mode is a damped oscillator in closed form
-(:class:`~.structure.Oscillator`, every damping regime, with the offset L_k / k_k of its held
-load), so the contact point's motion is a sum of closed forms, and bounds on its derivatives for
-all later times are sums of the modes' bounds (each mode's energy never grows).
+given at the start of a communication step (``since``) with its rate: ``L_k(t) = L_k + R_k (t -
+since)`` over the step (R_k = 0: held). Free of contact each mode is then its free response
+about the particular solution ``q_p(t) = (L_k(t) - c_k rho_k) / k_k``, rho_k = R_k / k_k, which
+moves at the speed rho_k: with ``y = q - q_p`` the damped oscillator ``m_k y'' + c_k y' + k_k y =
+0`` in closed form (:class:`~.structure.Oscillator`, every damping regime), so the contact
+point's motion is a sum of closed forms, and bounds on its derivatives for all later times are
+sums of the modes' bounds (each free response's energy never grows; q_k'' = y'').
 
 An impulse J at the contact point changes mode k's velocity by ``phi_k J / m_k`` and the contact
 point's by ``J / m_eff``, with the effective mass ``1 / m_eff = sum phi_k^2 / m_k``: the impact
@@ -34,19 +36,24 @@ from .structure import Oscillator
 
 
 class Modes:
-    """The modes of the structure under held generalized loads ``loads`` (N, one per mode).
+    """The modes of the structure under the generalized loads ``loads`` (N, one per mode) given
+    at the time ``since`` (s) and changing at ``rates`` (N/s; default 0: held).
 
     ``table`` rows are ``(f, zeta, m, phi)`` (Hz, 1, kg, 1); further columns are ignored, so a
     scene's :attr:`~iceimpact.Scene.mode_table` serves as it is."""
 
-    __slots__ = ("table", "loads", "phi", "mass", "oscillators", "count", "flexibility",
-                 "effective_mass", "share")
+    __slots__ = ("table", "loads", "rates", "since", "phi", "mass", "oscillators", "count",
+                 "flexibility", "effective_mass", "share", "drift", "held")
 
-    def __init__(self, table: Sequence[Sequence[float]], loads: Sequence[float] | None = None):
+    def __init__(self, table: Sequence[Sequence[float]], loads: Sequence[float] | None = None,
+                 rates: Sequence[float] | None = None, since: float = 0.0):
         self.table = tuple(tuple(float(value) for value in row[:4]) for row in table)
-        self.count = len(self.table)
-        self.loads = tuple(float(load) for load in loads) if loads is not None else (
-            (0.0,) * self.count)
+        self.count = n = len(self.table)
+        self.loads = tuple(float(load) for load in loads) if loads is not None else (0.0,) * n
+        self.rates = tuple(float(rate) for rate in rates) if rates is not None else (0.0,) * n
+        self.since = float(since)
+        #: no load changes within the step: the particular solutions stand still
+        self.held = all(rate == 0.0 for rate in self.rates)
         oscillators = []
         flexibility = 0.0
         for (f, zeta, m, phi), load in zip(self.table, self.loads, strict=True):
@@ -55,10 +62,14 @@ class Modes:
             oscillators.append(Oscillator(m, 2.0 * zeta * omega * m, stiffness,
                                           offset=load / stiffness))
             flexibility += phi * phi / m
-        #: (phi_k), (m_k), the oscillators of the modes (each q_k's closed form)
+        #: (phi_k), (m_k), the oscillators of the modes (each free response's closed form; their
+        #: offsets the held loads' static deflections)
         self.phi = tuple(row[3] for row in self.table)
         self.mass = tuple(row[2] for row in self.table)
         self.oscillators = tuple(oscillators)
+        #: rho_k = R_k / k_k (m/s): the speed of mode k's particular solution
+        self.drift = tuple(rate / osc.stiffness for rate, osc in zip(self.rates, oscillators,
+                                                                      strict=True))
         #: sum phi_k^2 / m_k (1/kg) and its inverse, the contact point's effective mass (kg)
         self.flexibility = flexibility
         self.effective_mass = 1.0 / flexibility
@@ -66,9 +77,31 @@ class Modes:
         self.share = tuple(phi * self.effective_mass / m for phi, m in zip(self.phi, self.mass,
                                                                             strict=True))
 
-    def with_loads(self, loads: Sequence[float]) -> Modes:
-        """The same modes under other held loads (N)."""
-        return Modes(self.table, loads)
+    def with_loads(self, loads: Sequence[float], rates: Sequence[float] | None = None,
+                   since: float = 0.0) -> Modes:
+        """The same modes under other loads (N) given at ``since`` (s), changing at ``rates``
+        (N/s)."""
+        return Modes(self.table, loads, rates, since)
+
+    def loads_at(self, t: float) -> list[float]:
+        """The generalized loads at time t (s), N."""
+        return [load + rate * (t - self.since) for load, rate in zip(self.loads, self.rates,
+                                                                       strict=True)]
+
+    def offsets(self, t: float) -> list[float]:
+        """Each mode's particular solution at time t (m): ``(L_k(t) - c_k rho_k) / k_k``, the
+        held load's static deflection when the loads are held."""
+        if self.held:
+            return [osc.offset for osc in self.oscillators]
+        return [(load - osc.damping * rho) / osc.stiffness for load, rho, osc in
+                zip(self.loads_at(t), self.drift, self.oscillators, strict=True)]
+
+    def deviations(self, t: float, q: Sequence[float],
+                   p: Sequence[float]) -> tuple[list[float], list[float]]:
+        """Each mode's free response at time t from the modal state (q, q'): ``(q_k - q_p,
+        q_k' - rho_k)``."""
+        return ([qk - off for qk, off in zip(q, self.offsets(t), strict=True)],
+                [pk - rho for pk, rho in zip(p, self.drift, strict=True)])
 
     def contact(self, q: Sequence[float], p: Sequence[float]) -> tuple[float, float]:
         """The contact point's displacement and velocity ``(sum phi q, sum phi q')``."""
@@ -84,56 +117,58 @@ class Modes:
         by ``phi_k J / m_k`` (:attr:`share` times dv)."""
         return [pk + share * dv for pk, share in zip(p, self.share, strict=True)]
 
-    def free_accelerations(self, q: Sequence[float], p: Sequence[float]) -> list[float]:
-        """Each mode's q_k'' without a contact force (under its held load), m/s^2."""
-        return [osc.acceleration(qk, pk) for osc, qk, pk in zip(self.oscillators, q, p,
-                                                                strict=True)]
-
-    def contact_acceleration(self, q: Sequence[float], p: Sequence[float]) -> float:
-        """The contact point's acceleration without a contact force, ``sum phi_k q_k''``."""
+    def contact_acceleration(self, t: float, q: Sequence[float], p: Sequence[float]) -> float:
+        """The contact point's acceleration without a contact force at time t,
+        ``sum phi_k (L_k(t) - c_k q_k' - k_k q_k) / m_k``."""
         a = 0.0
-        for phi, ak in zip(self.phi, self.free_accelerations(q, p), strict=True):
-            a += phi * ak
+        for phi, osc, load, qk, pk in zip(self.phi, self.oscillators, self.loads_at(t), q, p,
+                                          strict=True):
+            a += phi * ((load - osc.damping * pk - osc.stiffness * qk) / osc.mass)
         return a
 
-    def bounds(self, q: Sequence[float], p: Sequence[float]) -> tuple[float, float, float]:
+    def bounds(self, t: float, q: Sequence[float],
+               p: Sequence[float]) -> tuple[float, float, float]:
         """(x'', a bound on |x''|, a bound on |x'''|) of the contact point for all later times
-        of a flight from the modal state (q, q'): the sums over the modes of phi_k times each
-        oscillator's (:meth:`~.structure.Oscillator.bounds`, its energy never grows)."""
+        of a flight from the modal state (q, q') at time t: the sums over the modes of phi_k
+        times each free response's (:meth:`~.structure.Oscillator.deviation_bounds`)."""
+        y, ydot = self.deviations(t, q, p)
+        return self.deviation_bounds(y, ydot)
+
+    def deviation_bounds(self, y: Sequence[float],
+                         ydot: Sequence[float]) -> tuple[float, float, float]:
+        """:meth:`bounds` from each mode's free response (y, y')."""
         a = a_max = j_max = 0.0
-        for phi, osc, qk, pk in zip(self.phi, self.oscillators, q, p, strict=True):
+        for phi, osc, yk, ydk in zip(self.phi, self.oscillators, y, ydot, strict=True):
             if phi == 0.0:
                 continue
-            ak, ak_max, jk_max = osc.bounds(qk, pk)
+            ak, ak_max, jk_max = osc.deviation_bounds(yk, ydk)
             size = phi if phi > 0.0 else -phi
             a += phi * ak
             a_max += size * ak_max
             j_max += size * jk_max
         return a, a_max, j_max
 
-    def envelope(self, q: Sequence[float], p: Sequence[float]) -> tuple[float, float]:
-        """``(sum phi_k offset_k, sum |phi_k| R_k)``: the contact point stays within the second
-        of the first for all later times of a flight, R_k mode k's amplitude bound about its
-        offset (:meth:`~.structure.Oscillator.amplitude_bound`)."""
-        centre = reach = 0.0
-        for phi, osc, qk, pk in zip(self.phi, self.oscillators, q, p, strict=True):
+    def reach(self, y: Sequence[float], ydot: Sequence[float]) -> float:
+        """``sum |phi_k| R_k``: the contact point stays within it of ``sum phi_k q_p`` for all
+        later times of a flight, R_k mode k's amplitude bound
+        (:meth:`~.structure.Oscillator.amplitude_bound`) from its free response (y, y')."""
+        reach = 0.0
+        for phi, osc, yk, ydk in zip(self.phi, self.oscillators, y, ydot, strict=True):
             if phi == 0.0:
                 continue
-            centre += phi * osc.offset
-            reach += (phi if phi > 0.0 else -phi) * osc.amplitude_bound(qk - osc.offset, pk)
-        return centre, reach
+            reach += (phi if phi > 0.0 else -phi) * osc.amplitude_bound(yk, ydk)
+        return reach
 
     def ride_table(self) -> np.ndarray:
         """The modes as the riding phase's Taylor steps take them
-        (:mod:`iceimpact.solvers.search.modal_taylor`): rows phi_k, m_k, c_k, k_k, L_k, omega_k
-        and the load's offset L_k / k_k, a column per mode."""
+        (:mod:`iceimpact.solvers.search.modal_taylor`): rows phi_k, m_k, c_k, k_k, R_k,
+        omega_k, a column per mode (the loads at each step's start are given per step)."""
         return np.array([self.phi, self.mass,
                          [osc.damping for osc in self.oscillators],
-                         [osc.stiffness for osc in self.oscillators], self.loads,
-                         [math.sqrt(osc.omega2) for osc in self.oscillators],
-                         [osc.offset for osc in self.oscillators]], dtype=float)
+                         [osc.stiffness for osc in self.oscillators], self.rates,
+                         [math.sqrt(osc.omega2) for osc in self.oscillators]], dtype=float)
 
-    def rates(self) -> float:
+    def rates_bound(self) -> float:
         """The fastest rate of the free modes, 1/s: the largest ``omega_k (zeta_k +
         sqrt(zeta_k^2 + 1))`` (the magnitude of its fastest exponent, bounding an under-damped
         mode's omega_k too)."""

@@ -442,6 +442,20 @@ class Oscillator:
             return a, sqrt(a * a + j * j / omega2), sqrt(j * j + s * s / omega2)
         return a, self.amplitude_bound(a, j), self.amplitude_bound(j, s)
 
+    def deviation_bounds(self, y: float, ydot: float) -> tuple[float, float, float]:
+        """:meth:`bounds` of the free response from its deviation y (= x - offset) and its
+        rate: the acceleration and bounds on its magnitude and the jerk's for all later times.
+        A structure whose equilibrium moves (a load changing linearly in time) follows its free
+        response about it (:mod:`.modes`)."""
+        mass, damping, stiffness = self.mass, self.damping, self.stiffness
+        a = -(damping * ydot + stiffness * y) / mass
+        j = -(damping * a + stiffness * ydot) / mass
+        s = -(damping * j + stiffness * a) / mass
+        if self.regime != OVER:
+            omega2 = self.omega2
+            return a, sqrt(a * a + j * j / omega2), sqrt(j * j + s * s / omega2)
+        return a, self.amplitude_bound(a, j), self.amplitude_bound(j, s)
+
     def derivative_chain(self, x: float, v: float, order: int) -> list[float]:
         """[y, y', y'', ..., y^(order)] at state (x, v), from the equation of motion."""
         chain = [x - self.offset, v]

@@ -58,16 +58,16 @@ class ModalContext(SegmentContext):
     def __init__(self, *args: Any, **kwargs: Any):
         super().__init__(*args, **kwargs)
         self.modes: Modes | None = None
-        self.now: Callable[[float], tuple[list[float], list[float]]] | None = None
+        self.now: Callable[[float], tuple[list[float], list[float], float]] | None = None
         self.free_accels = self._modal_free_accels
 
     def _modal_free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
-        q, p = self.now(v)
-        return self.modes.contact_acceleration(q, p), self.drag.accel_bounds(w, u)[0]
+        q, p, t = self.now(v)
+        return self.modes.contact_acceleration(t, q, p), self.drag.accel_bounds(w, u)[0]
 
     def structure_bounds(self, x: float, v: float, u: float) -> tuple[float, float, float]:
-        q, p = self.now(v)
-        return self.modes.bounds(q, p)
+        q, p, t = self.now(v)
+        return self.modes.bounds(t, q, p)
 
 
 class ModalFlightSearch(FlightSearch):
@@ -80,18 +80,22 @@ class ModalFlightSearch(FlightSearch):
     def next_root_of(self, horizon: float, signal: Any) -> float | None:
         if self.a == 0.0 and not self.handed_back:  # the search probes the anchor itself
             state = signal.integrated[1]
-            state[STATE.DQ] = 0.0
-            state[STATE.P] = state[STATE.P0]
+            state[STATE.DY] = 0.0
+            state[STATE.YD] = state[STATE.YD0]
+            state[STATE.T, 0] = 0.0
         return super().next_root_of(horizon, signal)
 
 
 class ModalFlight:
     """Both bodies free: each mode on its closed form from the anchor (q0, q0'), the ice on its
-    drag law from (z0, w0); the signal of the root search is the gap x - z."""
+    drag law from (z0, w0); the signal of the root search is the gap x - z. Mode k moves as its
+    free response y_k about its particular solution (a held load's static deflection, or one
+    moving at rho_k under a load that changes linearly: :mod:`~iceimpact.physics.modes`):
+    ``q_k - q_k0 = (y_k - y_k0) + rho_k tau``."""
 
     __slots__ = ("modes", "drag", "t0", "q0", "p0", "z0", "w0", "u", "start", "x0", "v0",
-                 "gap0", "search", "_motions", "_z_motion", "_last", "integrated",
-                 "kernel_constants")
+                 "gap0", "search", "y0", "yd0", "offsets", "_motions", "_z_motion", "_last",
+                 "integrated", "kernel_constants")
     phase = Phase.FLIGHT
     PUSHES = False
     FRONTIER_ONLY = True
@@ -105,13 +109,14 @@ class ModalFlight:
         self.q0, self.p0 = tuple(q0), tuple(p0)
         self.x0, self.v0 = modes.contact(self.q0, self.p0)
         self.gap0 = self.x0 - z0
-        # each mode's closed form from its anchor, t -> (q - q0, q'), constants computed once
-        self._motions = tuple(osc.increment(qk, pk) for osc, qk, pk in
-                              zip(modes.oscillators, self.q0, self.p0, strict=True))
+        #: each mode's particular solution and free response (y, y') at the anchor
+        self.offsets = modes.offsets(t0)
+        self.y0, self.yd0 = modes.deviations(t0, self.q0, self.p0)
+        self._motions = None  # (built when Python evaluates the motion)
         self._z_motion = drag.response(*drag.flight_constants(w0, u))
-        self._last: tuple = (0.0, 0.0, self.v0, 0.0, w0, (0.0,) * modes.count, self.p0)
-        self.integrated = modal_search.new_modes(modes.oscillators, modes.phi, self.q0,
-                                                 self.p0)
+        self._last: tuple = (0.0, 0.0, self.v0, 0.0, w0, (0.0,) * modes.count, self.p0,
+                             (0.0,) * modes.count, tuple(self.yd0))
+        self.integrated = modal_search.new_modes(modes, t0, self.q0, self.p0)
         # flight_root's constants (Flight.kernel_constants' order): the oscillator's and its
         # free response's are the modes' (in integrated); an infinite offset asks the envelope
         # clearance at every step; the anchor's speed is c5 of the under-damped form
@@ -126,67 +131,93 @@ class ModalFlight:
         state there (the last point it evaluated)."""
         tau, dx, v, dz, w = state
         modal = self.integrated[1]
-        self._last = (tau, dx, v, dz, w, modal[STATE.DQ].tolist(), modal[STATE.P].tolist())
+        dy, yd = modal[STATE.DY].tolist(), modal[STATE.YD].tolist()
+        drift = self.modes.drift
+        self._last = (tau, dx, v, dz, w,
+                      [d + rho * tau for d, rho in zip(dy, drift, strict=True)],
+                      [y + rho for y, rho in zip(yd, drift, strict=True)], dy, yd)
 
     def _motion(self, tau: float) -> tuple:
-        """(tau, x - x0, v, z - z0, w, (q_k - q_k0), (q_k')) at tau; the last one is kept (the
-        search asks again for the point it just tested)."""
+        """(tau, x - x0, v, z - z0, w, (q_k - q_k0), (q_k'), (y_k - y_k0), (y_k')) at tau, as
+        :func:`~iceimpact.solvers.search.modal_search._modal_gap_point` evaluates it; the last
+        one is kept (the search asks again for the point it just tested)."""
         last = self._last
         if last[0] == tau:
             return last
-        dq, p = [], []
+        if self._motions is None:
+            self._motions = tuple(osc.deviation_increment(y, yd) for osc, y, yd in
+                                  zip(self.modes.oscillators, self.y0, self.yd0, strict=True))
+        dq, p, dy, yd = [], [], [], []
         dx = v = 0.0
-        for phi, motion in zip(self.modes.phi, self._motions, strict=True):
-            dqk, pk = motion(tau)
+        for phi, rho, motion in zip(self.modes.phi, self.modes.drift, self._motions,
+                                    strict=True):
+            dyk, ydk = motion(tau)
+            dy.append(dyk)
+            yd.append(ydk)
+            dqk, pk = dyk + rho * tau, ydk + rho
             dq.append(dqk)
             p.append(pk)
             dx += phi * dqk
             v += phi * pk
         dz, w = self._z_motion(tau)
-        self._last = last = (tau, dx, v, dz, w, dq, p)
+        self._last = last = (tau, dx, v, dz, w, dq, p, dy, yd)
         return last
 
     def modal_state(self, tau: float) -> tuple[list[float], list[float]]:
         """The modes' (q, q') at tau."""
-        _, _, _, _, _, dq, p = self._motion(tau)
+        dq, p = self._motion(tau)[5:7]
         return [q0 + d for q0, d in zip(self.q0, dq, strict=True)], list(p)
 
     def state(self, tau: float) -> tuple[float, float, float, float]:
-        _, dx, v, dz, w, _, _ = self._motion(tau)
+        _, dx, v, dz, w = self._motion(tau)[:5]
         return self.x0 + dx, v, self.z0 + dz, w
 
     def gap(self, tau: float) -> float:
-        _, dx, _, dz, _, _, _ = self._motion(tau)
+        _, dx, _, dz, _ = self._motion(tau)[:5]
         return self.gap0 + (dx - dz)
 
     def gap_and_rate(self, tau: float) -> tuple[float, float]:
-        _, dx, v, dz, w, _, _ = self._motion(tau)
+        _, dx, v, dz, w = self._motion(tau)[:5]
         return self.gap0 + (dx - dz), v - w
 
     value, value_and_rate = gap, gap_and_rate
 
+    def _free_responses(self, tau: float) -> tuple[tuple, list[float], list[float]]:
+        """The motion at tau and each mode's free response (y, y') there."""
+        last = self._motion(tau)
+        return last, [y0 + d for y0, d in zip(self.y0, last[7], strict=True)], list(last[8])
+
     def probe(self, tau: float) -> tuple[float, float, float, float, float]:
-        """Gap, its rate and curvature, bounds on |gap''| and |gap'''| for all later times: the
-        modes' bounds summed (:meth:`Modes.bounds`) and the ice's."""
-        _, dx, v, dz, w, dq, p = self._motion(tau)
-        q = [q0 + d for q0, d in zip(self.q0, dq, strict=True)]
-        a_x, a_x_max, j_x_max = self.modes.bounds(q, p)
+        """Gap, its rate and curvature, bounds on the magnitudes of its second and third
+        derivatives for all later times: the modes' bounds summed
+        (:meth:`Modes.deviation_bounds`) and the ice's."""
+        last, y, yd = self._free_responses(tau)
+        _, dx, v, dz, w = last[:5]
+        a_x, a_x_max, j_x_max = self.modes.deviation_bounds(y, yd)
         a_z, a_z_max, j_z_max = self.drag.accel_bounds(w, self.u)
         return (self.gap0 + (dx - dz), v - w, a_x - a_z, a_x_max + a_z_max, j_x_max + j_z_max)
 
     def clearance(self, tau: float) -> float:
         """Time from tau (s) during which the gap provably stays open: the contact point stays
-        within ``sum |phi_k| R_k`` of ``sum phi_k offset_k`` (:meth:`Modes.envelope`), and the
-        ice moves downstream no faster than its speed bound (as :meth:`Flight.clearance`)."""
-        _, dx, v, dz, w, dq, p = self._motion(tau)
+        within ``sum |phi_k| R_k`` (:meth:`Modes.reach`) of ``sum phi_k q_p``, which moves at
+        ``sum phi_k rho_k``, and the ice moves downstream no faster than its speed bound (as
+        :meth:`Flight.clearance`)."""
+        last, y, yd = self._free_responses(tau)
+        _, dx, v, dz, w = last[:5]
         z = self.z0 + dz
-        q = [q0 + d for q0, d in zip(self.q0, dq, strict=True)]
-        centre, reach = self.modes.envelope(q, p)
+        centre = drift = 0.0
+        for phi, off0, rho in zip(self.modes.phi, self.offsets, self.modes.drift, strict=True):
+            if phi == 0.0:
+                continue
+            centre += phi * (off0 + rho * tau)
+            drift += phi * rho
+        reach = self.modes.reach(y, yd)
         x = self.x0 + dx
         margin = (centre - reach - z) - GAP_ULPS * (abs(x) + abs(z) + reach + abs(centre))
         if not margin > 0.0:
             return 0.0
         speed = downstream_speed_bound(w, self.u, self.drag.drags)
+        speed += max(0.0, -drift)  # the envelope's centre moving upstream
         return math.inf if speed == 0.0 else margin / speed
 
     def next_event(self, tau_end: float) -> float | None:
@@ -247,7 +278,7 @@ class ModalRide:
         v0 = modes.contact(self.q0, self.p0)[1]
         drag_rate = (2.0 * self._coef * (abs(u) + abs(v0)) if drag.quadratic
                      else self._coef) / (M + m_eff)
-        self._rate = modes.rates() + drag_rate
+        self._rate = modes.rates_bound() + drag_rate
         self._table = modes.ride_table()
         n = modes.count
         self._rows = 2 * n + 2
@@ -272,7 +303,9 @@ class ModalRide:
             q, p = np.array(self.q0, dtype=float), np.array(self.p0, dtype=float)
             impulse, lo = 0.0, 0.0
         table = np.empty((self._rows, modal_taylor.ORDER + 1))
-        h, theta_end = KERNELS["ride_step"](q, p, impulse, self._table, self.u, self._alpha,
+        loads = np.array(self.modes.loads_at(self.t0 + lo), dtype=float)
+        h, theta_end = KERNELS["ride_step"](q, p, impulse, loads, self._table, self.u,
+                                            self._alpha,
                                             self._beta, self._coef, self._quadratic,
                                             self._rate, table, self._rs)
         hi = lo + h * theta_end
@@ -369,8 +402,9 @@ class ModalSolver(EventSolver):
     def __init__(self, scene: Any, record_impacts: bool = True):
         self._modes = Modes(scene.mode_table, scene.mode_loads)
         x0, v0 = scene.modal_start
-        self._now: tuple[list[float], list[float], float] = (
-            [row[4] for row in scene.mode_table], [row[5] for row in scene.mode_table], v0)
+        #: the modal state (q, q') at the current instant, its contact point's speed, the time
+        self._now: tuple[list[float], list[float], float, float] = (
+            [row[4] for row in scene.mode_table], [row[5] for row in scene.mode_table], v0, 0.0)
         super().__init__(scene, record_impacts)
 
     def _structure(self) -> Oscillator:
@@ -380,7 +414,7 @@ class ModalSolver(EventSolver):
     def _start(self) -> None:
         context = self.context
         context.modes = self._modes
-        context.now = self.modal_now
+        context.now = self._context_now
         x0, v0 = self.scene.modal_start
         s = self.state
         self.state = State(0.0, x0, v0, s.z, s.w)
@@ -390,14 +424,20 @@ class ModalSolver(EventSolver):
     def modal_now(self, v: float) -> tuple[list[float], list[float]]:
         """The modes' (q, q') at the current event with the contact point moving at v: the
         velocities of the state found there, changed by the impulse that moved v."""
-        q, p, v_ref = self._now
+        q, p, v_ref, _ = self._now
         if v == v_ref:
             return list(q), list(p)
         return list(q), self.context.modes.velocity_change(p, v - v_ref)
 
+    def _context_now(self, v: float) -> tuple[list[float], list[float], float]:
+        """:meth:`modal_now` and the time (the context's ``now``)."""
+        q, p = self.modal_now(v)
+        return q, p, self._now[3]
+
     def _take_now(self, tau: float) -> None:
-        q, p = self.seg.modal_state(tau)
-        self._now = (q, p, self.context.modes.contact(q, p)[1])
+        seg = self.seg
+        q, p = seg.modal_state(tau)
+        self._now = (q, p, self.context.modes.contact(q, p)[1], seg.t0 + tau)
 
     def modal_state(self) -> tuple[list[float], list[float]]:
         """The modes' (q, q') at the solver's time."""
@@ -425,18 +465,21 @@ class ModalSolver(EventSolver):
         self._take_now(self.tau)
         super().reanchor(u, t_end)
 
-    def set_loads(self, loads: Sequence[float]) -> None:
-        """Hold the modes' generalized loads (N) from now on: the segment is re-anchored at the
-        current time on the modes under them (as a new flow speed is)."""
+    def set_loads(self, loads: Sequence[float], rates: Sequence[float] | None = None) -> None:
+        """The modes' generalized loads (N) from now on, changing at ``rates`` (N/s; default:
+        held): the segment is re-anchored at the current time on the modes under them (as a new
+        flow speed is), unless held loads do not change."""
+        modes = self.context.modes
         loads = tuple(loads)
-        if loads == self.context.modes.loads:
+        rates = (0.0,) * len(loads) if rates is None else tuple(rates)
+        if loads == modes.loads and rates == modes.rates and modes.held:
             return
+        t = self.state.t
         self._take_now(self.tau)
-        self.context.modes = self.context.modes.with_loads(loads)
+        self.context.modes = modes.with_loads(loads, rates, since=t)
         x, v, z, w = reanchor_on_flow_change(*self.seg.state(self.tau),
                                              self.seg.phase is Phase.STICK)
         end, self.zeno_end = self.zeno_end, None
-        t = self.state.t
         self._begin(t, x, v, z, w, self.u, reanchor=True)
         if end is not None and self.seg.phase is Phase.STICK:
             self._set_sticking(False, t)
@@ -450,16 +493,20 @@ class ModalSolver(EventSolver):
         inner, self.context.modes = checkpoint
         super().rollback(inner)
 
-    _KEYS = EventSolver._KEYS + ("loads",)
+    _KEYS = EventSolver._KEYS + ("loads", "load_rates", "loads_since")
 
     def _snapshot(self) -> dict[str, Any]:
         data = super()._snapshot()
-        data["loads"] = list(self.context.modes.loads)
+        modes = self.context.modes
+        data["loads"], data["load_rates"] = list(modes.loads), list(modes.rates)
+        data["loads_since"] = modes.since
         return data
 
     def _read(self, rec: Record, t: float) -> Callable[[], None]:
-        loads = rec.reals("loads", self.context.modes.count)
-        modes = self.context.modes.with_loads(loads)
+        n = self.context.modes.count
+        loads, rates = rec.reals("loads", n), rec.reals("load_rates", n)
+        since = rec.real("loads_since", low=0.0, high=t)
+        modes = self.context.modes.with_loads(loads, rates, since)
         saved, self.context.modes = self.context.modes, modes
         try:  # the segment is read against the modes under the saved loads
             apply_rest = super()._read(rec, t)

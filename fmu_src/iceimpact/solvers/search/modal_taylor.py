@@ -5,7 +5,8 @@ numba where it is installed, the same floats either way.
 While the ice rides (z = x = sum phi_k q_k) the modes are coupled through the contact force on
 the structure, ``lam = alpha D - beta sum phi_k f_k`` (alpha = m_eff / (M + m_eff), beta = M alpha,
 f_k = (L_k - c_k q_k' - k_k q_k) / m_k mode k's free acceleration, D the drag on the ice at the
-contact point's speed v): ``q_k'' = f_k + phi_k lam / m_k`` (docs/explanation/modes.md). Under
+contact point's speed v, L_k the load, a polynomial of degree 1 in time over a communication
+step): ``q_k'' = f_k + phi_k lam / m_k`` (docs/explanation/modes.md). Under
 the linear drag ``D = b (u - v)`` the system is linear; under the quadratic drag ``D = s B r^2``
 (r = u - v) while the sign s of r holds. Either way the Taylor coefficients follow exactly by
 recurrence (``(r^2)_n`` the Cauchy product of r with itself)::
@@ -45,8 +46,8 @@ HALVINGS = 60
 #: Iterations of the bracketing that resolves a sign change
 BRACKET_ITERATIONS = 200
 
-#: The rows of the modes' table: phi_k, m_k, c_k, k_k, L_k, omega_k, the load's offset L_k / k_k
-PHI, MASS, DAMP, STIFF, LOAD, OMEGA, OFFSET = range(7)
+#: The rows of the modes' table: phi_k, m_k, c_k, k_k, the load's rate R_k (N/s), omega_k
+PHI, MASS, DAMP, STIFF, RATE, OMEGA = range(6)
 
 
 def horner(coeffs, theta):
@@ -138,11 +139,12 @@ def _crossing(coeffs, lo, hi):
     return hi
 
 
-def ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs):
-    """The Taylor coefficients (in time, s) from the modal state (q, q'): rows 0..N-1 of
-    ``table`` each mode's q, N..2N-1 its q', 2N the contact impulse P (from 0), 2N + 1 the
-    contact force lam; ``rs`` the relative flow r = u - v. ``modes`` the table of rows PHI ...
-    OFFSET (one column per mode); ``sign`` the quadratic drag's sign of r."""
+def ride_series(q, p, loads, modes, u, alpha, beta, coef, quadratic, sign, table, rs):
+    """The Taylor coefficients (in time, s) from the modal state (q, q') under the loads
+    ``loads`` (N, at the step's start): rows 0..N-1 of ``table`` each mode's q, N..2N-1 its q',
+    2N the contact impulse P (from 0), 2N + 1 the contact force lam; ``rs`` the relative flow
+    r = u - v. ``modes`` the table of rows PHI ... OMEGA (one column per mode); ``sign`` the
+    quadratic drag's sign of r."""
     n_modes = q.size
     for k in range(n_modes):
         table[k, 0] = q[k]
@@ -164,7 +166,8 @@ def ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs):
             drag = coef * r
         free_sum = 0.0
         for k in range(n_modes):
-            free = ((modes[LOAD, k] if n == 0 else 0.0) - modes[DAMP, k] * table[n_modes + k, n]
+            load = loads[k] if n == 0 else (modes[RATE, k] if n == 1 else 0.0)
+            free = (load - modes[DAMP, k] * table[n_modes + k, n]
                     - modes[STIFF, k] * table[k, n]) / modes[MASS, k]
             free_sum += modes[PHI, k] * free
             if n < ORDER:
@@ -179,15 +182,16 @@ def ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs):
                                               + modes[PHI, k] * lam / modes[MASS, k]) / (n + 1))
 
 
-def step_length(table, modes, u, rate):
+def step_length(table, loads, modes, u, rate):
     """The step (s): its last two terms below TOLERANCE of the motion's scale (each mode's
-    omega_k |q_k - offset_k| + |q_k'|, and |u|), at most RATE_SPAN / rate."""
+    omega_k |q_k - L_k / k_k| + |q_k'|, and |u|), at most RATE_SPAN / rate."""
     n_modes = modes.shape[1]
     scale = abs(u)
     last1 = last2 = 0.0
     for k in range(n_modes):
         omega = modes[OMEGA, k]
-        scale += omega * abs(table[k, 0] - modes[OFFSET, k]) + abs(table[n_modes + k, 0])
+        scale += (omega * abs(table[k, 0] - loads[k] / modes[STIFF, k])
+                  + abs(table[n_modes + k, 0]))
         last1 = max(last1, omega * abs(table[k, ORDER - 1]), abs(table[n_modes + k, ORDER - 1]))
         last2 = max(last2, omega * abs(table[k, ORDER]), abs(table[n_modes + k, ORDER]))
     h = RATE_SPAN / rate if rate > 0.0 else math.inf
@@ -201,13 +205,14 @@ def step_length(table, modes, u, rate):
     return h
 
 
-def ride_step(q, p, impulse0, modes, u, alpha, beta, coef, quadratic, rate, table, rs):
-    """One step from the modal state (q, q') with the contact impulse ``impulse0`` so far:
+def ride_step(q, p, impulse0, loads, modes, u, alpha, beta, coef, quadratic, rate, table, rs):
+    """One step from the modal state (q, q') under the loads ``loads`` (N, at its start) with
+    the contact impulse ``impulse0`` so far:
     ``table`` filled with the polynomials in theta = tau / h (rows as :func:`ride_series`, the
     impulse's from impulse0); returns (h, theta_end), theta_end < 1 where the relative flow
     changes sign under the quadratic drag (the step ends there)."""
     sign = 1.0
-    ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs)
+    ride_series(q, p, loads, modes, u, alpha, beta, coef, quadratic, sign, table, rs)
     if quadratic:
         lead = 1.0  # the sign of r, or where r = 0 the one it moves to
         for n in range(ORDER + 1):
@@ -216,8 +221,8 @@ def ride_step(q, p, impulse0, modes, u, alpha, beta, coef, quadratic, rate, tabl
                 break
         if lead < 0.0:
             sign = -1.0
-            ride_series(q, p, modes, u, alpha, beta, coef, quadratic, sign, table, rs)
-    h = step_length(table, modes, u, rate)
+            ride_series(q, p, loads, modes, u, alpha, beta, coef, quadratic, sign, table, rs)
+    h = step_length(table, loads, modes, u, rate)
     power = 1.0
     for n in range(ORDER + 1):
         for j in range(table.shape[0]):
@@ -243,9 +248,9 @@ def _build(numba: Any) -> dict[str, Any]:
     rows = jit(numba, (a2, f8, a1), horner_rows, horner=h)
     crossing = jit(numba, (a1, f8, f8), _crossing, horner=h)
     negative = jit(numba, (a1, f8, f8), first_negative, horner=h, _crossing=crossing)
-    series = jit(numba, (a1, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_series)
-    length = jit(numba, (a2, a2, f8, f8), step_length)
-    step = jit(numba, (a1, a1, f8, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_step,
+    series = jit(numba, (a1, a1, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_series)
+    length = jit(numba, (a2, a1, a2, f8, f8), step_length)
+    step = jit(numba, (a1, a1, f8, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_step,
                ride_series=series, step_length=length, first_negative=negative)
     return {"horner_rows": entry_point(rows), "first_negative": entry_point(negative),
             "ride_step": entry_point(step)}
