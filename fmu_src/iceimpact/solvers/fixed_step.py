@@ -46,6 +46,9 @@ then released and the scheme marches on from it.
 The grid is evaluated in vectorised chunks (numpy) between impacts; the quadratic-drag Euler
 recursion is a scalar loop. Each grid point holds at most one impact, so the work is bounded by
 the number of grid points.
+
+With the modal structure (structure.model = 3), each mode's closed form replaces the structure's
+(:mod:`~iceimpact.solvers.fixed_step_modal`, through :meth:`FixedStepSolver._structure_at`).
 """
 
 from __future__ import annotations

@@ -44,6 +44,10 @@ by :data:`STABLE_STEP` / rate, inside their stability intervals, so that states 
 absolute tolerance do not ring through the ice. Work is bounded: every impact either
 lasts a resolvable bounce or ends the bouncing, and repeated events at one instant (a degenerate
 contact, or integration noise at a loose tolerance) make the bodies stick.
+
+With the modal structure (structure.model = 3) the integrated state is the modes' instead of
+``[x, v]`` (:mod:`~iceimpact.solvers.ode_modal`), and the contact logic here sees the contact
+point through :meth:`OdeSolver._contact_view`.
 """
 
 from __future__ import annotations
