@@ -497,10 +497,6 @@ def validate(scene: Scene) -> None:
         raise ParameterError("structure.model", scene.structure_model,
                              f"1 with solver.method = {scene.solver_method}: the external "
                              "structure (structure.model = 2) needs solver.method = 1 (exact)")
-    if scene.modal and scene.solver_method != METHOD_EXACT:
-        raise ParameterError("structure.model", scene.structure_model,
-                             f"1 with solver.method = {scene.solver_method}: the modal structure "
-                             "(structure.model = 3) needs solver.method = 1 (exact)")
     if scene.modal:
         _check_modes(scene)
     else:

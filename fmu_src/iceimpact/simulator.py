@@ -27,11 +27,17 @@ from .scene import METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE, Scene, validate_
 from .solvers.base import GAP_ROUNDING, Impact, Samples, Solver
 from .solvers.exact import EventSolver, ExternalSolver, ModalSolver
 from .solvers.fixed_step import FixedStepSolver
+from .solvers.fixed_step_modal import ModalFixedStepSolver
 from .solvers.impact_log import ImpactLog
 from .solvers.ode import OdeSolver
+from .solvers.ode_modal import ModalOdeSolver
 
 _SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: EventSolver, METHOD_FIXED_STEP: FixedStepSolver,
                                      METHOD_ODE: OdeSolver}
+#: the methods with the modal structure (structure.model = 3)
+_MODAL_SOLVERS: dict[int, type[Solver]] = {METHOD_EXACT: ModalSolver,
+                                           METHOD_FIXED_STEP: ModalFixedStepSolver,
+                                           METHOD_ODE: ModalOdeSolver}
 _INF = math.inf
 _RESTITUTION = SCENE_VARIABLES["impact.e"]  # the tunable parameter of set_restitution
 
@@ -45,8 +51,8 @@ def make_solver(scene: Scene, record_impacts: bool = True) -> Solver:
     with an external structure (structure.model = 2, method 1 only) :class:`ExternalSolver`."""
     if scene.external:
         return ExternalSolver(scene, record_impacts)
-    if scene.modal and scene.solver_method == METHOD_EXACT:
-        return ModalSolver(scene, record_impacts)
+    if scene.modal and scene.solver_method in _MODAL_SOLVERS:
+        return _MODAL_SOLVERS[scene.solver_method](scene, record_impacts)
     try:
         cls = _SOLVERS[scene.solver_method]
     except KeyError:

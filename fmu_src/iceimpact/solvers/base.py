@@ -136,7 +136,10 @@ class Solver:
         self.impacts_base = 0           # impacts before the first one listed
         self.impact_count = 0           # impacts since the start
         self.t_last: float | None = None  # time of the latest impact, s
-        self.state = State(0.0, scene.structure_x0, scene.structure_v0, scene.ice_z0, scene.ice_v0)
+        # the modal structure (structure.model = 3) starts at its contact point's sum phi q0
+        x0, v0 = (scene.modal_start if scene.modal
+                  else (scene.structure_x0, scene.structure_v0))
+        self.state = State(0.0, x0, v0, scene.ice_z0, scene.ice_v0)
         self.sticking = False
         self.sticking_since: float | None = None  # start of the current sticking phase, s
         # the impact count beyond which the current step is refused (solver.max_impacts over

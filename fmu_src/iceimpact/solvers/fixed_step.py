@@ -46,6 +46,9 @@ then released and the scheme marches on from it.
 The grid is evaluated in vectorised chunks (numpy) between impacts; the quadratic-drag Euler
 recursion is a scalar loop. Each grid point holds at most one impact, so the work is bounded by
 the number of grid points.
+
+With the modal structure (structure.model = 3), each mode's closed form replaces the structure's
+(:mod:`~iceimpact.solvers.fixed_step_modal`, through :meth:`FixedStepSolver._structure_at`).
 """
 
 from __future__ import annotations
@@ -170,6 +173,16 @@ class FixedStepSolver(Solver):
         self._set_sticking(False, t)
         self._anchor(t, self.pin_x, 0.0, self.pin_x, 0.0)
 
+    def _structure_at(self, tau: float) -> tuple[float, float]:
+        """The structure's (x, v) at local time tau from the anchor: its closed form (eq. 9-10)."""
+        x_a, v_a = self.anchor[0], self.anchor[1]
+        return self.osc.response(x_a, v_a, tau)
+
+    def _structure_array(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_structure_at` at an array of local times."""
+        x_a, v_a = self.anchor[0], self.anchor[1]
+        return self.osc.response_array(x_a, v_a, tau)
+
     # marching ------------------------------------------------------------------------------------
     def _euler(self, n0: int, grid: Grid, count: int) -> tuple[np.ndarray, np.ndarray]:
         """Ice at the ``count`` grid points after n0 (state ``grid``) by explicit Euler (eq. 34
@@ -238,10 +251,10 @@ class FixedStepSolver(Solver):
         starts, so a restored solver computes the same chunk with the same arithmetic.
         """
         dt = self.dt
-        x_a, v_a, z_a, w_a = self.anchor
+        _, _, z_a, w_a = self.anchor
         ns = np.arange(n0 + 1, n0 + self._chunk + 1)
         tau = ns * dt
-        x, v = self.osc.response_array(x_a, v_a, tau)
+        x, v = self._structure_array(tau)
         if self.drag.quadratic:
             z, w = self._euler(n0, grid, ns.size)
         else:
@@ -263,9 +276,9 @@ class FixedStepSolver(Solver):
     def _march_scalar(self) -> float:
         """Process grid point n + 1 alone (right after an event, where the next one may follow)."""
         n = self.n + 1
-        x_a, v_a, z_a, w_a = self.anchor
+        _, _, z_a, w_a = self.anchor
         tau = n * self.dt
-        x, v = self.osc.response(x_a, v_a, tau)
+        x, v = self._structure_at(tau)
         _, v_prev, z, w_prev = self.grid
         if self.drag.quadratic:  # eq. 34 and 36
             r = w_prev - self.u
@@ -332,9 +345,9 @@ class FixedStepSolver(Solver):
         h = t - (self.t_a + self.n * self.dt)
         if h <= GRID_SLACK * self.dt:
             return State(t, *self.grid)
-        x_a, v_a, z_a, w_a = self.anchor
+        _, _, z_a, w_a = self.anchor
         tau = t - self.t_a
-        x, v = self.osc.response(x_a, v_a, tau)
+        x, v = self._structure_at(tau)
         if self.drag.quadratic:  # a partial Euler step from the last grid point
             _, _, z, w = self.grid
             # held to eq. 36's stability limit as the grid's steps are: an impact at the grid

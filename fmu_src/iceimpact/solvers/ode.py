@@ -44,6 +44,10 @@ by :data:`STABLE_STEP` / rate, inside their stability intervals, so that states 
 absolute tolerance do not ring through the ice. Work is bounded: every impact either
 lasts a resolvable bounce or ends the bouncing, and repeated events at one instant (a degenerate
 contact, or integration noise at a loose tolerance) make the bodies stick.
+
+With the modal structure (structure.model = 3) the integrated state is the modes' instead of
+``[x, v]`` (:mod:`~iceimpact.solvers.ode_modal`), and the contact logic here sees the contact
+point through :meth:`OdeSolver._contact_view`.
 """
 
 from __future__ import annotations
@@ -319,6 +323,21 @@ class OdeSolver(EventMarch):
             a_x += self.structure_drag.force(v, u) / self.m
         return a_x, self.drag.force(w, u) / self.M
 
+    # the integrated state ------------------------------------------------------------------------
+    def _size(self, phase: Phase) -> int:
+        """Length of the integrated state of a segment of ``phase``."""
+        return _SIZE[phase]
+
+    def _contact_view(self, y):
+        """The contact's view of an integrated state: ``[x, v, z, w]`` in flight, ``[x, v, P]``
+        sticking (here the state itself; the modal structure's sums its modes)."""
+        return y
+
+    @staticmethod
+    def _gap_rate(state):
+        """The gap's rate v - w in flight (rows of arrays: element by element)."""
+        return state[1] - state[3]
+
     # segments ------------------------------------------------------------------------------------
     def _equations(self, phase: Phase, start: float, gap_slack: float = 0.0) -> None:
         """Right-hand side and terminal event of a segment of ``phase`` starting at ``start``
@@ -438,11 +457,7 @@ class OdeSolver(EventMarch):
             end = int(np.searchsorted(t, float(res.t_events[0][0]), side="left")) - 1
         if end < 1:
             return None
-        if self.phase is Phase.FLIGHT:
-            def rate(state):
-                return state[1] - state[3]
-        else:
-            rate = self.rhs.contact_force_rate
+        rate = self._gap_rate if self.phase is Phase.FLIGHT else self.rhs.contact_force_rate
         rates = rate(y[:, :end + 1])
         candidates = np.flatnonzero((rates[:end] < 0.0) & (rates[1:] > 0.0))
         if not len(candidates):
@@ -525,7 +540,7 @@ class OdeSolver(EventMarch):
         state (y_now, which follows any event at this time: self.state is the last reported
         one, before an impact at t = 0)."""
         t = self.state.t
-        y = [float(c) for c in self.y_now]
+        y = [float(c) for c in self._contact_view(self.y_now)]
         sticking = self.phase is Phase.STICK
         self.u = u
         self._set_chunks(u)
@@ -562,8 +577,9 @@ class OdeSolver(EventMarch):
 
     def at_event(self, event: tuple[float, np.ndarray]) -> None:
         t_ev, y_ev = event
+        view = self._contact_view(y_ev)
         if self.phase is Phase.STICK:
-            x, v = float(y_ev[0]), float(y_ev[1])
+            x, v = float(view[0]), float(view[1])
             if self.zeno_end == t_ev and event is not self.event:
                 # the end of a Zeno tail: the bodies, together already, start sticking
                 self.y_now = np.array(y_ev, dtype=float)
@@ -576,7 +592,7 @@ class OdeSolver(EventMarch):
             else:  # contact force turns tensile: separate with equal velocities
                 self._segment(Phase.FLIGHT, t_ev, [x, v, x, v])
         else:
-            x, v, w = float(y_ev[0]), float(y_ev[1]), float(y_ev[3])
+            x, v, w = float(view[0]), float(view[1]), float(view[3])
             if w > v:
                 self._impact(t_ev, x, v, w)
             else:  # touch without closing speed: the contact logic decides
@@ -584,12 +600,14 @@ class OdeSolver(EventMarch):
 
     def finish(self, t_end: float) -> float:
         y = self._y(t_end)
+        view = self._contact_view(y)
         impulse = 0.0
         if self.phase is Phase.STICK:
             impulse = self.rhs.impulse(self.y_now, y)
-            self.state = State(t_end, float(y[0]), float(y[1]), float(y[0]), float(y[1]))
+            self.state = State(t_end, float(view[0]), float(view[1]), float(view[0]),
+                               float(view[1]))
         else:
-            self.state = State(t_end, *(float(c) for c in y))
+            self.state = State(t_end, *(float(c) for c in view))
         self.y_now = np.array(y, dtype=float)
         return impulse
 
@@ -626,7 +644,7 @@ class OdeSolver(EventMarch):
         if (phase is Phase.STICK) != (rec.data["sticking"] or zeno_end is not None):
             raise StateError(rec.field("phase"), phase.value,
                              "stick exactly when sticking is true or zeno_end is a time")
-        size = _SIZE[phase]
+        size = self._size(phase)
         start = rec.real("segment_start", low=0.0, high=t)
         hold_until = rec.real("hold_until", finite=False, high=math.inf)
         t_lo = rec.real("t_lo", low=start)
