@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..limits import drag_rate
 from ..physics.modes import Modes
 from ..record import Record
@@ -220,7 +221,8 @@ class ModalOdeSolver(OdeSolver):
 
     def _free_accels(self, x: float, v: float, w: float, u: float) -> tuple[float, float]:
         q, p = self.modal_now(v)
-        return self.modes.contact_acceleration(q, p), self.drag.force(w, u) / self.M
+        modes = self.modes  # (held loads: the same at any time)
+        return modes.contact_acceleration(modes.since, q, p), self.drag.force(w, u) / self.M
 
     # rates ----------------------------------------------------------------------------------------
     def _damping_rate(self) -> float:
@@ -276,9 +278,13 @@ class ModalOdeSolver(OdeSolver):
         q, p = self.modal_now(float(y[1]))
         super()._segment(phase, t, [*q, *p, *y[2:]], hold, gap_slack)
 
-    def set_loads(self, loads: Sequence[float]) -> None:
+    def set_loads(self, loads: Sequence[float], rates: Sequence[float] | None = None) -> None:
         """Hold the modes' generalized loads (N) from now on: the segment restarts at the
         current time on the modes under them (as at a new flow speed)."""
+        if rates is not None and any(rate != 0.0 for rate in rates):
+            raise ParameterError("load rates", list(rates), "0 with solver.method = 3: "
+                                 "this method holds each load over a step; method 1 takes "
+                                 "loads that change linearly over it")
         loads = tuple(float(load) for load in loads)
         if loads == self.modes.loads:
             return
