@@ -20,10 +20,10 @@ is positive, else the bodies fly apart with equal velocities. Riding (z = x) has
 ``(q, q')`` and ends at the root of the contact force ``lam = m_eff (D + M S) / (M + m_eff)``
 (event direction -1), ``S = sum phi_k (c_k q_k' + k_k q_k - L_k) / m_k``.
 
-Valid for constant flow and mode loads, and scenes whose bounces are well separated: a grazing
-contact (a double root of the gap inside one step) can be missed, and a chatter sequence with
-e > 0 is either closed at ``chatter_speed`` or stopped by :class:`ChatterError` after
-``max_impacts``.
+Valid for a constant flow, mode loads held or given as functions of time, and scenes whose
+bounces are well separated: a grazing contact (a double root of the gap inside one step) can
+be missed, and a chatter sequence with e > 0 is either closed at ``chatter_speed`` or stopped
+by :class:`ChatterError` after ``max_impacts``.
 """
 
 from __future__ import annotations
@@ -104,6 +104,8 @@ class _Model:
         self.k = m * omega * omega
         self.load = np.array([getattr(scene, f"structure_mode{k}_load")
                               for k in range(1, self.n + 1)], float)
+        #: the loads as a function of time (N, one per mode), or None: held at ``load``
+        self.loads: Any = None
         self.m_eff = 1.0 / float(np.sum(phi * phi / m))
         self.M, self.e, self.u = scene.ice_M, scene.impact_e, scene.flow_u
         big_b = 0.5 * scene.fluid_rho * scene.ice_Cd * scene.ice_A
@@ -125,13 +127,14 @@ class _Model:
         r = self.u - w
         return self.drag_constant * (abs(r) * r if self.quadratic else r)
 
-    def free_accelerations(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        """q_k'' of the modes without contact force."""
-        return (self.load - self.c * qd - self.k * q) / self.m
+    def free_accelerations(self, q: np.ndarray, qd: np.ndarray, t: float = 0.0) -> np.ndarray:
+        """q_k'' of the modes without contact force at time t."""
+        load = self.load if self.loads is None else np.asarray(self.loads(t), float)
+        return (load - self.c * qd - self.k * q) / self.m
 
-    def contact_force(self, q: np.ndarray, qd: np.ndarray) -> float:
+    def contact_force(self, q: np.ndarray, qd: np.ndarray, t: float = 0.0) -> float:
         """lam, the force on the structure while the ice rides on the contact point, N."""
-        s = -float(np.dot(self.phi, self.free_accelerations(q, qd)))
+        s = -float(np.dot(self.phi, self.free_accelerations(q, qd, t)))
         return self.m_eff * (self.drag(float(np.dot(self.phi, qd))) + self.M * s) / (
             self.M + self.m_eff)
 
@@ -139,7 +142,7 @@ class _Model:
         """(q, q', g, g')' in flight: g = x - z, g' = v - w."""
         n = self.n
         q, qd, rel = y[:n], y[n:2 * n], y[2 * n + 1]
-        qdd = self.free_accelerations(q, qd)
+        qdd = self.free_accelerations(q, qd, t)
         w = float(np.dot(self.phi, qd)) - rel
         gap_acceleration = float(np.dot(self.phi, qdd)) - self.drag(w) / self.M
         return np.concatenate((qd, qdd, [rel, gap_acceleration]))
@@ -148,15 +151,19 @@ class _Model:
         """(q, q')' while the ice rides on the contact point (the force lam on the structure)."""
         n = self.n
         q, qd = y[:n], y[n:]
-        lam = self.contact_force(q, qd)
-        return np.concatenate((qd, self.free_accelerations(q, qd) + self.phi * lam / self.m))
+        lam = self.contact_force(q, qd, t)
+        return np.concatenate((qd, self.free_accelerations(q, qd, t) + self.phi * lam / self.m))
 
 
 def simulate(scene: Scene | Mapping[str, Any], t_end: float,
              sample_times: Sequence[float] | np.ndarray | None = None,
              max_impacts: int = 2000, chatter_speed: float = 0.0,
-             chatter: float = CHATTER, rtol: float = RTOL) -> ReferenceRun:
+             chatter: float = CHATTER, rtol: float = RTOL,
+             loads: Any = None) -> ReferenceRun:
     """Simulate ``scene`` (a Scene or its keyword arguments) from 0 to ``t_end`` (s).
+
+    ``loads``, if given, is the modes' generalized loads as a function of time (t -> one load
+    per mode, N), in place of the scene's held structure.mode<k>.load.
 
     ``sample_times`` (increasing, in (0, t_end]) are the times whose states are returned. An
     impact is plastic, closing a chatter sequence, where its approach speed is at most
@@ -168,6 +175,7 @@ def simulate(scene: Scene | Mapping[str, Any], t_end: float,
     if not isinstance(scene, Scene):
         scene = Scene(**scene)
     model = _Model(scene)
+    model.loads = loads
     n = model.n
     times = np.asarray([] if sample_times is None else sample_times, float)
     run = ReferenceRun()
@@ -179,7 +187,7 @@ def simulate(scene: Scene | Mapping[str, Any], t_end: float,
     gap.terminal, gap.direction = True, -1
 
     def force(t: float, y: np.ndarray) -> float:
-        return model.contact_force(y[:n], y[n:])
+        return model.contact_force(y[:n], y[n:], t)
 
     force.terminal, force.direction = True, -1
 
@@ -254,7 +262,7 @@ def simulate(scene: Scene | Mapping[str, Any], t_end: float,
         run.impacts.append(ReferenceImpact(t, impulse, v, w, v_plus, w_plus,
                                            float(np.dot(model.phi, q)), e))
         g, rel = 0.0, e * approach
-        if e == 0.0 and model.contact_force(q, qd) > 0.0:
+        if e == 0.0 and model.contact_force(q, qd, t) > 0.0:
             riding = True
             run.riding.append((t, math.inf))
             continue

@@ -201,7 +201,8 @@ class Simulator:
 
     def advance(self, h: float, u: float | None = None,
                 structure: tuple[float, float, float] | None = None,
-                stop_at_event: bool = False, loads: Any = None) -> StepReport:
+                stop_at_event: bool = False, loads: Any = None,
+                load_rates: Any = None) -> StepReport:
         """Advance by the communication step ``h`` (s) with flow speed ``u`` (m/s) held constant.
 
         ``u`` defaults to the scene's ``flow.u``. With an external structure (structure.model =
@@ -209,8 +210,9 @@ class Simulator:
         velocity (m/s) and acceleration (m/s2, 0 = not given) at the start of the step; it
         defaults to the scene's start values of those inputs (ignored with the built-in
         structure). With the modal structure (structure.model = 3), ``loads`` are the modes'
-        generalized loads (N, one per mode used) held over the step; they default to the
-        scene's structure.mode<k>.load. Raises :class:`ParameterError` for a step that
+        generalized loads (N, one per mode used) at the step's start, held over the step, or
+        changing at ``load_rates`` (N/s, one per mode; method 1 only) over it; they default to
+        the scene's structure.mode<k>.load. Raises :class:`ParameterError` for a step that
         is not a positive finite number, too small to advance the time (t + h == t), or a flow
         speed that is not finite, and :class:`SolverError` when the method cannot go on. Either
         way the simulator is exactly as before the call: a later step from the same time
@@ -230,29 +232,33 @@ class Simulator:
         if not t_end > t:
             raise ParameterError("communication step", h, f"a step that advances the time "
                                  f"t = {t!r} s: t + h > t (smaller steps are lost to rounding)")
-        return self._step(t_end, h, u, structure, stop_at_event, loads)
+        return self._step(t_end, h, u, structure, stop_at_event, loads, load_rates)
 
     def advance_to(self, t_end: float, u: float | None = None,
                    structure: tuple[float, float, float] | None = None,
-                   stop_at_event: bool = False, loads: Any = None) -> StepReport:
+                   stop_at_event: bool = False, loads: Any = None,
+                   load_rates: Any = None) -> StepReport:
         """Advance to the communication point ``t_end`` (s, > t), as :meth:`advance`."""
         t = self.solver.t
         if not (t_end.__class__ is float and t < t_end < _INF):
             t_end = checked_real("communication point", t_end, f"a finite time > t = {t!r} s",
                                  lambda value: value > t)
-        return self._step(t_end, t_end - t, u, structure, stop_at_event, loads)
+        return self._step(t_end, t_end - t, u, structure, stop_at_event, loads, load_rates)
 
-    def _mode_loads(self, loads: Any) -> tuple[float, ...]:
-        """The modal structure's generalized loads of a step (N), checked: one finite real number
-        per mode used (structure.modes), or None for the scene's structure.mode<k>.load."""
+    def _mode_loads(self, loads: Any, name: str = "loads",
+                    unit: str = "N") -> tuple[float, ...] | None:
+        """The modal structure's generalized loads of a step (N), or their rates (N/s), checked:
+        one finite real number per mode used (structure.modes); None: the scene's
+        structure.mode<k>.load (for rates: held)."""
         if loads is None:
-            return self.scene.mode_loads
+            return self.scene.mode_loads if name == "loads" else None
         n = self.scene.structure_modes
         if (not isinstance(loads, tuple | list | np.ndarray) or getattr(loads, "ndim", 1) != 1
                 or len(loads) != n):
-            raise ParameterError("loads", loads, f"one generalized load (N) per mode used: "
-                                 f"{n} (structure.modes)")
-        return tuple(checked_real(spec.name, value, "a finite real number (N)")
+            raise ParameterError(name, loads, f"one value ({unit}) per mode used: {n} "
+                                 "(structure.modes)")
+        return tuple(checked_real(spec.name + ("" if name == "loads" else " rate"), value,
+                                  f"a finite real number ({unit})")
                      for spec, value in zip(MODE_LOAD_INPUTS, loads, strict=False))
 
     def _structure_inputs(self, structure: Any) -> tuple[float, float, float]:
@@ -268,7 +274,7 @@ class Simulator:
 
     def _step(self, t_end: float, h: float, u: float | None,
               structure: Any = None, stop_at_event: bool = False,
-              loads: Any = None) -> StepReport:
+              loads: Any = None, load_rates: Any = None) -> StepReport:
         if u is None:
             u = self.scene.flow_u
         elif not (u.__class__ is float and u == self._flow_checked[0]
@@ -277,13 +283,14 @@ class Simulator:
             self._flow_checked = (u, self.scene)  # the same speed is not checked again
         inputs = self._structure_inputs(structure) if self.external else None
         mode_loads = self._mode_loads(loads) if self.modal else None
+        mode_rates = self._mode_loads(load_rates, "load_rates", "N/s") if self.modal else None
         solver = self.solver
         checkpoint = solver.checkpoint()
         try:
             if inputs is not None:
                 solver.inputs = inputs
             if mode_loads is not None:
-                solver.set_loads(mode_loads)
+                solver.set_loads(mode_loads, mode_rates)
             solver.begin_step()
             if stop_at_event:
                 t_start = solver.state.t

@@ -112,7 +112,7 @@ def _peek(sim: Simulator, loads) -> object:
 def test_a_load_of_the_wrong_length_is_refused_and_changes_nothing():
     sim = Simulator(Scene(structure_model=3, structure_modes=2, structure_mode2_phi=0.5))
     before = sim.save()
-    with pytest.raises(Exception, match="one generalized load"):
+    with pytest.raises(Exception, match="one value \\(N\\) per mode used"):
         sim.advance(1e-3, loads=(1.0,))
     with pytest.raises(Exception, match="structure.mode2.load"):
         sim.advance(1e-3, loads=(1.0, math.nan))
@@ -142,3 +142,22 @@ def test_impacts_and_motion_match_the_independent_reference(name):
     np.testing.assert_array_equal(result.sticking[1:][away], ref.ride[away])
     if name == "sticking":
         assert len(ref.riding) == 7 and result.sticking.any()
+
+
+@pytest.mark.parametrize("name", ["two_underdamped", "overdamped_mode", "sticking", "quadratic"])
+def test_loads_changing_linearly_match_the_reference(name):
+    """Loads L_k + R_k t on both modes (flights about moving particular solutions, riding steps
+    with the load's rate): the impacts of the independent reference, within 1e-8 s and 1e-8
+    (the over-damped scene amplifies any difference tenfold an impact: its first four)."""
+    kw, t_end = MODAL_SCENES[name], MODAL_T_END[name]
+    loads, rates = np.array([300.0, -200.0]), np.array([4000.0, 1500.0])
+    ref = simulate(kw, t_end, loads=lambda t: loads + rates * t)
+    sim = Simulator(Scene(**kw))
+    sim.advance_to(t_end, loads=tuple(loads), load_rates=tuple(rates))
+    impacts = list(sim.impacts)
+    count = 4 if name == "overdamped_mode" else len(ref.impacts)
+    assert len(impacts) == len(ref.impacts) >= count
+    np.testing.assert_allclose([i.t for i in impacts[:count]],
+                               [i.t for i in ref.impacts[:count]], rtol=0, atol=1e-8)
+    np.testing.assert_allclose([i.impulse for i in impacts[:count]],
+                               [i.impulse for i in ref.impacts[:count]], rtol=1e-8)
