@@ -37,9 +37,9 @@ from ...compiled import compile_or_none, entry_point, jit
 
 #: Order of the steps, the size of their last two terms relative to the motion's scale, and the
 #: longest step in units of the fastest rate (1 / rate)
-ORDER = 24
+ORDER = 32
 TOLERANCE = 1e-17
-RATE_SPAN = 2.0
+RATE_SPAN = 4.0
 #: The root proof's grid on a step, and the halvings it may spend on each interval of it
 GRID = 16
 HALVINGS = 60
