@@ -387,9 +387,10 @@ DRAG_RATE_MAX = 1e6
 #: 3.7e5-5.4e5 1/s took 4.5-10 s).
 TAYLOR_RATE_MAX = 1e5
 #: Largest rate (1/s) of a mode of the modal structure, omega_k (zeta_k + sqrt(zeta_k^2 + 1)):
-#: the riding phase's Taylor steps (solvers/exact/modal.py, Python) span 2 / rate each at
-#: ~0.3-1.5 ms a step (1 to 5 modes), so 2e4 1/s costs up to ~15 s of CPU per simulated second
-#: of riding.
+#: the riding phase's Taylor steps (solvers/search/modal_taylor.py) span at most 4 / rate each
+#: and are made from Python one at a time (~5-10 us a step with 1 to 5 modes, measured ~100
+#: steps a simulated second at 70 1/s), so 2e4 1/s costs up to a few seconds of CPU per
+#: simulated second of riding.
 MODAL_RATE_MAX = 2e4
 #: CPU time per (1/s) of rate per simulated second of method 1's sticking Taylor steps (s), the
 #: largest measured at 1e5 1/s and above (1.1e-5 to 1.7e-5 s; up to 3e-5 s at 1e4 1/s, where

@@ -311,8 +311,8 @@ def _check_modes(scene: Scene) -> None:
         if rate > MODAL_RATE_MAX:
             raise ParameterError(
                 f"2 pi structure.mode{k}.f (zeta + sqrt(zeta^2 + 1))", rate,
-                f"<= {MODAL_RATE_MAX:g} 1/s: the riding ice's Taylor steps span 2 / rate each, "
-                "so a faster mode costs over 15 s of CPU per simulated second of riding; leave "
+                f"<= {MODAL_RATE_MAX:g} 1/s: the riding ice's Taylor steps span at most 4 / rate "
+                "each, so a faster mode costs seconds of CPU per simulated second of riding; leave "
                 "out modes far above the frequencies the impacts excite "
                 "(docs/how-to/put-my-structure-in.md)")
         checks = (
