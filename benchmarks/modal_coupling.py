@@ -20,11 +20,11 @@ Rows:
   (PythonFMU, output ``force = A sin(2 pi f t)``) in a Jacobi loop: ``force -> mode1.load`` and
   ``0.6 force -> mode2.load`` (the force at the contact point projected on the modes, phi_k F).
 
-Reference: :class:`Reference`, the monolithic system integrated by scipy's DOP853 (rtol 1e-12)
-with the gap and the riding contact force as events, impact by impact; it imports nothing from
-``iceimpact`` and shares no code with its solvers. A Zeno sequence is closed by a plastic impact
-once the rebound speed falls under 1e-7 m/s; the ice then rides while the contact force is
-compressive. The load-driven reference takes the load as a continuous function of time.
+Reference: tests/modal_reference.py, the monolithic system integrated by scipy's DOP853 (rtol
+1e-12) with the gap and the riding contact force as events, impact by impact; it shares no code
+with IceImpact's solvers. A Zeno sequence is closed by a plastic impact once the approach speed
+falls under 1e-7 m/s; the ice then rides while the contact force is compressive. The
+load-driven reference takes the load as a continuous function of time.
 
 Per row: **x error** ``max |x - x_ref| / max |x_ref|`` over the communication points of the first
 2.6 s, **impacts** (run / reference: all of them, save for the modes inside, whose count and
@@ -45,13 +45,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from tree import ROOT, load
 
 from iceimpact import Scene
 from iceimpact.simulator import Simulator
 
 system = load("examples/system/system.py")
+modal_reference = load("tests/modal_reference.py")
 
 T_END = 2.6
 STEPS = (1e-2, 1e-3, 1e-4)
@@ -66,111 +66,32 @@ MODES = (MODE1, MODE2)
 LOADS = ((2.0e4, 0.1), (2.0e4, 0.3), (2.0e4, 0.5))
 #: approach speed over which an impact is counted and matched, m/s
 COUNTED = 1e-4
+#: the reference closes a Zeno sequence with a plastic impact once the approach speed is below
+#: this (m/s): the bounces after it move the contact point by less than 1e-12 m
+CHATTER_SPEED = 1e-7
 
 
 # the independent reference -----------------------------------------------------------------------
 class Reference:
-    """The ice on N modes at one contact point, integrated impact by impact (DOP853, rtol 1e-12).
+    """The scene integrated impact by impact by the tests' independent reference
+    (tests/modal_reference.py: DOP853 at rtol 1e-12, no code shared with the solvers), the loads
+    ``load`` (t -> one per mode, N) given as a continuous function of time, or none."""
 
-    Modes ``m_k q_k'' + c_k q_k' + k_k q_k = L_k(t) + phi_k lam`` (lam the contact force on the
-    structure), contact point ``x = sum phi_k q_k``; ice ``M z'' = -B |z' - u| (z' - u) - lam``.
-    In flight lam = 0 and the gap ``x - z`` is an event; an impact conserves momentum with
-    restitution e, through the effective mass ``1 / m_eff = sum phi_k^2 / m_k``. Riding (z = x),
-    ``lam = m_eff (D - M sum phi_k f_k) / (M + m_eff)`` (D the drag, f_k mode k's acceleration
-    without lam) and the ice leaves when lam turns tensile (an event)."""
-
-    RTOL, ATOL = 1e-12, 1e-15
-    V_STICK = 1e-7  # m/s: a rebound slower than this closes the Zeno sequence (plastic impact)
-
-    def __init__(self, modes, M: float, B: float, u: float, e: float, z0: float, w0: float,
-                 load=None):
-        f, zeta, m, phi = (np.array(c, dtype=float) for c in zip(*modes, strict=True))
-        omega = 2.0 * np.pi * f
-        self.n, self.m, self.phi = len(m), m, phi
-        self.c, self.k = 2.0 * zeta * omega * m, omega ** 2 * m
-        self.m_eff = 1.0 / float(np.sum(phi ** 2 / m))
-        self.M, self.B, self.u, self.e = M, B, u, e
-        self.y0 = np.concatenate([np.zeros(2 * self.n), [z0, w0]])
-        self.load = load or (lambda t: np.zeros(self.n))
+    def __init__(self, load=None):
+        self.load = load
         self.impacts: list[tuple[float, float]] = []  # (t, approach speed)
 
-    def drag(self, w: float) -> float:
-        r = w - self.u
-        return -self.B * abs(r) * r
-
-    def free(self, t: float, q: np.ndarray, p: np.ndarray) -> np.ndarray:
-        return (self.load(t) - self.c * p - self.k * q) / self.m
-
-    def lam(self, t: float, q: np.ndarray, p: np.ndarray) -> float:
-        d = self.drag(float(self.phi @ p))
-        return self.m_eff * (d - self.M * float(self.phi @ self.free(t, q, p))) / (self.M
-                                                                                  + self.m_eff)
-
-    def flight(self, t, y):
-        n = self.n
-        q, p = y[:n], y[n:2 * n]
-        return np.concatenate([p, self.free(t, q, p), [y[-1], self.drag(y[-1]) / self.M]])
-
-    def ride(self, t, y):
-        n = self.n
-        q, p = y[:n], y[n:]
-        return np.concatenate([p, self.free(t, q, p) + self.phi * self.lam(t, q, p) / self.m])
-
     def run(self, t_end: float, times: np.ndarray) -> np.ndarray:
-        """x at ``times`` (in [0, t_end]); the impacts go to ``self.impacts``."""
-        n, phi = self.n, self.phi
-
-        def gap(t, y):
-            return float(phi @ y[:n]) - y[2 * n]
-        gap.terminal, gap.direction = True, -1
-
-        def tensile(t, y):
-            return self.lam(t, y[:n], y[n:])
-        tensile.terminal, tensile.direction = True, -1
-
-        x = np.full(len(times), np.nan)
-        t, y, riding = 0.0, self.y0.copy(), False
-        while t < t_end:
-            if riding:
-                sol = solve_ivp(self.ride, (t, t_end), y[:2 * n], "DOP853", rtol=self.RTOL,
-                                atol=self.ATOL, events=tensile, dense_output=True)
-            else:
-                sol = solve_ivp(self.flight, (t, t_end), y, "DOP853", rtol=self.RTOL,
-                                atol=self.ATOL, events=gap, dense_output=True)
-            t1 = sol.t[-1]
-            inside = (times >= t) & (times <= t1)
-            if inside.any():
-                x[inside] = phi @ sol.sol(times[inside])[:n]
-            if sol.status != 1:  # reached t_end
-                break
-            t = t1
-            y = sol.y[:, -1]
-            q, p = y[:n].copy(), y[n:2 * n].copy()
-            if riding:  # the ice leaves: a flight from the contact, at the same speed
-                y = np.concatenate([q, p, [phi @ q, phi @ p]])
-                riding = False
-                continue
-            w = y[-1]
-            approach = w - float(phi @ p)
-            if approach > 0.0:
-                e = self.e if self.e * approach >= self.V_STICK else 0.0
-                mu = self.M * self.m_eff / (self.M + self.m_eff)
-                impulse = (1.0 + e) * mu * approach
-                w -= impulse / self.M
-                p += phi * impulse / self.m
-                self.impacts.append((t, approach))
-            else:
-                e = 0.0
-            y = np.concatenate([q, p, [phi @ q, w]])  # z on the contact point exactly
-            if e == 0.0 and self.lam(t, q, p) > 0.0:
-                riding = True
-        return x
+        """x at ``times`` (from 0, in [0, t_end]); the impacts go to ``self.impacts``."""
+        scene = modal_scene()
+        result = modal_reference.simulate(scene, t_end, sample_times=times[1:],
+                                          loads=self.load, chatter_speed=CHATTER_SPEED)
+        self.impacts = [(i.t, i.w_minus - i.v_minus) for i in result.impacts]
+        return np.concatenate(([scene.modal_start[0]], result.x))
 
 
 def reference(load=None) -> Reference:
-    scene = Scene(**ICE)
-    return Reference(MODES, scene.ice_M, scene.drag_B, scene.flow_u, scene.impact_e,
-                     scene.ice_z0, scene.ice_v0, load)
+    return Reference(load)
 
 
 # the runs ----------------------------------------------------------------------------------------
