@@ -441,7 +441,8 @@ class Simulator:
         if report.t != solver_state["t"]:
             raise StateError("report.t", report.t, f"the solver's time, {solver_state['t']!r} s")
         apply()
-        self.scene, self.solver, self.external = scene, solver, scene.external
+        self.scene, self.solver = scene, solver
+        self.external, self.modal = scene.external, scene.modal  # the state's structure
         self.report, self._n_reported, self.failed = report, reported, failed
 
     @classmethod
