@@ -614,7 +614,7 @@ def test_method_2_impact_at_a_communication_point_keeps_the_state_restorable():
     assert sim.impact_count > 1000
 
 
-# --- the modal structure (structure.model = 3) ------------------------------------------------------
+# --- the modal structure (structure.model = 3) ----------------------------------------------------
 
 #: Two modes at the contact point, plastic impacts: the ice rides on the structure from ~0.53 s.
 MODAL = dict(structure_model=3, structure_modes=2, structure_mode2_f=11.0, structure_mode2_phi=0.6,
