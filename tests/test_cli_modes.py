@@ -94,7 +94,11 @@ def test_simulate_by_set_and_by_scene_file_is_the_run(capsys, modal_file, tmp_pa
     ("structure.mode1.m=-1", "structure.mode1.m = -1.0 is not allowed: > 0"),
     ("structure.modes=6", "structure.modes = 6 is not allowed: 1 <= modes <= 5"),
     ("structure.mode1.phi=0", "structure.mode1.phi = 0.0 is not allowed: not 0 for at least"),
-    ("structure.mode6.f=3", "structure.mode6.f"),
+    # the known names list the modes' parameters as one entry
+    ("structure.mode6.f=3", "unknown parameter 'structure.mode6.f' (did you mean "
+     "'structure.mode5.f'"),
+    ("structure.mode6.f=3", "structure.modes, structure.mode<k>.{f, zeta, m, phi, q0, v0} "
+     "(k = 1 to 5), flow.u"),
 ])
 def test_a_bad_mode_value_is_an_error_naming_it(capsys, setting, words):
     assert words in usage_error(capsys, ["simulate", "--set", "structure.model=3", "--set",
