@@ -3,7 +3,8 @@
 A two-mode scene gives the core's numbers to the bit (iceimpact.run's x and impact count, the
 modal q and v of Simulator stepped like the master), in FMI 2.0 and FMI 3.0, with early return
 too; the load inputs drive the modes (a constant load settles mode 1 at its static offset L / k);
-a bad mode value is refused with a message naming it and the instance survives.
+a bad mode value is refused with a message naming it and the instance survives; an FMI 3.0 state
+taken while the ice rides continues identically, set back or deserialized.
 """
 
 from __future__ import annotations
@@ -160,3 +161,58 @@ def test_the_load_inputs_are_continuous_real_inputs(model_description):
         assert (v.causality, v.variability, v.type, v.unit) == ("input", "continuous", "Real",
                                                                 "N")
         assert BY_NAME[v.name].start == float(v.start) == 0.0
+
+
+def test_fmi3_state_of_the_riding_ice_set_back_and_deserialized_continues_identically(fmu3_dir):
+    from fmpy import read_model_description
+    from fmpy.fmi3 import FMU3Slave
+
+    md = read_model_description(fmu3_dir)
+    variables = {v.name: v for v in md.modelVariables}
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=fmu3_dir,
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="modal")
+    fmu.instantiate()
+    values = TWO_MODES | {"impact.e": 0.0}  # plastic: the ice rides from ~0.53 s
+    names = ("structure.x", "ice.z", "contact.impulse", "structure.mode1.q",
+             "structure.mode2.v")
+
+    def get() -> tuple:
+        return (*fmu.getFloat64([variables[n].valueReference for n in names]),
+                *fmu.getBoolean([variables["contact.active"].valueReference]))
+
+    def run_on(k0: int, loads: tuple[float, float], n: int = 80) -> list[tuple]:
+        fmu.setFloat64([variables[f"structure.mode{k}.load"].valueReference for k in (1, 2)],
+                       list(loads))
+        out = []
+        for k in range(k0, k0 + n):
+            fmu.doStep(k * H, (k + 1) * H - k * H)
+            out.append(get())
+        return out
+
+    try:
+        fmu.enterInitializationMode(startTime=0.0)
+        for name, value in values.items():
+            if variables[name].type == "Int32":
+                fmu.setInt32([variables[name].valueReference], [value])
+            else:
+                fmu.setFloat64([variables[name].valueReference], [value])
+        fmu.exitInitializationMode()
+        run_on(0, (0.0, 0.0), 60)
+        assert get()[-1]  # riding at 0.6 s
+        state = fmu.getFMUState()
+        blob = fmu.serializeFMUState(state)
+        first = run_on(60, (300.0, -120.0))
+        fmu.setFMUState(state)
+        assert run_on(60, (300.0, -120.0)) == first
+        restored = fmu.deserializeFMUState(blob)
+        fmu.setFMUState(restored)
+        assert run_on(60, (300.0, -120.0)) == first
+        fmu.freeFMUState(state)
+        fmu.freeFMUState(restored)
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+    sim = Simulator(scene_of(values))
+    for k in range(140):
+        sim.advance((k + 1) * H - k * H, loads=(300.0, -120.0) if k >= 60 else (0.0, 0.0))
+    assert first[-1][0] == sim.report.x and first[-1][4] == sim.report.mode2_v
