@@ -4,9 +4,10 @@
 for each case, the SHA-256 digest of every number the run reports, per quantity (states, impulses,
 contact flags, impact times and velocities, as exact hexadecimal floats). The cases cover every
 method, both drag laws, impacts and sticking, flow changes, the Morison terms, the external
-structure and ``run()``'s sampled path. ``tests/test_reference_digests.py`` recomputes them (with
-the compiled flight search where numba is installed, and pure) and asks for the same bits: code
-moved or rewritten without a change of behaviour passes, anything else fails. The numbers are the
+structure, the modal structure under loads and ``run()``'s sampled path.
+``tests/test_reference_digests.py`` recomputes them (with the compiled flight search where numba
+is installed, and pure) and asks for the same bits: code moved or rewritten without a change of
+behaviour passes, anything else fails. The numbers are the
 same on every machine (any BLAS kernel, any numpy SIMD level: tests/test_machine_matrix.py).
 Regenerate the file only for a change of behaviour that is meant, and say so in the commit.
 """
@@ -27,13 +28,20 @@ STORED = Path(__file__).with_name("reference_digests.json")
 QUADRATIC = {"drag_model": 2, "ice_A": 2.0}
 MORISON = {"structure_Ca": 1.0, "structure_V": 0.5, "structure_Cd": 1.2, "structure_A": 1.0}
 HEAVY = {"drag_model": 2, "flow_u": 0.3, "ice_M": 4800.0, "impact_e": 0.3}
+#: The modal structure: two modes seen at the contact point (structure.model = 3).
+TWO_MODES = {"structure_model": 3, "structure_modes": 2, "structure_mode2_f": 11.0,
+             "structure_mode2_zeta": 0.02, "structure_mode2_phi": 0.6, "drag_model": 2,
+             "flow_u": 0.3, "ice_M": 1200.0}
+#: The modal cases' loads on modes 1 and 2 (N), held from each time on (s).
+MODE_LOADS = ((0.0, (0.0, 0.0)), (3.0, (600.0, -200.0)), (6.0, (0.0, 150.0)))
 
 #: (name, kind, scene changes, horizon s, communication step s, flow changes (from s, u m/s)).
 #: kind: "step" (Simulator.advance), "run" (run(), sampled), "external" (structure.model = 2,
-#: coupled to an exact SDOF by a Gauss-Seidel loop). Methods 1 and 2 only: their numbers are the
-#: same on every machine (tests/test_machine_matrix.py). Method 3's integrators (scipy) call BLAS,
-#: whose kernel differs by CPU: its runs are held to its error bound instead (METHOD_3_CASES,
-#: tests/solvers/test_ode.py).
+#: coupled to an exact SDOF by a Gauss-Seidel loop), "modal" (structure.model = 3 stepped under
+#: the loads of MODE_LOADS, its modes' q and q' digested too). Methods 1 and 2 only: their
+#: numbers are the same on every machine (tests/test_machine_matrix.py). Method 3's integrators
+#: (scipy) call BLAS, whose kernel differs by CPU: its runs are held to its error bound instead
+#: (METHOD_3_CASES, tests/solvers/test_ode.py).
 CASES = (
     ("method 1, figure 2", "step", {}, 20.0, 1e-2, ()),
     ("method 1, e = 0.5", "step", {"impact_e": 0.5}, 20.0, 1e-2, ()),
@@ -57,6 +65,11 @@ CASES = (
     ("method 2, run()", "run", {"solver_method": 2, "solver_detection": 2}, 5.0, 1e-2, ()),
     ("external, Gauss-Seidel", "external", {**HEAVY, "coupling_scheme": 1}, 2.0, 1e-3, ()),
     ("external, Jacobi", "external", {**HEAVY, "coupling_scheme": 2}, 2.0, 1e-3, ()),
+    ("modal, two modes e = 0.7, loads", "modal", {**TWO_MODES, "impact_e": 0.7}, 10.0, 1e-2,
+     ()),
+    ("modal, two modes plastic, riding, loads", "modal", {**TWO_MODES, "impact_e": 0.0}, 10.0,
+     1e-2, ((5.0, 0.1),)),
+    ("modal, run() two modes", "run", {**TWO_MODES, "impact_e": 0.7}, 10.0, 1e-2, ()),
 )
 
 #: Method 3's reference runs, in CASES' form (compared with method 1 within its error bound).
@@ -75,6 +88,8 @@ METHOD_3_CASES = (
 _REPORTED = ("t", "x", "v", "z", "w", "impulse", "gap", "penetration", "sticking", "impacts",
              "t_last", "spring_force", "coupling_force")
 _IMPACT = ("t", "v_minus", "w_minus", "v_plus", "w_plus", "impulse")
+#: What the modal cases report besides _REPORTED (the modes used: 1 and 2).
+_MODAL = ("mode1_q", "mode1_v", "mode2_q", "mode2_v")
 
 
 def _digest(values: list[str]) -> str:
@@ -86,9 +101,10 @@ def _number(value) -> str:
 
 
 def stepped(scene: Scene, kind: str, t_end: float, h: float, flow) -> tuple[Simulator, list]:
-    """A "step" or "external" case stepped as the FMU steps it: the simulator and the report of
-    every communication step (the flow held from each change of ``flow`` on; the external
-    structure Figure 2's, stepped exactly under the force the ice gave it, Gauss-Seidel)."""
+    """A "step", "external" or "modal" case stepped as the FMU steps it: the simulator and the
+    report of every communication step (the flow held from each change of ``flow`` on; the
+    external structure Figure 2's, stepped exactly under the force the ice gave it, Gauss-Seidel;
+    the modal one under the loads of MODE_LOADS)."""
     if kind == "external":
         scene = scene.replace(structure_model=2)
     sim = Simulator(scene)
@@ -104,6 +120,9 @@ def stepped(scene: Scene, kind: str, t_end: float, h: float, flow) -> tuple[Simu
             report = sim.advance(h, u, inputs)
             force = report.impulse / h
             structure.step(h, force)
+        elif kind == "modal":
+            loads = [loads for since, loads in MODE_LOADS if since <= t + 1e-12][-1]
+            report = sim.advance(h, u, loads=loads)
         else:
             report = sim.advance(h, u)
         reports.append(report)
@@ -123,7 +142,8 @@ def fingerprint(name: str, kind: str, changes: dict, t_end: float, h: float, flo
             out[f"impact_{key}"] = [_number(value) for value in impacts[key]]
         return {key: _digest(values) for key, values in out.items()}
     sim, reports = stepped(scene, kind, t_end, h, flow)
-    out = {key: [_number(getattr(report, key)) for report in reports] for key in _REPORTED}
+    reported = _REPORTED + (_MODAL if kind == "modal" else ())
+    out = {key: [_number(getattr(report, key)) for report in reports] for key in reported}
     for key in _IMPACT:
         out[f"impact_{key}"] = [_number(getattr(i, key)) for i in sim.impacts]
     return {key: _digest(values) for key, values in out.items()}

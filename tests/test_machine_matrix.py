@@ -1,5 +1,6 @@
 """The same answer on every machine: the reference runs of methods 1 and 2 (and the external
-structure) under each BLAS kernel and numpy SIMD level this CPU can run, in fresh processes.
+and the modal structures) under each BLAS kernel and numpy SIMD level this CPU can run, in fresh
+processes.
 
 Each configuration sets ``OPENBLAS_CORETYPE`` (the kernel numpy's bundled OpenBLAS uses: Haswell,
 SkylakeX, Prescott) and, or not, ``NPY_DISABLE_CPU_FEATURES`` (numpy's AVX-512 loops off, as on a
@@ -49,7 +50,10 @@ LIBM_PROBE = float.fromhex("-0x1.36c379d59ee98p+2")
 
 #: The FMU runs of each configuration: (scene changes, stop time s, step s).
 FMU_RUNS = ({"impact.e": 0.5}, {"drag.model": 2, "impact.e": 0.5},
-            {"solver.method": 2, "drag.model": 2})
+            {"solver.method": 2, "drag.model": 2},
+            {"structure.model": 3, "structure.modes": 2, "structure.mode2.f": 11.0,
+             "structure.mode2.zeta": 0.02, "structure.mode2.phi": 0.6, "drag.model": 2,
+             "flow.u": 0.3, "ice.M": 1200.0, "impact.e": 0.7})
 
 _WORKER = r"""
 import ctypes, glob, hashlib, json, os, sys

@@ -612,3 +612,70 @@ def test_method_2_impact_at_a_communication_point_keeps_the_state_restorable():
         again = Simulator.from_snapshot(sim.save())
         assert again.save() == sim.save()
     assert sim.impact_count > 1000
+
+
+# --- the modal structure (structure.model = 3) ----------------------------------------------------
+
+#: Two modes at the contact point, plastic impacts: the ice rides on the structure from ~0.53 s.
+MODAL = dict(structure_model=3, structure_modes=2, structure_mode2_f=11.0, structure_mode2_phi=0.6,
+             impact_e=0.0, flow_u=0.3, drag_model=2, ice_M=1200.0)
+#: steps (h, u, loads) after a save: uneven steps, a flow change and loads on both modes
+MODAL_SUFFIX = ([(0.01, 0.3, (0.0, 0.0))] * 30 + [(0.013, 0.3, (800.0, -300.0))] * 10
+                + [(0.01, 0.1, (0.0, 150.0))] * 40)
+
+
+def modal_steps(sim, inputs):
+    return [sim.advance(h, u, loads=loads) for h, u, loads in inputs]
+
+
+@pytest.mark.parametrize(("t_stop", "riding"), [(0.3, False), (0.61, True), (1.5, None)])
+def test_modal_round_trip_continues_to_the_last_bit(t_stop, riding):
+    """Before the first impact, riding (sticking) and later: saved, through JSON, restored into
+    fresh simulators, the same future under changing loads and flow, modal outputs included."""
+    sim = stepped(Scene(**MODAL), t_stop, u_before=0.3)
+    if riding is not None:
+        assert sim.sticking is riding
+    saved = json_copy(sim.save())
+    assert saved["scene"]["structure.model"] == 3 and len(saved["solver"]["loads"]) == 2
+    twin = Simulator(Scene())  # an SDOF simulator takes a modal state, its scene included
+    twin.restore(saved)
+    fresh = Simulator.from_snapshot(saved)
+    expected = modal_steps(sim, MODAL_SUFFIX)
+    assert any(r.mode2_q != 0.0 for r in expected)
+    assert modal_steps(fresh, MODAL_SUFFIX) == expected
+    assert modal_steps(twin, MODAL_SUFFIX) == expected
+    assert fresh.save() == sim.save() == twin.save()
+
+
+@pytest.mark.parametrize("scene", [Scene(impact_e=0.5), Scene(**MODAL)], ids=["SDOF", "modal"])
+def test_a_state_of_layout_version_1_is_refused_naming_the_field(scene):
+    """Layout 1 (before the modal structure): its scene, report and solver lack the modal
+    fields. Refused on its version, not misread; the simulator is unchanged."""
+    state = stepped(scene, 1.0, u_before=0.3).save()
+    assert state["version"] == STATE_VERSION == 2
+    old = copy.deepcopy(state)
+    old["version"] = old["solver"]["version"] = 1
+    old["scene"] = {k: v for k, v in old["scene"].items() if ".mode" not in k}
+    old["report"] = {k: v for k, v in old["report"].items() if not k.startswith("mode")}
+    sim = stepped(Scene(**MODAL), 0.7, u_before=0.3)
+    assert_refused_and_unchanged(sim, old, "version")
+    solver_only = copy.deepcopy(state)
+    solver_only["solver"]["version"] = 1
+    assert_refused_and_unchanged(sim, solver_only, "solver.version")
+
+
+@pytest.mark.parametrize(("change", "field"), [
+    (_set(("solver", "loads"), [0.0]), "solver.loads"),
+    (_set(("solver", "segment", "q"), [0.0, "x"]), "solver.segment.q"),
+    (_drop(("solver", "segment", "p")), "solver.segment"),
+    (_set(("scene", "structure.modes"), 6), "scene"),
+])
+def test_malformed_modal_state_is_refused_naming_the_field(change, field):
+    state = stepped(Scene(**MODAL), 0.61, u_before=0.3).save()
+    change(state)
+    sim = stepped(Scene(impact_e=0.9, drag_model=2), 1.0)
+    before = sim.save()
+    with pytest.raises((StateError, ParameterError)) as err:
+        sim.restore(state)
+    assert field in str(err.value)
+    assert sim.save() == before

@@ -353,7 +353,7 @@ OUTPUTS: tuple[Variable, ...] = (
          "a design check takes (docs/explanation/design-loads.md); 0 with an external structure "
          "(structure.model = 2), whose internal forces live in the other FMU, and with the "
          "modal structure (3), whose internal forces follow from structure.mode<k>.q",
-         initial_depends_on=_X0 + ("structure.k",)),
+         initial_depends_on=("structure.model", "structure.x0", "structure.k")),
     _out("coupling.force", "coupling_force", float, "N",
          "external structure (structure.model = 2): the force for the master to hold on the "
          "structure over its next step. contact.force, except with a Jacobi master "
@@ -364,7 +364,9 @@ OUTPUTS: tuple[Variable, ...] = (
     *(_out(f"structure.mode{k}.{quantity}", f"mode{k}_{quantity}", float, unit,
            f"modal structure (structure.model = 3), mode {k}: modal {meaning} (0 with another "
            "structure or a mode not used)",
-           initial_depends_on=("structure.model",) + _MODAL + (f"structure.mode{k}.{start}",))
+           # mode 1 is used whatever structure.modes (>= 1) is; mode k > 1 from modes = k on
+           initial_depends_on=("structure.model",) + (_MODAL if k > 1 else ())
+           + (f"structure.mode{k}.{start}",))
       for k in range(1, MAX_MODES + 1)
       for quantity, unit, meaning, start in (("q", "m", "displacement", "q0"),
                                              ("v", "m/s", "velocity", "v0"))),

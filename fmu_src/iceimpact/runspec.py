@@ -56,7 +56,31 @@ def check_name(name: str, what: str) -> None:
     names = parameter_names()
     close = suggest(name, names)
     hint = f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
-    raise SpecError(f"{what}: unknown parameter {shown(name)}{hint}; known: " + ", ".join(names))
+    raise SpecError(f"{what}: unknown parameter {shown(name)}{hint}; known: "
+                    + ", ".join(known_names(names)))
+
+
+def known_names(names: list[str]) -> list[str]:
+    """``names`` as an error lists them: the modes' parameters (structure.mode1.f to
+    structure.mode5.v0) as one entry, so that the list stays readable."""
+    out: list[str] = []
+    fields: list[str] = []
+    modes: set[int] = set()
+    for name in names:
+        prefix, _, field = name.rpartition(".")
+        k = prefix[len("structure.mode"):]
+        if prefix.startswith("structure.mode") and k.isdigit():
+            if not fields:
+                out.append("")  # the modes' place in the list, filled below
+            if field not in fields:
+                fields.append(field)
+            modes.add(int(k))
+        else:
+            out.append(name)
+    if fields:
+        out[out.index("")] = (f"structure.mode<k>.{{{', '.join(fields)}}} "
+                              f"(k = {min(modes)} to {max(modes)})")
+    return out
 
 
 def parse_number(text: str, what: str) -> float:

@@ -338,7 +338,10 @@ class Simulator:
             "force": force, "impacts": count - self._n_reported,
             "impact_count": count, "t_last": -1.0 if t_last is None else t_last,
             "sticking": solver.sticking,
-            "spring_force": 0.0 if self.external else self.scene.structure_k * s.x,
+            # no single spring: the external structure's forces live in the other FMU, the
+            # modal structure's follow from its modes' q
+            "spring_force": (0.0 if self.external or self.modal
+                             else self.scene.structure_k * s.x),
             "coupling_force": solver.coupling_force if self.external else force,
             **(_modal_outputs(solver) if self.modal else _NO_MODES)})
 
@@ -375,7 +378,7 @@ class Simulator:
         try:
             samples = solver.sample(times, u)
             starts = np.concatenate(([t_start], times[:-1]))
-            k = self.scene.structure_k
+            k = 0.0 if self.modal else self.scene.structure_k  # as the report's spring force
             if not _surely_finite(samples, k, times - starts):
                 gap, penetration = reported_gap(samples.x - samples.z)
                 check_finite({"x": samples.x, "v": samples.v, "z": samples.z, "w": samples.w,
@@ -451,7 +454,8 @@ class Simulator:
         if report.t != solver_state["t"]:
             raise StateError("report.t", report.t, f"the solver's time, {solver_state['t']!r} s")
         apply()
-        self.scene, self.solver, self.external = scene, solver, scene.external
+        self.scene, self.solver = scene, solver
+        self.external, self.modal = scene.external, scene.modal  # the state's structure
         self.report, self._n_reported, self.failed = report, reported, failed
 
     @classmethod

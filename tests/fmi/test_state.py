@@ -224,6 +224,66 @@ def test_serialized_state_round_trip_is_bit_identical_in_another_instance(fmu_di
     assert not errors(inst) and not errors(other)
 
 
+#: Two modes at the contact point, plastic impacts: the ice rides on the structure from ~0.53 s.
+MODAL = {"structure.model": 3, "structure.modes": 2, "structure.mode2.f": 11.0,
+         "structure.mode2.phi": 0.6, "impact.e": 0.0, "flow.u": 0.3, "drag.model": 2,
+         "ice.M": 1200.0}
+MODAL_OUTPUTS = ("structure.x", "ice.z", "contact.impulse", "contact.count", "contact.active",
+                 "structure.mode1.q", "structure.mode1.v", "structure.mode2.q",
+                 "structure.mode2.v")
+
+
+def test_modal_state_mid_ride_round_trips_through_fmi(fmu_dir, model_description):
+    """Get, serialize and set an FMU state of the modal structure while the ice rides: the same
+    instance set back and another instance (of an SDOF scene) continue identically, loads
+    included."""
+    inst = Instance(fmu_dir, model_description, "a")
+    other = Instance(fmu_dir, model_description, "b")
+    loads = {"structure.mode1.load": 400.0, "structure.mode2.load": -250.0}
+    try:
+        inst.initialize(MODAL)
+        rows = inst.run(600)
+        assert rows[-1]["contact.active"] and rows[-1]["contact.count"] >= 1  # riding
+        inst.set(loads)
+        state = inst.fmu.getFMUstate()
+        data = inst.fmu.serializeFMUstate(state)
+        continuation = columns(inst.run(800, 600))
+        inst.fmu.setFMUstate(state)  # set back: the same run again
+        again = columns(inst.run(800, 600))
+        other.initialize({"ice.M": 400.0})  # another scene: the state brings its own
+        restored = other.fmu.deSerializeFMUstate(data)
+        other.fmu.setFMUstate(restored)
+        elsewhere = columns(other.run(800, 600))
+        other.fmu.freeFMUstate(restored)
+        inst.fmu.freeFMUstate(state)
+    finally:
+        inst.free()
+        other.free()
+    assert np.ptp(continuation["structure.mode2.q"]) > 0.0
+    for name in continuation:
+        np.testing.assert_array_equal(again[name], continuation[name], err_msg=name)
+        np.testing.assert_array_equal(elsewhere[name], continuation[name], err_msg=name)
+    # the core under the same loads from the state on
+    sim = Simulator(Scene.from_fmi(MODAL))
+    for k in range(1400):
+        sim.advance((k + 1) * DT - k * DT,
+                    loads=(400.0, -250.0) if k >= 600 else None)
+    assert continuation["structure.x"][-1] == sim.report.x
+    assert continuation["structure.mode2.q"][-1] == sim.report.mode2_q
+    assert not errors(inst) and not errors(other)
+
+
+def test_a_modal_state_of_layout_version_1_is_refused_naming_the_field():
+    model = model_after(700, MODAL)
+    before = model.snapshot()
+    doc = json.loads(fmu_state.encode(before)[len(fmu_state.MAGIC):])
+    doc["state"]["simulator"]["version"] = 1
+    doc["state"]["simulator"]["solver"]["version"] = 1
+    with pytest.raises(StateError, match="state field version = 1 is not allowed: 2"):
+        model.restore(fmu_state.decode(fmu_state.MAGIC + json.dumps(doc).encode()))
+    assert model.snapshot() == before
+
+
 def _damaged(data: bytes) -> list[bytes]:
     flipped = bytearray(data)
     flipped[len(flipped) // 2] ^= 0x20

@@ -51,6 +51,13 @@ ICE_INITIAL_SCENES = {
     # touching, closing at 1e-14 m/s: an impact at the start without flow, a speed at rounding
     # level (no impact; the flow then presses the ice on: sticking) with it
     "touching": {"ice.z0": 0.0, "ice.v0": 1e-14, "flow.u": 0.0},
+    # the modal structure, every mode used, seen at the contact point and moving (each mode's
+    # phi, q0 and v0 show in x, v and its own q, v); the ice upstream of sum phi q0 = 5 mm
+    "modal": {"structure.model": contract.STRUCTURE_MODAL,
+              "structure.modes": contract.MAX_MODES, "ice.z0": 0.0} | {
+        name: value for k in range(1, contract.MAX_MODES + 1) for name, value in (
+            (f"structure.mode{k}.phi", 1.0 / k), (f"structure.mode{k}.q0", 1e-3 * k),
+            (f"structure.mode{k}.v0", -2e-3 * k))},
 }
 # Base scenes for the inputs within a step: the built-in structure, and an external one under a
 # Jacobi master with the ice pressed on it by the flow (coupling.force is then a prediction).
@@ -59,6 +66,10 @@ ICE_STEP_SCENES = {
     "riding": {"structure.model": contract.STRUCTURE_EXTERNAL,
                "coupling.scheme": contract.SCHEME_JACOBI, "ice.z0": 0.0, "ice.v0": 0.0,
                "flow.u": 0.3},
+    # two modes riding with the ice pressed on: the load inputs act from the next step only
+    "modal": {"structure.model": contract.STRUCTURE_MODAL, "structure.modes": 2,
+              "structure.mode2.f": 11.0, "structure.mode2.phi": 0.6, "ice.z0": 0.0,
+              "ice.v0": 0.0, "impact.e": 0.0, "flow.u": 0.3},
 }
 # Every mode used and moving, a force on: each mode parameter and the force show in x, v, a.
 MODAL_SCENE = {"modes": modal_contract.MAX_MODES, "force": 250.0} | {
@@ -272,6 +283,14 @@ def test_ice_initial_outputs_depend_on_the_declared_knowns(ice_probe):
     for base in ICE_INITIAL_SCENES.values():
         for output, knowns in measure_initial(ice_probe, base)[0].items():
             found[output] |= knowns
+    # structure.modes from k - 1 to k switches mode k on (the base scene has it at its maximum:
+    # the measure above sees mode 5 only)
+    values = ice_probe.scene(ICE_INITIAL_SCENES["modal"])
+    for k in range(2, contract.MAX_MODES + 1):
+        fewer = ice_probe.start(values | {"structure.modes": k - 1})
+        more = ice_probe.start(values | {"structure.modes": k})
+        for output in changed(fewer[0], more[0]) | changed(fewer[1], more[1]):
+            found[output].add("structure.modes")
     inputs = {v.name for v in contract.INPUTS}
     for spec in contract.OUTPUTS:
         declared_knowns = set(spec.initial_depends_on)

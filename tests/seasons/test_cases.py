@@ -119,6 +119,30 @@ def test_bad_csv_tables_are_refused_naming_the_line(tmp_path, text, message):
         load_cases(path, t_end=6.0)
 
 
+_MODAL_REFUSED = (r"structure.model = 3: expected 1 \(the built-in SDOF structure\); a season's "
+                  "loads are the damage-equivalent loads of k x")
+
+
+@pytest.mark.parametrize("text, message", [
+    ("t_end = 6.0\n[[case]]\nname = 'a'\nhours = 1.0\n[[case]]\nname = 'two modes'\n"
+     "hours = 1.0\n[case.structure]\nmodel = 3\nmodes = 2\n[case.structure.mode2]\nf = 11.0\n"
+     "phi = 0.6\n",
+     r"case 2 \('two modes'\): " + _MODAL_REFUSED),
+    ("t_end = 6.0\n[defaults]\n'structure.model' = 3\n[[case]]\nname = 'a'\nhours = 1.0\n",
+     r"case 1 \('a'\): " + _MODAL_REFUSED),
+])
+def test_the_modal_structure_is_refused_before_anything_runs(tmp_path, text, message):
+    """A season's loads are k x of the SDOF structure: a case of the modal structure (its mode
+    tables read like any others) would give nan loads, and is refused naming the case."""
+    path = write(tmp_path, text)
+    with pytest.raises(SeasonError, match=message) as info:
+        load_cases(path)
+    assert str(path) in str(info.value)
+    csv = write(tmp_path, "name,hours,structure.model,structure.mode1.f\na,1,3,2.0\n", "c.csv")
+    with pytest.raises(SeasonError, match=r"line 2, case 1 \('a'\): " + _MODAL_REFUSED):
+        load_cases(csv, t_end=6.0)
+
+
 def test_unreadable_files_are_refused(tmp_path):
     with pytest.raises(SeasonError, match="no such file"):
         load_cases(tmp_path / "none.toml")

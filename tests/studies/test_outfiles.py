@@ -204,3 +204,20 @@ def test_the_loads_command_writes_each_runs_out_file(tmp_path: Path) -> None:
     assert sorted(p.name for p in (tmp_path / "series").iterdir()) == [
         "case00_slow-drift_rep0.out", "case00_slow-drift_rep1.out",
         "case01_fast-floe-thick_rep0.out"]
+
+
+def test_the_modal_structure_has_no_spring_force_channel_value(tmp_path: Path) -> None:
+    """structure.force is 0 with the modal structure, as the FMU reports it (its structure.k is
+    ignored), and the loads of a run of it have no k x (nan)."""
+    from iceimpact.studies.loads import run_loads
+
+    scene = Scene(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                  structure_mode2_phi=0.6, structure_k=5.0e5)
+    result = run(scene, T_END, dt=DT)
+    channels = run_channels(result)
+    assert result.x.any() and not channels["structure.force"].any()
+    np.testing.assert_array_equal(channels["structure.x"], result.x)
+    write_openfast(tmp_path / "modal.out", result)
+    assert not read_out(tmp_path / "modal.out")[0]["structure.force"].any()
+    loads = run_loads(result)
+    assert np.isnan(loads.kx.max) and loads.contact.max > 0.0

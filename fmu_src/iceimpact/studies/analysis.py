@@ -36,7 +36,14 @@ from .impacts import (
     impact_statistics,
     impacts_from_counter,
 )
-from .loads import LOAD_FIELDS, design_loads, load_columns, sample_window, window_start
+from .loads import (
+    LOAD_FIELDS,
+    design_loads,
+    load_columns,
+    sample_window,
+    spring_stiffness,
+    window_start,
+)
 
 #: The impact statistics live in :mod:`iceimpact.studies.impacts` (loads uses them too) and are
 #: part of this module's interface.
@@ -356,5 +363,5 @@ def summarize(result: Any, transient: float = 0.0,
                             transient=transient, sticking=getattr(result, "sticking", None),
                             sticking_since=getattr(result, "sticking_since", None),
                             tolerance=tolerance,
-                            structure_k=getattr(result.scene, "structure_k", None),
+                            structure_k=spring_stiffness(result.scene),
                             impulse=getattr(result, "impulse", None))

@@ -401,10 +401,29 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
                  impulse_max=j_max, impulse_p99=j_p99)
 
 
+def spring_stiffness(scene: Any) -> float | None:
+    """The stiffness of a scene's k x (N/m): ``structure.k``, or None with the modal structure
+    (structure.model = 3), which has no single spring (its ``structure.k`` is ignored; the k x
+    columns are then nan rather than a product with an unused number)."""
+    if getattr(scene, "modal", False):
+        return None
+    return getattr(scene, "structure_k", None)
+
+
+def spring_force(scene: Any, x: Any) -> np.ndarray:
+    """``structure.force`` of samples ``x`` (m) as the FMU reports it: k x, or 0 with the modal
+    structure (N)."""
+    k = spring_stiffness(scene)
+    x = np.asarray(x, dtype=float)
+    return np.zeros_like(x) if k is None else k * x
+
+
 def run_loads(result: Any, transient: float = 0.0, **options: Any) -> Loads:
     """:func:`design_loads` of a run's :class:`iceimpact.Result` (``t``, ``x``, ``impulse``,
-    ``impacts`` and ``scene.structure_k``); ``options`` go to :func:`design_loads`."""
-    return design_loads(result.t, result.x, result.scene.structure_k, impacts=result.impacts,
+    ``impacts`` and the stiffness :func:`spring_stiffness`); ``options`` go to
+    :func:`design_loads`."""
+    return design_loads(result.t, result.x, spring_stiffness(result.scene),
+                        impacts=result.impacts,
                         impulse=getattr(result, "impulse", None), transient=transient,
                         **options)
 

@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from ..contract import BY_NAME, VERSION
-from .loads import contact_force
+from .loads import contact_force, spring_force
 
 #: The time channel, as OpenFAST names it.
 TIME_CHANNEL = "Time"
@@ -78,7 +78,7 @@ def run_channels(result: Any) -> dict[str, np.ndarray]:
         TIME_CHANNEL: t,
         "structure.x": result.x, "structure.v": result.v, "ice.z": result.z, "ice.v": result.w,
         "contact.gap": result.gap, "contact.penetration": result.penetration,
-        "structure.force": result.scene.structure_k * np.asarray(result.x, dtype=float),
+        "structure.force": spring_force(result.scene, result.x),
         "contact.force": contact_force(t, impulse),
         "contact.impulse": impulse,
         "contact.count": np.searchsorted(np.sort(impact_t), t, side="right"),
