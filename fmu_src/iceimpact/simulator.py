@@ -385,7 +385,8 @@ class Simulator:
                               "gap": gap, "penetration": penetration,
                               "impulse": samples.impulse,
                               "force": samples.impulse / (times - starts),
-                              "spring_force": k * samples.x}, times, starts)
+                              "spring_force": (k * samples.x if k
+                                               else np.zeros_like(samples.x))}, times, starts)
         except BaseException as exc:
             # the interval of the refusal: of the output, or of the impact budget's step
             interval_start = solver.step_start
