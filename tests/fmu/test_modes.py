@@ -131,7 +131,8 @@ def test_a_load_input_table_drives_mode_1_to_its_static_offset(fmu, fmu3):
     ({"structure.modes": 6}, "structure.modes = 6 is not allowed: 1 <= modes <= 5"),
     ({"structure.mode2.f": 0.0, "structure.modes": 2},
      "structure.mode2.f = 0.0 is not allowed: > 0"),
-    ({"solver.method": 2}, "the modal structure (structure.model = 3) needs solver.method = 1"),
+    ({"structure.Cd": 1.0, "structure.A": 2.0},
+     "Morison loads on the modal structure are not modelled"),
 ])
 def test_a_bad_mode_value_is_reported_and_the_instance_survives(fmu_dir, model_description,
                                                                values, message):
