@@ -18,7 +18,9 @@ Rows:
   contact point, ``1 / sum phi_k^2 / m_k`` = 1176 kg;
 - **load-driven, Jacobi**: IceImpact.fmu (``structure.model = 3``) and a sine-load FMU built here
   (PythonFMU, output ``force = A sin(2 pi f t)``) in a Jacobi loop: ``force -> mode1.load`` and
-  ``0.6 force -> mode2.load`` (the force at the contact point projected on the modes, phi_k F).
+  ``0.6 force -> mode2.load`` (the force at the contact point projected on the modes, phi_k F);
+  order "held" holds each load over a step (``structure.load_order = 0``), "linear" continues
+  it at its rate between the last two communication points (``structure.load_order = 1``).
 
 Reference: tests/modal_reference.py, the monolithic system integrated by scipy's DOP853 (rtol
 1e-12) with the gap and the riding contact force as events, impact by impact; it shares no code
@@ -170,17 +172,20 @@ class Slave(system.Slave):
     """FMPy's FMU2Slave with IceImpact's structure.modes as an Integer."""
 
     def set(self, name: str, value) -> None:
-        if name == "structure.modes":
+        if name in ("structure.modes", "structure.load_order"):
             self.fmu.setInteger([self.vr[name]], [int(value)])
         else:
             super().set(name, value)
 
 
 def load_driven_run(fmus: Path, sine: Path, h: float, amplitude: float,
-                    frequency: float) -> dict:
-    """IceImpact.fmu's modes driven by SineLoad.fmu, Jacobi: both step from the values at t."""
+                    frequency: float, order: int = 0) -> dict:
+    """IceImpact.fmu's modes driven by SineLoad.fmu, Jacobi: both step from the values at t;
+    IceImpact holds each load over the step (``order`` 0) or continues it at its last rate
+    (1: structure.load_order)."""
     ice = {"structure.model": 3, "structure.modes": 2, "drag.model": ICE["drag_model"],
-           "ice.M": ICE["ice_M"], "impact.e": ICE["impact_e"], "flow.u": ICE["flow_u"]}
+           "ice.M": ICE["ice_M"], "impact.e": ICE["impact_e"], "flow.u": ICE["flow_u"],
+           "structure.load_order": order}
     for k, (f, zeta, m, phi) in enumerate(MODES, start=1):
         ice.update({f"structure.mode{k}.f": f, f"structure.mode{k}.zeta": zeta,
                     f"structure.mode{k}.m": m, f"structure.mode{k}.phi": phi})
@@ -283,13 +288,14 @@ def main(argv: list[str] | None = None) -> None:
         for amplitude, frequency in LOADS:
             loaded = reference(sine_load(amplitude, frequency))
             x_fine_loaded = loaded.run(T_END, finest)
-            for h in STEPS:
-                start = time.perf_counter()
-                result = load_driven_run(args.fmus, sine, h, amplitude, frequency)
-                add(f"two modes + SineLoad.fmu (A = {amplitude:g} N, f = {frequency:g} Hz)",
-                    "Jacobi, modes inside", "", h, result["x"],
-                    (result["count"], len(loaded.impacts)), math.nan,
-                    time.perf_counter() - start, on_grid(x_fine_loaded, h))
+            for order in (0, 1):
+                for h in STEPS:
+                    start = time.perf_counter()
+                    result = load_driven_run(args.fmus, sine, h, amplitude, frequency, order)
+                    add(f"two modes + SineLoad.fmu (A = {amplitude:g} N, f = {frequency:g} Hz)",
+                        "Jacobi, modes inside", "held" if order == 0 else "linear", h,
+                        result["x"], (result["count"], len(loaded.impacts)), math.nan,
+                        time.perf_counter() - start, on_grid(x_fine_loaded, h))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     args.out.mkdir(parents=True, exist_ok=True)

@@ -57,6 +57,7 @@ LINEAR_DRAG, QUADRATIC_DRAG = 1, 2                        # drag.model
 METHOD_EXACT, METHOD_FIXED_STEP, METHOD_ODE = 1, 2, 3     # solver.method
 DETECTION_WINDOW, DETECTION_SIGN = 1, 2                   # solver.detection
 STRUCTURE_BUILTIN, STRUCTURE_EXTERNAL, STRUCTURE_MODAL = 1, 2, 3  # structure.model
+LOAD_HELD, LOAD_LINEAR = 0, 1                             # structure.load_order
 SCHEME_GAUSS_SEIDEL, SCHEME_JACOBI = 1, 2                 # coupling.scheme
 
 #: Most modes of the built-in modal structure (structure.model = 3): FMI 2.0 has no arrays, so
@@ -266,6 +267,14 @@ PARAMETERS: tuple[Variable, ...] = (
              f"structure.mode<modes>.* are used, 1 to {MAX_MODES}", 1,
              allowed=f"1 <= modes <= {MAX_MODES}", minimum=1, maximum=MAX_MODES),
     *(v for k in range(1, MAX_MODES + 1) for v in _mode_parameters(k)),
+    # a load held over a step is first order in the step; continued at its last rate, second
+    # order for a smooth load (docs/explanation/modes.md#loads-in-modal-states-out)
+    _enum("structure.load_order", "modal structure (structure.model = 3): how each input "
+          "structure.mode<k>.load goes over a communication step (the FMU's inputs only). "
+          "0 = held; 1 = continued at its rate between the last two communication points "
+          "(for a smooth load from another FMU: an error second order in the step instead of "
+          "first; the first step holds)", LOAD_HELD,
+          {LOAD_HELD: "held", LOAD_LINEAR: "linear"}),
 )
 
 #: Inputs, held constant within a communication step (zero-order hold).

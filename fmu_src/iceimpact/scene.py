@@ -140,6 +140,7 @@ class Scene:
     structure_mode3_load: float = _START["structure_mode3_load"]
     structure_mode4_load: float = _START["structure_mode4_load"]
     structure_mode5_load: float = _START["structure_mode5_load"]
+    structure_load_order: int = _START["structure_load_order"]
 
     def __post_init__(self) -> None:
         validate(self)

@@ -27,6 +27,7 @@ from typing import Any
 
 from ..contract import (
     FLOW_INPUT,
+    LOAD_LINEAR,
     MODE_LOAD_INPUTS,
     OUTPUTS,
     PARAMETERS,
@@ -74,6 +75,9 @@ class FmuModel(FmuLifecycle):
         self.structure_in: dict[str, Any] = {v.name: v.start
                                              for v in STRUCTURE_INPUTS + MODE_LOAD_INPUTS}
         self.sim: Simulator | None = None
+        #: the mode loads given at the last step's start and its time (s): their rates with
+        #: structure.load_order = 1 (None before a first step)
+        self.loads_before: tuple[float, tuple[float, ...]] | None = None
         self.publish(Simulator(Scene()).report)
         self.penetration_logged = False
 
@@ -117,6 +121,7 @@ class FmuModel(FmuLifecycle):
         scene = Scene.from_fmi({**self.values, FLOW_INPUT.name: self.flow_u})
         sim = Simulator(scene, record_impacts=False)
         self.sim = sim
+        self.loads_before = None
         self.publish(sim.report)
         self.penetration_logged = False
         if scene.external:
@@ -144,19 +149,22 @@ class FmuModel(FmuLifecycle):
                     TUNERS[name](sim, value)
             structure = (tuple(self.structure_in[v.name] for v in STRUCTURE_INPUTS)
                          if sim.external else None)
-            loads = (tuple(self.structure_in[v.name]
-                           for v in MODE_LOAD_INPUTS[:sim.scene.structure_modes])
-                     if sim.modal else None)
+            given = tuple(self.structure_in[v.name] for v in MODE_LOAD_INPUTS)
+            n = sim.scene.structure_modes
+            loads = given[:n] if sim.modal else None
+            rates = (self.load_rates(current_time, given)[:n]
+                     if sim.modal and sim.scene.structure_load_order == LOAD_LINEAR else None)
             if self.early_return:
                 # to the master's point itself, so that the steps after an early return end
                 # on the master's grid (sim.t + step_size may differ from it by rounding)
                 end = current_time + step_size - self.start_time
                 report = sim.advance_to(end, self.flow_u, structure, stop_at_event=True,
-                                        loads=loads)
+                                        loads=loads, load_rates=rates)
                 if report.t != end:
                     self.returned_at = report.t + self.start_time
             else:
-                report = sim.advance(step_size, self.flow_u, structure, loads=loads)
+                report = sim.advance(step_size, self.flow_u, structure, loads=loads,
+                                     load_rates=rates)
         except (ParameterError, SolverError) as exc:
             if before is not None:
                 sim.restore(before)  # the tunables applied before the refusal are undone
@@ -165,6 +173,8 @@ class FmuModel(FmuLifecycle):
         if pending:
             self.values.update(pending)
             pending.clear()
+        if sim.modal:
+            self.loads_before = (current_time, given)
         self.publish(report)
         if report.penetration > 0.0 and not self.penetration_logged:
             self.penetration_logged = True
@@ -173,6 +183,16 @@ class FmuModel(FmuLifecycle):
                       f"{sim.penetration_cause}; solver.method = 1 locates every impact exactly "
                       "(logged once)")
         return True
+
+    def load_rates(self, t: float, loads: tuple[float, ...]) -> tuple[float, ...]:
+        """The mode loads' rates (N/s) for a step from t with the loads given now: their change
+        since the last step's start over the time between (0 for the first step, or a step from
+        the same time)."""
+        before = self.loads_before
+        if before is None or not t > before[0]:
+            return (0.0,) * len(loads)
+        span = t - before[0]
+        return tuple((now - then) / span for now, then in zip(loads, before[1], strict=True))
 
     # state ---------------------------------------------------------------------------------------
     def snapshot(self) -> dict[str, Any]:
@@ -187,6 +207,8 @@ class FmuModel(FmuLifecycle):
             "error": self.error,
             "penetration_logged": self.penetration_logged,
             "simulator": self.sim.save() if self.sim is not None else None,
+            "loads_before": (None if self.loads_before is None
+                             else [self.loads_before[0], list(self.loads_before[1])]),
         }
 
     def restore(self, record: dict[str, Any]) -> None:
@@ -202,5 +224,7 @@ class FmuModel(FmuLifecycle):
         self.pending = dict(record["pending"])
         self.error = record["error"]
         self.penetration_logged = record["penetration_logged"]
+        before = record["loads_before"]
+        self.loads_before = None if before is None else (before[0], tuple(before[1]))
         self.sim = sim
         self.publish(sim.report if sim is not None else Simulator(Scene()).report)

@@ -40,7 +40,7 @@ MAX_BYTES = 1 << 16
 _PARAMETER_NAMES = {p.name for p in PARAMETERS}
 _TUNABLE_NAMES = {p.name for p in PARAMETERS if p.tunable}
 _RECORD_KEYS = {"values", "flow_u", "structure_in", "start_time", "time", "pending", "error",
-                "penetration_logged", "simulator"}
+                "penetration_logged", "simulator", "loads_before"}
 _STRUCTURE_INPUT_NAMES = {v.name for v in STRUCTURE_INPUTS + MODE_LOAD_INPUTS}
 
 
@@ -61,6 +61,15 @@ def check_record(record: Any) -> dict[str, Any]:
     inputs = check_values("state.structure_in", record["structure_in"], _STRUCTURE_INPUT_NAMES)
     for name, value in inputs.items():
         check_number(f"state.structure_in[{name!r}]", value, finite=False)  # checked by doStep
+    before = record["loads_before"]
+    if before is not None:
+        if not (isinstance(before, list) and len(before) == 2 and isinstance(before[1], list)
+                and len(before[1]) == len(MODE_LOAD_INPUTS)):
+            raise StateError("state.loads_before", before, "null or [the time (s), the "
+                             f"{len(MODE_LOAD_INPUTS)} mode loads (N) given then]")
+        check_number("state.loads_before[0]", before[0])
+        for k, value in enumerate(before[1]):
+            check_number(f"state.loads_before[1][{k}]", value)
     check_number("state.start_time", record["start_time"])
     check_number("state.time", record["time"])
     if record["error"] is not None and not isinstance(record["error"], str):
