@@ -217,3 +217,28 @@ def test_fmi3_state_of_the_riding_ice_set_back_and_deserialized_continues_identi
     for k in range(140):
         sim.advance((k + 1) * H - k * H, loads=(300.0, -120.0) if k >= 60 else (0.0, 0.0))
     assert first[-1][0] == sim.report.x and first[-1][4] == sim.report.mode2_v
+
+
+def test_load_order_1_continues_each_load_at_its_last_rate(fmu, fmu3):
+    """structure.load_order = 1 with a ramp from an FMPy input table (FMPy interpolates it, so
+    the load at each step's start is the ramp's): each step continues the load at its rate
+    between the last two communication points, as Simulator.advance(..., loads, load_rates)
+    does; the first step holds. A ramp is then followed exactly (from the second step on),
+    where a held load lags it."""
+    rate = 20000.0  # N/s
+    signal = np.zeros(2, dtype=[("time", float), ("structure.mode1.load", float)])
+    signal["time"], signal["structure.mode1.load"] = (0.0, 10.0), (0.0, 10.0 * rate)
+    values = LOADED | {"structure.load_order": 1}
+    sim = Simulator(scene_of(values))
+    expected = [sim.report.x]
+    for k in range(round(2.0 / H)):
+        t = k * H
+        sim.advance((k + 1) * H - t, loads=(rate * t, 0.0),
+                    load_rates=(rate if k > 0 else 0.0, 0.0))
+        expected.append(sim.report.x)
+    held = stepped(LOADED, 2.0, H, loads=lambda t: (rate * t, 0.0))
+    for path in (fmu, fmu3):
+        result = simulate_fmu(str(path), stop_time=2.0, output_interval=H, start_values=values,
+                              input=signal)
+        np.testing.assert_allclose(result["structure.x"], expected, rtol=1e-12, atol=1e-18)
+        assert not np.array_equal(result["structure.x"], [r.x for r in held])
