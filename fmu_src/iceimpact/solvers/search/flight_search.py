@@ -368,6 +368,7 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
         callees = {"_gap_point": gap_point, "_ice_accel": ice_accel, "_clearance": clearance,
                    "_structure_probe": probe, "plan": jit(numba, signature(numba, plan), plan)}
         _DISPATCHERS.update(callees, _ice_motion=ice_motion, _amplitude=amplitude,
+                            under_increment=under, aperiodic_increment=aperiodic,
                             _motion=jit(numba, signature(numba, _motion), _motion,
                                         _gap_point=gap_point),
                             flight_root=compile_root(numba, numba.int64, callees))

@@ -30,7 +30,6 @@ import numpy as np
 from ...compiled import compile_or_none, entry_point, fields, jit
 from ...physics.structure import (
     FORM_UNDER,
-    _decay_pair,
     aperiodic_increment,
     response_constants,
     under_increment,
@@ -186,15 +185,11 @@ def _build(numba: Any) -> Any:
     def compiled(function: Any, **callees: Any) -> Any:
         return jit(numba, signature(numba, function, modes), function, **callees)
 
-    probe = jit(numba, signature(numba, _structure_probe), _structure_probe,
-                _amplitude=search["_amplitude"])
-    decay_pair = jit(numba, signature(numba, _decay_pair), _decay_pair)
-    under = jit(numba, signature(numba, under_increment), under_increment)
-    aperiodic = jit(numba, signature(numba, aperiodic_increment), aperiodic_increment,
-                    _decay_pair=decay_pair)
     callees = {"_gap_point": compiled(_modal_gap_point, _ice_motion=search["_ice_motion"],
-                                      under_increment=under, aperiodic_increment=aperiodic),
-               "_structure_probe": compiled(_modal_probe, _structure_probe=probe),
+                                      under_increment=search["under_increment"],
+                                      aperiodic_increment=search["aperiodic_increment"]),
+               "_structure_probe": compiled(_modal_probe,
+                                            _structure_probe=search["_structure_probe"]),
                "_clearance": compiled(_modal_clearance, _amplitude=search["_amplitude"]),
                "_ice_accel": search["_ice_accel"], "plan": search["plan"]}
     return entry_point(compile_root(numba, modes, callees))
