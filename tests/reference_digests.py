@@ -70,6 +70,11 @@ CASES = (
     ("modal, two modes plastic, riding, loads", "modal", {**TWO_MODES, "impact_e": 0.0}, 10.0,
      1e-2, ((5.0, 0.1),)),
     ("modal, run() two modes", "run", {**TWO_MODES, "impact_e": 0.7}, 10.0, 1e-2, ()),
+    # the structure's flight under the quadratic Morison drag through reversals of u - x', one
+    # of them a touch of 0 (its step from u - x' = 0 once ended where it began)
+    ("method 1, Morison quadratic, relative flow reversing", "run",
+     {"structure_Cd": 1.0, "structure_A": 2.0, "drag_model": 2, "structure_v0": 0.5,
+      "ice_A": 2.0}, 20.0, 1e-2, ()),
 )
 
 #: Method 3's reference runs, in CASES' form (compared with method 1 within its error bound).

@@ -140,10 +140,11 @@ def test_sample_refuses_times_it_cannot_reach_and_changes_nothing(times, field):
     assert sim.save() == before
 
 
-def test_a_refused_sampled_interval_is_worded_as_a_step_and_changes_nothing():
+def test_a_refused_sampled_interval_is_worded_as_a_step_and_stops_where_stepping_does():
+    """The refusal names the sample interval the failure lies in, and the simulator stands at
+    the last sample before it, as stepping to each sample leaves it."""
     scene = Scene(ice_M=800.0, solver_max_impacts=1)  # two impacts in (3.0, 3.5] s
     sim = Simulator(scene)
-    before = sim.save()
     times = np.linspace(0.5, 20.0, 40)
     with pytest.raises(SolverError) as refused:
         sim.sample(times)
@@ -154,10 +155,36 @@ def test_a_refused_sampled_interval_is_worded_as_a_step_and_changes_nothing():
     assert match, text
     start, end = float(match.group(1)), float(match.group(2))
     assert (start, end) == (3.0, 3.5)
-    assert sim.failed == text
-    after = sim.save()
-    assert after.pop("failed") == text and before.pop("failed") is None
-    assert after == before
+    assert sim.failed == text and sim.t == start
+    stepped = Simulator(scene)
+    for t in times[times <= start].tolist():
+        stepped.advance_to(t)
+    assert sim.save()["solver"] == stepped.save()["solver"]
+
+
+def test_a_failure_deep_in_a_long_flight_is_located_where_it_happens(monkeypatch):
+    """A method failing many samples after the flight began (a long flight under the quadratic
+    Morison drag, made to fail at its step past 5.9 s): the refusal names the time of the
+    failure, and the run stops at the sample before the step that met it (the root search
+    makes the flight's steps up to a natural period, 0.29 s, ahead), not where the flight began
+    (0.14 s)."""
+    from iceimpact.solvers.exact import flight
+
+    make = flight.DraggedFlight._step_from
+
+    def failing(self, lo, y):
+        if self.t0 + lo > 5.9:
+            raise SolverError(f"made to fail at t = {self.t0 + lo!r} s")
+        return make(self, lo, y)
+    monkeypatch.setattr(flight.DraggedFlight, "_step_from", failing)
+    scene = Scene(structure_Cd=1.0, structure_A=2.0, drag_model=2, structure_v0=0.5,
+                  ice_A=2.0)
+    with pytest.raises(SolverError) as refused:
+        run(scene, 20.0)
+    match = re.match(r"the run stopped at t = (\S+) s \(the step to (\S+) s was refused", str(
+        refused.value))
+    assert match and 5.9 - 0.3 <= float(match.group(1)) < float(match.group(2)) <= 5.91
+    assert "made to fail at t = 5.9" in str(refused.value)
 
 
 # Numbers of the Python API: Python and numpy alike, refusals named -------------------------------

@@ -362,9 +362,11 @@ class Simulator:
         one (the exact method: one march through every time, the states evaluated in closed
         forms at once, equal to stepping to rounding), else one :meth:`advance_to` per time.
         Either way no NaN or inf is returned (:func:`check_finite`, the fields a step checks)
-        and a refusal is worded as a step's (:func:`stopped`). On a refusal from the vectorised
-        sampler the simulator is as before the call; stepping keeps the steps before the
-        refused one."""
+        and a refusal is worded as a step's (:func:`stopped`). Where the method fails (a
+        :class:`SolverError`), the samples are then taken again step by step from the call's
+        start, so that the refusal names the step the failure lies in and the simulator stands
+        at the last sample before it, as stepping leaves it; on a non-finite output the
+        simulator is as before the call."""
         times = _increasing_times(times, self.solver.t, math.inf, "times")
         if u is None:
             u = self.scene.flow_u
@@ -388,14 +390,14 @@ class Simulator:
                               "spring_force": (k * samples.x if k
                                                else np.zeros_like(samples.x))}, times, starts)
         except BaseException as exc:
-            # the interval of the refusal: of the output, or of the impact budget's step
-            interval_start = solver.step_start
             solver.rollback(checkpoint)
             if isinstance(exc, NonFiniteError):
                 self.failed = stopped(exc.t_before, exc.t, exc)
             elif isinstance(exc, SolverError):
-                i = min(int(np.searchsorted(times, interval_start, side="right")), len(times) - 1)
-                self.failed = stopped(interval_start, float(times[i]), exc)
+                # the vectorised march fails where the method does, which may lie many samples
+                # after the interval it stood in (a long flight): stepping from the start to
+                # the refused step finds the last sample the results are good up to
+                return self._sample_by_steps(times, u)
             else:
                 raise
             raise SolverError(self.failed) from exc

@@ -704,3 +704,50 @@ def test_a_sampled_flight_in_taylor_steps_is_the_stepped_one(fields):
     impulses = np.array([r.impulse for r in reports])
     np.testing.assert_allclose(result.impulse[1:], impulses, rtol=1e-14, atol=0.0)
     assert len(result.impacts) == sim.impact_count > 10
+
+
+#: Flights of the structure under the quadratic Morison drag whose relative flow u - x' turns
+#: many times, one of them only touching 0 (its Taylor step ended where it began)
+REVERSING_FLIGHTS = {
+    "touching": (dict(structure_Cd=1.0, structure_A=2.0, drag_model=2, structure_v0=0.5,
+                      ice_A=2.0), 20.0),
+    "plausible": (dict(structure_m=3485.0, structure_k=7.31e5, structure_c=3423.0,
+                       ice_M=3087.0, ice_A=9.1, ice_Cd=0.59, flow_u=0.166, impact_e=1.0,
+                       drag_model=2, ice_z0=-0.0249, ice_v0=0.923, structure_Ca=0.18,
+                       structure_V=89.0, structure_Cd=0.58, structure_A=3.24), 60.0),
+}
+
+
+@pytest.mark.parametrize("name", list(REVERSING_FLIGHTS))
+def test_a_flight_under_the_morison_drag_passes_any_reversal_of_the_relative_flow(name):
+    from iceimpact import run
+
+    kw, t_end = REVERSING_FLIGHTS[name]
+    result = run(Scene(**kw), t_end)
+    assert np.isfinite(result.x).all() and result.t[-1] == t_end
+
+
+def test_the_structure_under_the_morison_drag_follows_an_integration_through_its_reversals():
+    """The structure alone (the ice far upstream, undragged): its Taylor steps through some
+    60 reversals of u - x' against DOP853 at rtol 1e-12, which shares no code with them."""
+    from scipy.integrate import solve_ivp
+
+    from iceimpact import run
+
+    scene = Scene(structure_Cd=1.0, structure_A=2.0, drag_model=2, structure_v0=0.5,
+                  ice_z0=-1e3, ice_v0=0.0, ice_Cd=0.0)
+    m, c, k = scene.structure_mass, scene.structure_c, scene.structure_k
+    B, u = scene.structure_drag_B, scene.flow_u
+
+    def rhs(t, y):
+        r = u - y[1]
+        return [y[1], (B * abs(r) * r - c * y[1] - k * y[0]) / m]
+    t_end = 20.0
+    result = run(scene, t_end, dt=1e-2)
+    sol = solve_ivp(rhs, (0.0, t_end), [0.0, 0.5], method="DOP853", rtol=1e-12, atol=1e-15,
+                    t_eval=result.t)
+    assert len(result.impacts) == 0
+    reversals = np.count_nonzero(np.diff(np.sign(u - sol.y[1])))
+    assert reversals > 50
+    np.testing.assert_allclose(result.x, sol.y[0], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(result.v, sol.y[1], rtol=0, atol=1e-9)

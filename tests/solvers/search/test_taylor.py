@@ -504,7 +504,7 @@ def test_a_step_off_the_compiled_path_is_taken_in_python():
     y = (-0.69, 1e-37, 0.0)
     with pytest.raises(taylor.HandBack):
         taylor.KERNELS.ordinary_step(0.0, *y, 1.0, True, 0.0, 1e-14, 0.0, 0.0, 6.6e-125, 11.0,
-                                     1.3e67, *stepper._constants, *stepper._work.arrays())
+                                     1.3e67, *stepper._constants, *stepper._work.arrays(), 0.0)
     step = stepper.step(0.0, y, 1.0, True)
     pure = StickingTaylor(*args, max_step=1.3e67)
     pure._work = taylor._Work(False)
@@ -512,6 +512,6 @@ def test_a_step_off_the_compiled_path_is_taken_in_python():
                        taylor._EXPONENT_LIST)
     outcome, h, theta_end = taylor.ordinary_step(0.0, *y, 1.0, True, 0.0, 1e-14, 0.0, 0.0,
                                                  6.6e-125, 11.0, 1.3e67, *pure._constants,
-                                                 *pure._work.arrays())
+                                                 *pure._work.arrays(), 0.0)
     assert step.h == h and np.array_equal(step.table, pure._work.table[:3].T)
     assert stepper.run(0.0, y, 0.0, 1.0) == []  # (the run stops before it)

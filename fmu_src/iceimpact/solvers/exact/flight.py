@@ -376,16 +376,18 @@ class DraggedFlight(Flight):
         return 2.0 * math.pi / math.sqrt(context.k / context.m)
 
     def _step_from(self, lo: float, y: tuple[float, float, float]) -> None:
+        x, v, _ = y
+        where = (f"t = {self.t0 + lo!r} s (structure x = {x!r} m, v = {v!r} m/s, flow u = "
+                 f"{self.u!r} m/s)")
         try:
             step = self.taylor.step(lo, y, math.inf, False)
         except (ArithmeticError, ValueError) as exc:
-            raise SolverError(f"integration of the structure's flight failed at t = "
-                              f"{self.t0 + lo}: {exc}") from exc
+            raise SolverError(f"integration of the structure's flight failed at {where}: "
+                              f"{exc}") from exc
         if self.steps and step.hi == lo == self.steps[-1].lo:
             # two steps in a row that do not advance the time (one at a sign change of
             # u - v is normal: the next one starts from u - v = 0)
-            raise SolverError(f"integration of the structure's flight stalled at t = "
-                              f"{self.t0 + lo}")
+            raise SolverError(f"integration of the structure's flight stalled at {where}")
         self.steps.append(step)
         self.frontier = step.hi
 

@@ -82,7 +82,7 @@ def _make_step(integrated):
     outcome, h, theta_end = ordinary_step(
         lo, x, v, p, math.inf, False, q[FLIGHT.U], 0.0, q[FLIGHT.B], q[FLIGHT.DAMPING],
         q[FLIGHT.STIFFNESS], 0.0, q[FLIGHT.PERIOD], order_over, reciprocals, exponents, rs, fs,
-        table, powers, terms, partial, sums, proven)
+        table, powers, terms, partial, sums, proven, 0.0)
     if outcome != NO_ROOT:  # (a sign change of u - v may lie on it: Python's _first_root)
         ints[COUNTERS.FAILED] = 1
         return False

@@ -192,10 +192,16 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
                 # end is within the tolerance it reached
                 # the grid's values (summed products) and Horner's differ by rounding: where
                 # they disagree on a sign, the crossing is at that end
-                if horner(poly, a) <= 0.0:
+                at_a = horner(poly, a)
+                if at_a < 0.0 or (at_a == 0.0 and a > 0.0):
                     return a
                 if horner(poly, b) >= 0.0:
                     return b
+                if at_a == 0.0:  # a zero at the step's start (u - v = 0 after a sign
+                    # change): the crossing is the next one, beyond a point where it is > 0
+                    a = _rise_from_zero(poly, b)
+                    if a is None:
+                        return 0.0
                 root, _ = brentq(lambda theta: horner(poly, theta), a, b, xtol=1e-300,
                                  rtol=4.0 * 2.0 ** -52, maxiter=1100, full_output=True,
                                  disp=False)
@@ -207,6 +213,20 @@ def _first_root(coeffs: np.ndarray, values: np.ndarray, curvature: float, doubtf
             pm = horner(poly, mid)
             stack.append((mid, pm, b, pb))
             stack.append((a, pa, mid, pm))
+    return None
+
+
+def _rise_from_zero(poly: list[float], b: float) -> float | None:
+    """A point of (0, b) where the polynomial, 0 at 0 and below 0 at b, is above 0 (halving b,
+    at most 1,100 times: down to the smallest floats), or None if none is found: it goes below
+    zero at once."""
+    theta = b
+    for _ in range(1100):
+        theta *= 0.5
+        if theta == 0.0:
+            return None
+        if horner(poly, theta) > 0.0:
+            return theta
     return None
 
 
@@ -319,7 +339,7 @@ def run_steps(lo, x, v, p, start, tau_end, u, drag_B, structure_B, c, k, M, tota
         outcome, h, theta_end = ordinary_step(
             lo, x, v, p, until, not hold, u, drag_B, structure_B, c, k, M, max_step,
             order_over, reciprocals, exponents, rs, fs, table, powers, terms, partial, sums,
-            proven)
+            proven, 0.0)
         if outcome != NO_ROOT or not (hold or _clearly_pushes(table, rs, fs, x, v, drag_B,
                                                               structure_B, c, k, M, total)):
             break
@@ -422,11 +442,12 @@ class StickingTaylor:
             self._constants = (order_over, _RECIPROCAL_LIST, _EXPONENT_LIST)
 
     def _ordinary(self, lo: float, y: tuple[float, float, float], until: float,
-                  look_for_separation: bool) -> tuple[int, float, float]:
-        """:func:`ordinary_step` from lo at y, compiled where numba is (in Python where the
-        compiled one hands back), into the work arrays."""
+                  look_for_separation: bool, sign: float = 0.0) -> tuple[int, float, float]:
+        """:func:`ordinary_step` from lo at y (with the drag's sign ``sign``, 0.0: its own
+        rule), compiled where numba is (in Python where the compiled one hands back), into the
+        work arrays."""
         args = (lo, *y, until, look_for_separation, self.u, self.B, self.structure_B, self.c,
-                self.k, self.M, self.max_step, *self._constants, *self._work.arrays())
+                self.k, self.M, self.max_step, *self._constants, *self._work.arrays(), sign)
         if KERNELS is not None:
             try:
                 return KERNELS.ordinary_step(*args)
@@ -437,9 +458,27 @@ class StickingTaylor:
     def step(self, lo: float, y: tuple[float, float, float], until: float,
              look_for_separation: bool) -> TaylorStep:
         """The step from lo (s) at state y = (x, v, P), ending at ``until`` at the latest.
-        Raises ArithmeticError where it would end in a state that is not finite."""
+        Raises ArithmeticError where it would end in a state that is not finite.
+
+        From u - v = 0 the drag's sign is the one u - v moves to, read from its first non-zero
+        Taylor coefficient. Where u - v only touches 0 (v at an extremum equal to u, the step
+        before ending there on rounding), that coefficient is rounding, its sign may be wrong,
+        and the step would end at once at a sign change that is not there: the step is then
+        taken with the other sign, for which u - v keeps its sign (the drag is s B r^2, the
+        same at r = 0 either way)."""
+        step = self._step(lo, y, until, look_for_separation, 0.0)
+        if step.end is StepEnd.FLIP and step.hi == lo and y[1] == self.u:
+            for sign in (1.0, -1.0):
+                other = self._step(lo, y, until, look_for_separation, sign)
+                if not (other.end is StepEnd.FLIP and other.hi == lo):
+                    return other
+        return step
+
+    def _step(self, lo: float, y: tuple[float, float, float], until: float,
+              look_for_separation: bool, sign: float) -> TaylorStep:
+        """:meth:`step` with the drag's sign ``sign`` (0.0: :func:`drag_sign`'s)."""
         step = TaylorStep(lo, y)
-        outcome, h, theta_end = self._ordinary(lo, y, until, look_for_separation)
+        outcome, h, theta_end = self._ordinary(lo, y, until, look_for_separation, sign)
         if outcome == NO_STEP:
             raise ArithmeticError(f"no Taylor step from t = {lo!r} s at state {y!r}")
         h, theta_end = float(h), float(theta_end)

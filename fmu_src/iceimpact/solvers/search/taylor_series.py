@@ -249,15 +249,18 @@ def series(x, v, p, sign, u, drag_B, structure_B, c, k, M, order_over, reciproca
 
 def ordinary_step(lo, x, v, p, until, look_for_separation, u, drag_B, structure_B, c, k, M,
                   max_step, order_over, reciprocals, exponents, rs, fs, table, powers, terms,
-                  partial, sums, proven):
+                  partial, sums, proven, sign):
     """The step from lo (s) at state (x, v, P) up to the proof that it holds no root
     (:class:`StickingTaylor`'s coefficients; the work arrays of :class:`_Work`): fills
     ``table`` with its coefficients in theta = (tau - lo) / h and ``sums`` with the signals'
     values and curvature bounds (:func:`proof_sums`), ``proven`` with the intervals proven free
     of roots (:func:`proven_intervals`); returns (outcome, h, theta_end), outcome
     NO_ROOT (the step runs to theta_end), MAYBE_ROOT (a root of s r or of lam, when separation
-    is looked for, may lie on it) or NO_STEP (h is not > 0)."""
-    sign = drag_sign(x, v, u, drag_B, structure_B, c, k, order_over, reciprocals, rs, fs)
+    is looked for, may lie on it) or NO_STEP (h is not > 0). ``sign`` is the drag's sign s,
+    0.0 for :func:`drag_sign`'s (a step from u - v = 0 whose sign that rule gets wrong is taken
+    again with the other: :meth:`~.taylor.StickingTaylor.step`)."""
+    if sign == 0.0:
+        sign = drag_sign(x, v, u, drag_B, structure_B, c, k, order_over, reciprocals, rs, fs)
     series(x, v, p, sign, u, drag_B, structure_B, c, k, M, order_over, reciprocals, exponents,
            rs, fs, table)
     h = step_length(table, max_step)
@@ -336,7 +339,7 @@ def compiled_step(numba: Any) -> dict[str, Any]:
     fill = jit(numba, (*(f8,) * 10, *(array,) * 5, table), series,
                taylor_recurrence=recurrence)
     step_args = (*(f8,) * 5, b1, *(f8,) * 7, *(array,) * 5, table, array, cube, cube, table,
-                 b1[:, ::1])
+                 b1[:, ::1], f8)
     ordinary = jit(numba, step_args, ordinary_step, drag_sign=sign, series=fill,
                    step_length=length, scale_table=scale, proof_sums=proof,
                    proven_intervals=proven)
