@@ -518,6 +518,23 @@ def test_the_search_tells_a_run_busy_with_impacts_from_a_stall():
     assert not busy_with_impacts(scene, 0.0, 0, 0.0, 0, 0.0)
 
 
+@pytest.mark.parametrize("method", [1, 2])
+def test_a_run_following_zeno_sequences_is_busy_up_to_their_budget(method):
+    """With e < 1 method 1 follows each Zeno sequence below the chatter time, up to ZENO_BUDGET
+    bounces: a run of that many impacts per chatter time is busy, one beyond them is not;
+    method 2 closes its sequences at the chatter time (one an interval)."""
+    from iceimpact.solvers.contact_rules import ZENO_BUDGET, chatter_time
+    from random_search import IMPACT_WORK, busy_with_impacts
+
+    scene = Scene(**{**ELASTIC_CHATTER, "impact_e": 0.9, "solver_method": method})
+    t = 0.5
+    intervals = int(t / chatter_time(scene.omega_n, scene.solver_chatter_fraction)) + 1
+    followed = intervals * (1 + ZENO_BUDGET) if method == 1 else intervals
+    for impacts, busy in ((followed, True), (followed + intervals + 2, False)):
+        work = IMPACT_WORK * impacts
+        assert busy_with_impacts(scene, t, impacts, work, impacts // 2, work / 2) is busy
+
+
 def test_a_slow_mode_far_below_the_fast_one_still_parts_the_bodies():
     """Method 1, linear drag, well over-damped sticking (the search with seed 48): a plastic
     impact at 0.17 m/s sticks a 0.8 mg floe to a 0.45 g structure (omega_n 1e-3 rad/s) under
