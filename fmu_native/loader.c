@@ -219,6 +219,8 @@ typedef struct {
     char **categories;              /* the host's categories (none: all) */
     int failed;                     /* the slave failed the current call (FAIL_CATEGORY) */
     int instantiating;              /* inside PythonFMU's fmi2Instantiate: errors to stderr too */
+    fmi2FMUstate *states;           /* the FMU states handed out and not freed (state_add) */
+    size_t n_states, cap_states;
 } Instance;
 
 static char *copy_string(const char *s) {
@@ -810,6 +812,56 @@ static fmi2Status finish(Instance *inst, fmi2Status status) {
     return (inst->failed && status < fmi2Error) ? fmi2Error : status;
 }
 
+/* The FMU states an instance handed out (fmi2GetFMUstate, fmi2DeSerializeFMUstate) and has not
+   freed. PythonFMU dereferences the state arguments it is given, so each is checked against
+   these first: a state the instance never handed out, or freed already, is refused with
+   fmi2Error and a message, never passed on (a host's slip must not crash it). */
+static long state_index(const Instance *inst, const void *state) {
+    for (size_t i = 0; i < inst->n_states; i++)
+        if (inst->states[i] == state) return (long)i;
+    return -1;
+}
+
+static int state_add(Instance *inst, fmi2FMUstate state) {
+    if (!state || state_index(inst, state) >= 0) return 1;
+    if (inst->n_states == inst->cap_states) {
+        size_t cap = inst->cap_states ? 2 * inst->cap_states : 8;
+        fmi2FMUstate *grown = realloc(inst->states, cap * sizeof *grown);
+        if (!grown) return 0;
+        inst->states = grown;
+        inst->cap_states = cap;
+    }
+    inst->states[inst->n_states++] = state;
+    return 1;
+}
+
+static void state_remove(Instance *inst, long i) {
+    inst->states[i] = inst->states[--inst->n_states];
+}
+
+/* A message of the loader's own to the host's logger (stderr where it has none). */
+static void say(Instance *inst, fmi2Status status, const char *fmt, ...) {
+    char text[1024];
+    va_list args;
+    va_start(args, fmt);
+    vsnprintf(text, sizeof text, fmt, args);
+    va_end(args);
+    if (inst->host.logger)
+        inst->host.logger(inst->host.componentEnvironment, inst->name, status,
+                          status_category(status), "%s", text);
+    else
+        fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s\n", text);
+}
+
+/* A state argument passed by value: one this instance handed out, else a message and 0. */
+static int known_state(Instance *inst, fmi2FMUstate state, const char *function) {
+    if (state && state_index(inst, state) >= 0) return 1;
+    say(inst, fmi2Error, "%s: the FMU state %p is not one this instance handed out and still "
+        "holds (freed already, or never got from fmi2GetFMUstate or fmi2DeSerializeFMUstate): "
+        "refused", function, (void *)state);
+    return 0;
+}
+
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 
 EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
@@ -864,6 +916,7 @@ EXPORT void fmi2FreeInstance(fmi2Component c) {
     /* After the host's Python exited, PythonFMU's objects went with it: free only ours. */
     if (python_alive()) real.FreeInstance(inst->component);
     clear_categories(inst);
+    free(inst->states);
     free(inst->name);
     free(inst);
 }
@@ -945,25 +998,84 @@ EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], 
                                 const fmi2String value[]) {
     PASS(SetString(C, vr, nvr, value));
 }
+/* The state functions check their state arguments against the states handed out first
+   (state_index): PythonFMU dereferences what it is given. */
+#define STATE_CALL(check, call) \
+    Instance *inst = begin(c, __func__); \
+    if (!inst) return fmi2Error; \
+    if (!(check)) return fmi2Error; \
+    return finish(inst, real.call)
+
+/* *state: NULL for a new state, or one handed out to be overwritten. */
+static int new_or_known(Instance *inst, fmi2FMUstate *state, const char *function) {
+    if (!state) {
+        say(inst, fmi2Error, "%s: the pointer to the FMU state is NULL: refused", function);
+        return 0;
+    }
+    return !*state || known_state(inst, *state, function);
+}
+
 EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    PASS(GetFMUstate(C, state));
+    Instance *inst = begin(c, __func__);
+    if (!inst) return fmi2Error;
+    if (!new_or_known(inst, state, __func__)) return fmi2Error;
+    fmi2FMUstate before = *state;
+    fmi2Status status = finish(inst, real.GetFMUstate(C, state));
+    if (status <= fmi2Warning && *state != before && before) /* replaced, not overwritten */
+        state_remove(inst, state_index(inst, before));
+    if (status <= fmi2Warning && !state_add(inst, *state)) return fmi2Error;
+    return status;
 }
 EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state) {
-    PASS(SetFMUstate(C, state));
+    STATE_CALL(known_state(inst, state, __func__), SetFMUstate(C, state));
 }
 EXPORT fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *state) {
-    PASS(FreeFMUstate(C, state));
+    Instance *inst = begin(c, __func__);
+    if (!inst) return fmi2Error;
+    if (!state) {
+        say(inst, fmi2Error, "%s: the pointer to the FMU state is NULL: refused", __func__);
+        return fmi2Error;
+    }
+    /* A host that passes the state itself, not a pointer to it (fmusim's slip when it saves a
+       state to a file): unambiguous, since a state is an object of this FMU's, never a host's
+       variable. That state is freed, with a warning in the log, and the call succeeds, so that
+       the host's save completes (fmusim stops with an error on any status but fmi2OK). */
+    long i = state_index(inst, state);
+    if (i >= 0) {
+        fmi2FMUstate handle = (fmi2FMUstate)state;
+        say(inst, fmi2Warning, "%s was given the FMU state %p itself, not a pointer to it (a "
+            "slip of the host's, fmusim's among them): that state is freed", __func__,
+            (void *)state);
+        fmi2Status status = finish(inst, real.FreeFMUstate(C, &handle));
+        state_remove(inst, i);
+        return status;
+    }
+    if (!*state) return fmi2OK; /* nothing to free (FMI 2.0) */
+    i = state_index(inst, *state);
+    if (i < 0) {
+        known_state(inst, *state, __func__); /* the message */
+        return fmi2Error;
+    }
+    fmi2Status status = finish(inst, real.FreeFMUstate(C, state));
+    state_remove(inst, i);
+    *state = NULL;
+    return status;
 }
 EXPORT fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate state, size_t *size) {
-    PASS(SerializedFMUstateSize(C, state, size));
+    STATE_CALL(known_state(inst, state, __func__), SerializedFMUstateSize(C, state, size));
 }
 EXPORT fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate state, fmi2Byte bytes[],
                                         size_t size) {
-    PASS(SerializeFMUstate(C, state, bytes, size));
+    STATE_CALL(known_state(inst, state, __func__), SerializeFMUstate(C, state, bytes, size));
 }
 EXPORT fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte bytes[], size_t size,
                                           fmi2FMUstate *state) {
-    PASS(DeSerializeFMUstate(C, bytes, size, state));
+    Instance *inst = begin(c, __func__);
+    if (!inst) return fmi2Error;
+    if (!new_or_known(inst, state, __func__)) return fmi2Error;
+    fmi2Status status = finish(inst, real.DeSerializeFMUstate(C, bytes, size, state));
+    if (status <= fmi2Warning && !state_add(inst, *state)) return fmi2Error;
+    return status;
 }
 EXPORT fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[],
                                                size_t nu, const fmi2ValueReference z[], size_t nz,

@@ -5,7 +5,8 @@
 - :func:`ecos_binary` copies ECOS's command-line engine out of the ecospy wheel (which installs it
   without the execute bit, and inside the venv, which a machine with no Python hides);
 - :data:`OMSIMULATOR`: the build of OpenModelica's OMSimulator beside the repository
-  (``../shared/tools/omsimulator``), None where absent;
+  (``../shared/tools/omsimulator``), None where absent; :data:`FMUSIM`, likewise fmusim
+  (``../shared/tools/fmusim``, its runtime packages from scripts/system-deps.sh);
 - :func:`without_python` wraps a command so that it runs in a private mount namespace where
   every Python installation, venv and site-packages of this machine is hidden (root only: the
   tests skip with the reason elsewhere); :func:`without_numpy` hides only the site-packages, for
@@ -42,6 +43,14 @@ _OMS = ROOT.parent / "shared" / "tools" / "omsimulator" / "bin" / "OMSimulator"
 OMSIMULATOR: Path | None = _OMS if _OMS.exists() else None
 OMSIMULATOR_ABSENT = ("OMSimulator is not beside the repository (../shared/tools/omsimulator/bin/"
                       "OMSimulator): the tests in OMSimulator cannot run here")
+_FMUSIM = ROOT.parent / "shared" / "tools" / "fmusim"
+#: fmusim, the FMI standard's reference C master, as it is (``fmusim``: a state saved to a file
+#: is freed by the handle itself) and with that fixed (``fmusim-statefix``); None where absent
+FMUSIM: Path | None = _FMUSIM / "fmusim" if (_FMUSIM / "fmusim").exists() else None
+FMUSIM_STATEFIX: Path | None = (_FMUSIM / "fmusim-statefix"
+                                if (_FMUSIM / "fmusim-statefix").exists() else None)
+FMUSIM_ABSENT = ("fmusim is not beside the repository (../shared/tools/fmusim): the tests in "
+                 "fmusim cannot run here")
 
 
 def run_empty_env(command: list[str], cwd: Path | None = None,
