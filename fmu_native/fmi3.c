@@ -49,20 +49,31 @@ typedef struct {
     bool event_mode_used;
     bool early_return;
     bool in_event_mode;
+    bool logging_on; /* the host's loggingOn (fmi3SetDebugLogging changes it) */
 } Instance3;
+
+/* A message the host's logger may not take (FMI 3.0: the FMU does not call logMessage while
+   logging is off): warnings and errors go to stderr instead, so that the user still learns of
+   them, as of a failed start. */
+static void to_stderr(fmi2Status status, const char *text) {
+    if (status >= fmi2Warning) fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s\n", text);
+}
 
 /* The FMI 2.0 layer's messages, to the host's FMI 3.0 logger (same status values). */
 static void log_to_host(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status,
                         fmi2String category, fmi2String message, ...) {
     (void)name;
     Instance3 *inst = env;
-    if (!inst || !inst->log) return;
+    if (!inst) return;
     char small[1024];
     va_list args;
     va_start(args, message);
     char *text = format_text(small, sizeof small, message, args);
     va_end(args);
-    inst->log(inst->environment, (fmi3Status)status, category ? category : "logAll", text);
+    if (inst->log && inst->logging_on)
+        inst->log(inst->environment, (fmi3Status)status, category ? category : "logAll", text);
+    else
+        to_stderr(status, text);
     if (text != small) free(text);
 }
 
@@ -75,7 +86,7 @@ static fmi3Status refuse(Instance3 *inst, const char *fmt, ...) {
     va_start(args, fmt);
     vsnprintf(text, sizeof text, fmt, args);
     va_end(args);
-    if (inst && inst->log)
+    if (inst && inst->log && inst->logging_on)
         inst->log(inst->environment, fmi3Error, "logStatusError", text);
     else
         fprintf(stderr, MODEL_IDENTIFIER ".fmu: %s\n", text);
@@ -103,6 +114,7 @@ FMI3_Export const char *fmi3GetVersion(void) { return fmi3Version; }
 FMI3_Export fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn,
                                            size_t nCategories, const fmi3String categories[]) {
     INSTANCE("fmi3SetDebugLogging");
+    inst->logging_on = loggingOn;
     return (fmi3Status)fmi2SetDebugLogging(inst->inner, loggingOn, nCategories, categories);
 }
 
@@ -112,8 +124,9 @@ FMI3_Export fmi3Instance fmi3InstantiateModelExchange(
     fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
     fmi3LogMessageCallback logMessage) {
-    (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn;
-    Instance3 host = {.environment = instanceEnvironment, .log = logMessage};
+    (void)instantiationToken, (void)resourcePath, (void)visible;
+    Instance3 host = {.environment = instanceEnvironment, .log = logMessage,
+                      .logging_on = loggingOn};
     refuse(&host, "%s: " MODEL_IDENTIFIER ".fmu is a Co-Simulation FMU only "
            "(fmi3InstantiateCoSimulation)", instanceName ? instanceName : MODEL_IDENTIFIER);
     return NULL;
@@ -124,9 +137,10 @@ FMI3_Export fmi3Instance fmi3InstantiateScheduledExecution(
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
     fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
     fmi3LockPreemptionCallback lockPreemption, fmi3UnlockPreemptionCallback unlockPreemption) {
-    (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn;
+    (void)instantiationToken, (void)resourcePath, (void)visible;
     (void)clockUpdate, (void)lockPreemption, (void)unlockPreemption;
-    Instance3 host = {.environment = instanceEnvironment, .log = logMessage};
+    Instance3 host = {.environment = instanceEnvironment, .log = logMessage,
+                      .logging_on = loggingOn};
     refuse(&host, "%s: " MODEL_IDENTIFIER ".fmu is a Co-Simulation FMU only "
            "(fmi3InstantiateCoSimulation)", instanceName ? instanceName : MODEL_IDENTIFIER);
     return NULL;
@@ -152,6 +166,7 @@ FMI3_Export fmi3Instance fmi3InstantiateCoSimulation(
     if (!inst) return NULL;
     inst->environment = instanceEnvironment;
     inst->log = logMessage;
+    inst->logging_on = loggingOn;
     inst->name = copy_string(instanceName ? instanceName : MODEL_IDENTIFIER);
     char uri[4200];
     if (!inst->name || !resource_uri(resourcePath, uri, sizeof uri)) {

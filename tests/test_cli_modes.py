@@ -98,7 +98,7 @@ def test_simulate_by_set_and_by_scene_file_is_the_run(capsys, modal_file, tmp_pa
     ("structure.mode6.f=3", "unknown parameter 'structure.mode6.f' (did you mean "
      "'structure.mode5.f'"),
     ("structure.mode6.f=3", "structure.modes, structure.mode<k>.{f, zeta, m, phi, q0, v0} "
-     "(k = 1 to 5), flow.u"),
+     "(k = 1 to 5), structure.load_order, flow.u"),
 ])
 def test_a_bad_mode_value_is_an_error_naming_it(capsys, setting, words):
     assert words in usage_error(capsys, ["simulate", "--set", "structure.model=3", "--set",

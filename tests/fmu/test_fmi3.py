@@ -190,7 +190,8 @@ def test_event_mode_adds_one_sample_after_each_event_and_changes_nothing(fmu3):
 
 # Stepping by hand: event mode's state machine, the FMU state, refusals ---------------------------
 class Slave:
-    """An IceImpact3.fmu instance in FMPy that keeps its log and returns statuses."""
+    """An IceImpact3.fmu instance in FMPy that keeps its log (logging on, unless
+    ``loggingOn=False`` is given) and returns statuses."""
 
     def __init__(self, fmu_dir: str, **instantiate):
         md = read_model_description(fmu_dir)
@@ -203,7 +204,7 @@ class Slave:
         self.fmu = FMU3Slave(guid=md.guid, unzipDirectory=fmu_dir,
                              modelIdentifier=md.coSimulation.modelIdentifier,
                              instanceName="test")
-        self.fmu.instantiate(logMessage=log, **instantiate)
+        self.fmu.instantiate(logMessage=log, **{"loggingOn": True, **instantiate})
 
     def call(self, name: str, *args):
         try:
@@ -336,6 +337,42 @@ def test_model_exchange_is_refused_with_a_message(fmu3_x):
     callback = fmi3LogMessageCallback(lambda env, status, category, message:
                                       messages.append(message.decode()))
     component = fmu.fmi3InstantiateModelExchange(b"me", md.guid.encode(), c_char_p(None), False,
-                                                 False, None, callback)
+                                                 True, None, callback)
     assert not component
     assert "Co-Simulation FMU only" in messages[0]
+
+
+def test_with_logging_off_the_fmu_never_calls_the_logger_and_says_errors_on_stderr(fmu3_x,
+                                                                                   capfd):
+    """FMI 3.0: with loggingOn = false the FMU does not call logMessage, not even for the
+    intermediate variables it ignores or a refused call; those go to stderr (as the reason of a
+    failed start does). fmi3SetDebugLogging turns the logger on and off."""
+    md = read_model_description(fmu3_x)
+    calls = []
+
+    def log(env, status, category, message):
+        calls.append(message.decode())
+
+    fmu = FMU3Slave(guid=md.guid, unzipDirectory=fmu3_x,
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="quiet")
+    fmu.instantiate(loggingOn=False, logMessage=log, eventModeUsed=True,
+                    requiredIntermediateVariables=[1, 2])
+    assert "the 2 required are ignored" in capfd.readouterr().err
+    try:
+        fmu.enterInitializationMode(startTime=0.0)
+        fmu.exitInitializationMode()
+        try:  # in Event Mode: refused
+            fmu.doStep(0.0, 1.0)
+        except Exception:
+            pass
+        assert calls == []
+        assert "in Event Mode" in capfd.readouterr().err
+        fmu.setDebugLogging(True, [])
+        try:
+            fmu.doStep(0.0, 1.0)
+        except Exception:
+            pass
+        assert any("Event Mode" in c for c in calls)
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
