@@ -129,6 +129,11 @@ def _bounded(bound, size, a, power, c0, c1, c2, h):
     return b if b < bound else bound
 
 
+#: A drag impulse over a step below this (N.s) has no size the step's tolerance can measure its
+#: terms by: only x and v bound the step then (:func:`step_length`)
+P_FLOOR = 1e-200
+
+
 def step_length(table, max_step):
     """Step length h: for x, v and P (rows of ``table``), each of the last two terms |c_j| h^j
     at most TOLERANCE of the size of the motion over the step, |c_0| + |c_1| h + |c_2| h^2
@@ -140,6 +145,12 @@ def step_length(table, max_step):
         for row in range(3):
             c0, c1 = abs(float(table[row, 0])), abs(float(table[row, 1]))
             c2 = abs(float(table[row, 2]))
+            if row == 2 and c0 + h * (c1 + h * c2) < P_FLOOR:
+                # the drag impulse of a pair at rest where u - v = 0 (from P = 0 it is third
+                # order at its start, or its terms are near underflow): no size to measure its
+                # terms by (a size of 1e-300 made the step 0 s long); x and v bound the step,
+                # P's series, made of v's, converging with theirs
+                continue
             a_low = abs(float(table[row, ORDER - 1]))
             a_high = abs(float(table[row, ORDER]))
             size = TOLERANCE * (c0 + h * (c1 + h * c2)) + 1e-300
