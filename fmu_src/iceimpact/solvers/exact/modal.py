@@ -294,7 +294,11 @@ class ModalRide:
 
     # the Taylor steps --------------------------------------------------------------------------
     def _extend(self) -> None:
-        """The next step, from the end of the last one (the first from the anchor)."""
+        """The next step, from the end of the last one (the first from the anchor). Under the
+        quadratic drag a step ends where u - v changes sign, and its end is set to u - v = 0
+        exactly (the modes' velocities moved by the rounding, as an impulse would move them);
+        a step from there whose drag sign is rounding's, so that it would end at once, is taken
+        with the other sign."""
         n = self.modes.count
         if self._ends:
             end = self._ends[-1]
@@ -302,15 +306,21 @@ class ModalRide:
         else:
             q, p = np.array(self.q0, dtype=float), np.array(self.p0, dtype=float)
             impulse, lo = 0.0, 0.0
-        table = np.empty((self._rows, modal_taylor.ORDER + 1))
         loads = np.array(self.modes.loads_at(self.t0 + lo), dtype=float)
-        h, theta_end = KERNELS["ride_step"](q, p, impulse, loads, self._table, self.u,
-                                            self._alpha,
-                                            self._beta, self._coef, self._quadratic,
-                                            self._rate, table, self._rs)
-        hi = lo + h * theta_end
+        for sign in ((0.0, 1.0, -1.0) if self._quadratic else (0.0,)):
+            table = np.empty((self._rows, modal_taylor.ORDER + 1))
+            h, theta_end = KERNELS["ride_step"](q, p, impulse, loads, self._table, self.u,
+                                                self._alpha, self._beta, self._coef,
+                                                self._quadratic, self._rate, table, self._rs,
+                                                sign)
+            hi = lo + h * theta_end
+            if hi > lo:
+                break
         end = np.empty(self._rows)
         KERNELS["horner_rows"](table, theta_end, end)
+        if theta_end < 1.0:  # a sign change of u - v: from u - v = 0 exactly
+            v = self.modes.contact(end[:n].tolist(), end[n:2 * n].tolist())[1]
+            end[n:2 * n] = self.modes.velocity_change(end[n:2 * n].tolist(), self.u - v)
         if not (hi > lo and np.isfinite(end).all()):
             raise SolverError(
                 f"the riding phase's Taylor steps stalled at t = {self.t0 + lo!r} s (modal "

@@ -45,6 +45,8 @@ GRID = 16
 HALVINGS = 60
 #: Iterations of the bracketing that resolves a sign change
 BRACKET_ITERATIONS = 200
+#: u - v below this fraction of the speeds that make it is rounding (contact_rules' rule)
+ROUNDING_SPEED = 1e-12
 
 #: The rows of the modes' table: phi_k, m_k, c_k, k_k, the load's rate R_k (N/s), omega_k
 PHI, MASS, DAMP, STIFF, RATE, OMEGA = range(6)
@@ -96,6 +98,12 @@ def first_negative(coeffs, theta_from, theta_end):
             if pa < 0.0:
                 return a
             if pb < 0.0:
+                if pa == 0.0 and a == theta_from:
+                    # a zero at the start (u - v = 0 after a sign change): the crossing is the
+                    # next one, beyond a point where the polynomial is above zero, if any
+                    a = _rise_from_zero(coeffs, a, b)
+                    if a < 0.0:
+                        return theta_from
                 return _crossing(coeffs, a, b)
             if min(pa, pb) >= curvature * (b - a) * (b - a) / 8.0 or budget <= 0:
                 continue
@@ -111,6 +119,20 @@ def first_negative(coeffs, theta_from, theta_end):
             stack[top + 1, 0], stack[top + 1, 1] = a, pa
             stack[top + 1, 2], stack[top + 1, 3] = mid, pm
             top += 2
+    return -1.0
+
+
+def _rise_from_zero(coeffs, a, b):
+    """A point of (a, b) where the polynomial, 0 at a and below 0 at b, is above 0 (halving
+    towards a down to the smallest floats), or -1.0 if none: it goes below zero at once."""
+    step = b - a
+    for _ in range(1100):
+        step *= 0.5
+        theta = a + step
+        if theta == a:
+            return -1.0
+        if horner(coeffs, theta) > 0.0:
+            return theta
     return -1.0
 
 
@@ -153,9 +175,13 @@ def ride_series(q, p, loads, modes, u, alpha, beta, coef, quadratic, sign, table
     table[impulse, 0] = 0.0
     for n in range(ORDER + 1):
         v = 0.0
+        speed = abs(u)
         for k in range(n_modes):
             v += modes[PHI, k] * table[n_modes + k, n]
+            speed += abs(modes[PHI, k] * table[n_modes + k, n])
         r = (u if n == 0 else 0.0) - v
+        if n == 0 and abs(r) <= ROUNDING_SPEED * speed:
+            r = 0.0  # u - v at rounding level (after a sign change): 0, its sign unknown
         rs[n] = r
         if quadratic:
             square = 0.0
@@ -205,15 +231,19 @@ def step_length(table, loads, modes, u, rate):
     return h
 
 
-def ride_step(q, p, impulse0, loads, modes, u, alpha, beta, coef, quadratic, rate, table, rs):
+def ride_step(q, p, impulse0, loads, modes, u, alpha, beta, coef, quadratic, rate, table, rs,
+              sign):
     """One step from the modal state (q, q') under the loads ``loads`` (N, at its start) with
-    the contact impulse ``impulse0`` so far:
+    the contact impulse ``impulse0`` so far, the quadratic drag's sign ``sign`` (0.0: that of
+    u - v, or from u - v = 0 the one it moves to):
     ``table`` filled with the polynomials in theta = tau / h (rows as :func:`ride_series`, the
     impulse's from impulse0); returns (h, theta_end), theta_end < 1 where the relative flow
     changes sign under the quadratic drag (the step ends there)."""
-    sign = 1.0
+    forced = sign != 0.0
+    if not forced:
+        sign = 1.0
     ride_series(q, p, loads, modes, u, alpha, beta, coef, quadratic, sign, table, rs)
-    if quadratic:
+    if quadratic and not forced:
         lead = 1.0  # the sign of r, or where r = 0 the one it moves to
         for n in range(ORDER + 1):
             if rs[n] != 0.0:
@@ -247,10 +277,12 @@ def _build(numba: Any) -> dict[str, Any]:
     h = jit(numba, (a1, f8), horner)
     rows = jit(numba, (a2, f8, a1), horner_rows, horner=h)
     crossing = jit(numba, (a1, f8, f8), _crossing, horner=h)
-    negative = jit(numba, (a1, f8, f8), first_negative, horner=h, _crossing=crossing)
+    rise = jit(numba, (a1, f8, f8), _rise_from_zero, horner=h)
+    negative = jit(numba, (a1, f8, f8), first_negative, horner=h, _crossing=crossing,
+                   _rise_from_zero=rise)
     series = jit(numba, (a1, a1, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_series)
     length = jit(numba, (a2, a1, a2, f8, f8), step_length)
-    step = jit(numba, (a1, a1, f8, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1), ride_step,
+    step = jit(numba, (a1, a1, f8, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1, f8), ride_step,
                ride_series=series, step_length=length, first_negative=negative)
     return {"horner_rows": entry_point(rows), "first_negative": entry_point(negative),
             "ride_step": entry_point(step)}
