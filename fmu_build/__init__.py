@@ -19,6 +19,10 @@ step:
   with :mod:`fmu_build.probe`, the program that measures what the slave imports;
 - :mod:`fmu_build.fmi3`: the FMI 3.0 FMU made of an FMI 2.0 one (:func:`fmi3_from_fmi2`,
   :func:`build_fmi3`);
+- :mod:`fmu_build.documentation`: the page each FMU carries, documentation/index.html, from
+  its contract table;
+- :mod:`fmu_build.compatibility`: what the FMUs run on and in, written once for that page and
+  for the compatibility box of README.md and docs/index.md;
 - :mod:`fmu_build.cli`: the command line, and the system file written beside the FMUs.
 
 It is build tooling, not part of the model: the FMUs carry the ``iceimpact`` package and the
@@ -28,6 +32,7 @@ loads that file by its path.
 """
 
 from .cli import main
+from .documentation import documentation_page
 from .fmi2 import build, build_modal, build_slave, requirements
 from .fmi3 import build_fmi3, fmi3_from_fmi2, fmi3_model_description
 from .layout import FMU_SRC, MODAL_SLAVE_NAME, ROOT, SLAVE_NAME
@@ -39,7 +44,8 @@ from .standalone import STANDALONE_DIR, imported_modules, make_standalone
 __all__ = [
     "FMU_SRC", "MODAL_SLAVE_NAME", "ROOT", "SLAVE_NAME", "STANDALONE_DIR", "NativeBuildError",
     "base_units", "build", "build_fmi3", "build_modal", "build_slave", "compile_loader",
-    "complete_model_description", "fmi3_from_fmi2", "fmi3_model_description",
+    "complete_model_description", "documentation_page", "fmi3_from_fmi2",
+    "fmi3_model_description",
     "imported_modules", "libpython", "main", "make_standalone", "package_for_native_hosts",
     "python_version", "requirements",
 ]

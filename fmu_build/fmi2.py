@@ -21,6 +21,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .documentation import add_to_fmu
 from .layout import DIST, FMU_SRC, MODAL_SLAVE_NAME, PACKAGE_NAME, ROOT, SLAVE_NAME
 from .model_description import rewrite_model_description
 from .native_hosts import package_for_native_hosts
@@ -79,4 +80,5 @@ def build_slave(slave_name: str, contract_module: str, dest: str | Path = DIST,
         ))
     rewrite_model_description(fmu, contract)
     package_for_native_hosts(fmu, slave_name)
+    add_to_fmu(fmu, slave_name, "2.0", standalone=False)  # documentation/index.html
     return fmu

@@ -22,6 +22,7 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from .documentation import PAGE, documentation_page
 from .fmi2 import build, build_modal
 from .layout import DIST, MODAL_SLAVE_NAME, SLAVE_NAME
 from .model_description import pretty_xml
@@ -147,6 +148,8 @@ def fmi3_from_fmi2(fmu: Path, dest: str | Path, bundled_python: bool = False) ->
             config["model_identifier"] = identifier  # (the boot module's messages name it)
             data = (json.dumps(config, indent=2) + "\n").encode()
         out[new + name[len(old):] if name.startswith(old) else name] = data
+    # the page of the FMI 2.0 FMU names FMI 2.0's types and binaries: written anew
+    out[PAGE] = documentation_page(model, "3.0", standalone=bundled_python).encode()
     with tempfile.TemporaryDirectory(prefix="iceimpact_fmi3_") as tmp:
         library = Path(tmp) / f"{identifier}.so"
         options = dict(source=FMI3_SOURCE, model_identifier=identifier,

@@ -33,6 +33,7 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from .documentation import PAGE, documentation_page
 from .layout import MODAL_SLAVE_NAME, SLAVE_NAME
 from .native import (
     NATIVE_PLATFORM,
@@ -258,6 +259,9 @@ def make_standalone(fmu: Path, dest: Path, slave_name: str = SLAVE_NAME) -> Path
         site = f"../{BUNDLED_HOME}/lib/python{python_version()}/site-packages"
         config.update(prefix=None, libpython=None, site=[site], standalone=bundled)
         config_path.write_text(json.dumps(config, indent=2) + "\n")
+        page = root / PAGE  # what the machine needs differs from the default build's page
+        page.parent.mkdir(exist_ok=True)
+        page.write_text(documentation_page(slave_name, "2.0", standalone=True))
         description = root / "modelDescription.xml"
         description.write_bytes(description.read_bytes().replace(
             b'needsExecutionTool="true"', b'needsExecutionTool="false"'))

@@ -31,7 +31,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from .contract import BY_NAME
+from .contract import BY_NAME, VERSION
 from .errors import ParameterError, SolverError
 from .runspec import DEFAULT_DT, SpecError, apply, check_samples, parse_set
 from .scene import Scene, load_scene
@@ -121,6 +121,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="iceimpact",
         description="Flow-driven repeated ice impacts on a flexible structure (exact "
                     "event-driven solver).")
+    # the version of the contract, which is the package's and the FMUs' (pyproject reads it too)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {VERSION}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     sim = sub.add_parser("simulate", help="run one scene, write its samples, print a summary",
