@@ -2,12 +2,13 @@
 #   make demo   set up .venv, build dist/IceImpact.fmu, simulate the reference scene through FMPy
 #   make test   set up .venv and run the test suite
 #   make docs   the documentation site into site/ (mkdocs build --strict)
+#   make verify the article's headline figures checked in seconds (exit status 3 on a difference)
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-all fmu standalone bench reproduce regime-map docs lint clean
+.PHONY: setup demo test test-all fmu standalone bench verify reproduce regime-map docs lint clean
 
 setup: $(STAMP)
 
@@ -38,8 +39,15 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/core_speed.py
 
-# the article's figures and its lock-in case through the FMU, each number docs/explanation/reproduction.md
-# quotes checked against the runs (exit status 3 on a difference); the regime map (~15 s)
+# the headline figures in seconds: Figure 2 and Figure 13 (the lock-in) against the numbers the
+# docs quote, and Figure 2 through the FMU (exit status 3 on a difference); writes only dist/
+verify: $(STAMP)
+	$(PY) build_fmu.py
+	$(PY) examples/verify_headlines.py
+
+# the article's figures and its lock-in case through the FMU, each number
+# docs/explanation/reproduction.md quotes checked against the runs (exit status 3 on a
+# difference); rewrites docs/img/fig*.png. regime-map: the regime map (~15 s)
 reproduce: $(STAMP)
 	$(PY) build_fmu.py
 	$(PY) examples/reproduce_linear.py --img-dir docs/img --check-doc docs/explanation/reproduction.md

@@ -6,7 +6,7 @@
 400 s at a communication step of 1 ms (400,000 doStep calls, with a progress bar). Writes
 ``out/demo.png`` (displacements, impulses, impacts marked, from every step), prints a short
 summary and writes ``out/demo.csv``: every output every 10 ms (``--csv-interval``; 40,001 rows,
-about 5 MB for 400 s), or at every 1 ms step with ``--full-rate`` (about 50 MB).
+about 7 MB for 400 s), or at every 1 ms step with ``--full-rate`` (about 67 MB).
 
 Each CSV row is the state at its time. The per-step outputs cover the whole interval since the
 previous row: ``contact.impulse`` is the sum of the impulses of the steps in it (so the column

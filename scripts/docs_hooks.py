@@ -15,6 +15,11 @@ exist in no file of ``docs/``:
   beside them (:func:`measurement_pages`).
 
 Every function here returns Markdown and can be called without MkDocs (the tests do).
+
+The pages are also committed under ``docs/``, so that a link to them resolves in the source
+tree as well as on the site: ``python scripts/docs_hooks.py --write`` rewrites the copies that
+differ, ``python scripts/docs_hooks.py`` exits 1 if one does, and the build fails on a stale
+copy (``tests/docs/test_links.py`` checks both).
 """
 
 from __future__ import annotations
@@ -635,9 +640,64 @@ def generated_pages() -> dict[str, str | bytes]:
     return pages
 
 
+DOCS = ROOT / "docs"
+
+
+def stale_pages(pages: dict[str, str | bytes] | None = None) -> list[str]:
+    """The generated pages whose committed copy under docs/ is missing or differs from what the
+    code makes today (the copies are committed so that links to them resolve in the source)."""
+    pages = generated_pages() if pages is None else pages
+    stale = []
+    for uri, content in pages.items():
+        path = DOCS / uri
+        data = content.encode() if isinstance(content, str) else content
+        if not path.is_file() or path.read_bytes() != data:
+            stale.append(uri)
+    return stale
+
+
+def write_pages() -> list[str]:
+    """Write every generated page under docs/ where it is missing or differs; returns those."""
+    pages = generated_pages()
+    changed = stale_pages(pages)
+    for uri in changed:
+        path = DOCS / uri
+        path.parent.mkdir(parents=True, exist_ok=True)
+        content = pages[uri]
+        path.write_bytes(content.encode() if isinstance(content, str) else content)
+    return changed
+
+
 def on_files(files: Any, config: Any) -> Any:
+    """The committed copies are the pages: the build fails if one differs from the code's."""
+    from mkdocs.exceptions import PluginError
     from mkdocs.structure.files import File
 
-    for uri, content in generated_pages().items():
-        files.append(File.generated(config, uri, content=content))
+    pages = generated_pages()
+    stale = stale_pages(pages)
+    if stale:
+        raise PluginError("generated pages differ from the code (regenerate: python "
+                          "scripts/docs_hooks.py --write): " + ", ".join(sorted(stale)))
+    for uri, content in pages.items():
+        if files.get_file_from_path(uri) is None:
+            files.append(File.generated(config, uri, content=content))
     return files
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``--write``: regenerate the committed copies; ``--check``: exit 1 if one is stale."""
+    parser = argparse.ArgumentParser(description="The generated pages of docs/, from the code.")
+    parser.add_argument("--write", action="store_true", help="rewrite the stale copies")
+    args = parser.parse_args(argv)
+    if args.write:
+        for uri in write_pages():
+            print(f"wrote docs/{uri}")
+        return 0
+    stale = stale_pages()
+    for uri in stale:
+        print(f"stale: docs/{uri}")
+    return 1 if stale else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -107,6 +108,12 @@ def test_demo_csv_is_decimated_and_keeps_the_impulses(fmu: Path, tmp_path: Path)
     # reasonable: a tenth of the full-rate file, under 10 MB for the default 400 s
     assert dec_size < 0.15 * full_size
     assert dec_size * 400.0 / stop < 10e6
+    # the sizes docs/getting-started/demo.md quotes for 400 s ("about N MB"), to 15 %
+    page = (ROOT / "docs" / "getting-started" / "demo.md").read_text()
+    quoted = [float(n) for n in re.findall(r"about\s+(\d+(?:\.\d+)?)\s+MB", page)]
+    assert len(quoted) == 2, quoted
+    for size, mb in zip((dec_size, full_size), quoted, strict=True):
+        assert abs(size * 400.0 / stop / 1e6 - mb) <= 0.15 * mb, (size * 400.0 / stop, mb)
 
     # impulses: every 10 ms row holds the sum over its ten 1 ms steps
     assert full["contact.count"][-1] >= 2  # the first impacts happen within 20 s

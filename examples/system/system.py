@@ -401,9 +401,12 @@ def libcosimpy_run(fmus: Path, t_end: float, h: float, ice: dict = ICE,
                    second_order: bool = True) -> dict[str, np.ndarray]:
     """The same system in libcosim (fixed-step algorithm, Jacobi), built by hand."""
     from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy.CosimSlave import CosimLocalSlave
 
+    # its debug log is a page per FMU; warnings and errors still show
+    log_output_level(CosimLogLevel.WARNING)
     nanos = round(h * 1e9)
     execution = CosimExecution.from_step_size(step_size=nanos)
     slaves = {name: execution.add_local_slave(CosimLocalSlave(str(fmus / fmu), name))
