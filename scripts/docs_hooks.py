@@ -560,6 +560,8 @@ RESULT_SOURCES: dict[str, tuple[str, str]] = {
     "fmu_overhead": ("FMU cost per step", "python benchmarks/fmu_overhead.py"),
     "fmu_state": ("Saved state cost (core)", "python benchmarks/fmu_state.py"),
     "fmu_state_fmi": ("Saved state cost through FMPy", "python benchmarks/fmu_state_fmi.py"),
+    "modal_speed": ("The modal structure's cost per impact",
+                    "python benchmarks/modal_speed.py"),
     "modal_coupling": ("Modes inside against co-simulation",
                        "python benchmarks/modal_coupling.py"),
     "morison_cost": ("Morison terms off: cost", "python benchmarks/morison_cost.py"),
