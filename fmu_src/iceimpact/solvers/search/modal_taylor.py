@@ -45,7 +45,8 @@ GRID = 16
 HALVINGS = 60
 #: Iterations of the bracketing that resolves a sign change
 BRACKET_ITERATIONS = 200
-#: u - v below this fraction of the speeds that make it is rounding (contact_rules' rule)
+#: u - v below this fraction of the motion's speeds (|u|, |phi_k q_k'|, |phi_k omega_k q_k|) is
+#: rounding (contact_rules' rule)
 ROUNDING_SPEED = 1e-12
 
 #: The rows of the modes' table: phi_k, m_k, c_k, k_k, the load's rate R_k (N/s), omega_k
@@ -178,7 +179,9 @@ def ride_series(q, p, loads, modes, u, alpha, beta, coef, quadratic, sign, table
         speed = abs(u)
         for k in range(n_modes):
             v += modes[PHI, k] * table[n_modes + k, n]
-            speed += abs(modes[PHI, k] * table[n_modes + k, n])
+            if n == 0:  # the speeds of the motion (contact_rules.rounding_closing's scale)
+                speed += abs(modes[PHI, k] * table[n_modes + k, 0]) + abs(
+                    modes[PHI, k] * modes[OMEGA, k] * table[k, 0])
         r = (u if n == 0 else 0.0) - v
         if n == 0 and abs(r) <= ROUNDING_SPEED * speed:
             r = 0.0  # u - v at rounding level (after a sign change): 0, its sign unknown
