@@ -149,24 +149,28 @@ _POSITIVE = {"allowed": "> 0", "minimum": 0.0, "min_exclusive": True}
 _NON_NEGATIVE = {"allowed": ">= 0", "minimum": 0.0}
 
 
-def _mode_parameters(k: int) -> tuple[Variable, ...]:
-    """Mode k's parameters (structure.model = 3): defaults are the built-in SDOF structure as
-    mode 1 and modes 2 to 5 alike but with phi = 0, so that a mode switched on without values of
-    its own does not move the contact point."""
-    def real(field: str, unit: str, description: str, start: float, **kw) -> Variable:
-        return _real(f"structure.mode{k}.{field}", unit, f"modal structure, mode {k}: "
-                     f"{description}", start, **kw)
-
+def mode_rows(k: int) -> tuple[tuple[str, str, str, float, dict], ...]:
+    """Mode k's parameters as (field, unit, meaning, start, range) rows, the one table of both
+    the modal structure's (``structure.mode<k>.*``) and ModalStructure.fmu's (``mode<k>.*``):
+    the defaults are the built-in SDOF structure as mode 1 and modes 2 to 5 alike but with
+    phi = 0, so that a mode switched on without values of its own does not move the contact
+    point."""
     return (
-        real("f", "Hz", "natural frequency (undamped)", MODE_F, **_POSITIVE),
-        real("zeta", "1", "damping ratio (1 = critical; any value >= 0)", MODE_ZETA,
-             **_NON_NEGATIVE),
-        real("m", "kg", "modal mass", _M, **_POSITIVE),
-        real("phi", "1", "mode-shape value at the contact point (x = sum phi q; the contact "
-             "force F drives the mode with phi F)", 1.0 if k == 1 else 0.0),
-        real("q0", "m", "initial modal displacement", 0.0),
-        real("v0", "m/s", "initial modal velocity", 0.0),
+        ("f", "Hz", "natural frequency (undamped)", MODE_F, _POSITIVE),
+        ("zeta", "1", "damping ratio (1 = critical; any value >= 0)", MODE_ZETA, _NON_NEGATIVE),
+        ("m", "kg", "modal mass", _M, _POSITIVE),
+        ("phi", "1", "mode-shape value at the contact point (x = sum phi q; the contact force F "
+         "drives the mode with phi F)", 1.0 if k == 1 else 0.0, {}),
+        ("q0", "m", "initial modal displacement", 0.0, {}),
+        ("v0", "m/s", "initial modal velocity", 0.0, {}),
     )
+
+
+def _mode_parameters(k: int) -> tuple[Variable, ...]:
+    """Mode k's parameters of the modal structure (structure.model = 3): :func:`mode_rows`."""
+    return tuple(_real(f"structure.mode{k}.{field}", unit, f"modal structure, mode {k}: {meaning}",
+                       start, **limits) for field, unit, meaning, start, limits in mode_rows(k))
+
 
 #: Parameters, in the order of their value references (append new ones at the end).
 PARAMETERS: tuple[Variable, ...] = (

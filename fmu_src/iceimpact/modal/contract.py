@@ -19,8 +19,6 @@ module imports nothing else from the package: it is a bottom layer.
 
 from __future__ import annotations
 
-import math
-
 from .. import contract
 from ..contract import (
     CONTINUOUS,
@@ -41,36 +39,17 @@ DESCRIPTION = ("A linear structure given by up to 5 modes, seen at one contact p
                "force in, displacement, velocity and acceleration out; exact for a force held "
                "over each step")
 
-MAX_MODES = 5
+MAX_MODES = contract.MAX_MODES
 
 #: IceImpact's DefaultExperiment (400 s at 1 ms steps), for coupled runs.
 DEFAULT_EXPERIMENT = DefaultExperiment()
 
-# IceImpact's built-in structure (iceimpact.contract / scene defaults) as one mode.
-_M, _C, _K = 1600.0, 200.0, 1.0e6
-DEFAULT_F = math.sqrt(_K / _M) / (2.0 * math.pi)      # Hz
-DEFAULT_ZETA = _C / (2.0 * math.sqrt(_K * _M))        # 1
-DEFAULT_M = _M                                        # kg
-
-_POSITIVE = {"allowed": "> 0", "minimum": 0.0, "min_exclusive": True}
-_NON_NEGATIVE = {"allowed": ">= 0", "minimum": 0.0}
-
 
 def _mode_parameters(k: int) -> tuple[Variable, ...]:
-    def real(field: str, unit: str, description: str, start: float, **kw) -> Variable:
-        return Variable(f"mode{k}.{field}", field, PARAMETER, float, unit,
-                        f"mode {k}: {description}", start, **kw)
-
-    return (
-        real("f", "Hz", "natural frequency (undamped)", DEFAULT_F, **_POSITIVE),
-        real("zeta", "1", "damping ratio (1 = critical; any value >= 0)", DEFAULT_ZETA,
-             **_NON_NEGATIVE),
-        real("m", "kg", "modal mass", DEFAULT_M, **_POSITIVE),
-        real("phi", "1", "mode-shape value at the contact point (the force drives the mode with "
-             "phi force; x = sum phi q)", 1.0 if k == 1 else 0.0),
-        real("q0", "m", "initial modal displacement", 0.0),
-        real("v0", "m/s", "initial modal velocity", 0.0),
-    )
+    """Mode k's parameters: :func:`iceimpact.contract.mode_rows`, named ``mode<k>.<field>``."""
+    return tuple(Variable(f"mode{k}.{field}", field, PARAMETER, float, unit,
+                          f"mode {k}: {meaning}", start, **limits)
+                 for field, unit, meaning, start, limits in contract.mode_rows(k))
 
 
 MODES_PARAMETER = Variable(

@@ -32,7 +32,17 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..errors import ParameterError
 from .structure import Oscillator
+
+
+def refuse_load_rates(rates: Sequence[float] | None, method: int) -> None:
+    """Methods 2 and 3 hold each load over a step: a load rate other than 0 is refused, naming
+    the method that takes them."""
+    if rates is not None and any(rate != 0.0 for rate in rates):
+        raise ParameterError("load rates", list(rates), f"0 with solver.method = {method}: this "
+                             "method holds each load over a step; method 1 takes loads that "
+                             "change linearly over it")
 
 
 class Modes:

@@ -433,14 +433,7 @@ class Oscillator:
         :meth:`derivatives` and their :meth:`amplitude_bound`, in one call (a flight's root search
         asks at every step). Outside the over-damped regime the energy bound is written out here,
         equal to :meth:`amplitude_bound`'s to the bit (a test checks)."""
-        mass, damping, stiffness = self.mass, self.damping, self.stiffness
-        a = -(damping * v + stiffness * (x - self.offset)) / mass
-        j = -(damping * a + stiffness * v) / mass
-        s = -(damping * j + stiffness * a) / mass
-        if self.regime != OVER:
-            omega2 = self.omega2
-            return a, sqrt(a * a + j * j / omega2), sqrt(j * j + s * s / omega2)
-        return a, self.amplitude_bound(a, j), self.amplitude_bound(j, s)
+        return self.deviation_bounds(x - self.offset, v)
 
     def deviation_bounds(self, y: float, ydot: float) -> tuple[float, float, float]:
         """:meth:`bounds` of the free response from its deviation y (= x - offset) and its

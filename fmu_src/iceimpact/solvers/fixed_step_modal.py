@@ -31,8 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ParameterError
-from ..physics.modes import Modes
+from ..physics.modes import Modes, refuse_load_rates
 from ..record import Record
 from ..scene import Scene
 from .fixed_step import FixedStepSolver
@@ -118,10 +117,7 @@ class ModalFixedStepSolver(FixedStepSolver):
     def set_loads(self, loads: Sequence[float], rates: Sequence[float] | None = None) -> None:
         """Hold the modes' generalized loads (N) from now on: a new grid starts at the current
         time, from the modes there (a pinned state is released from its pin)."""
-        if rates is not None and any(rate != 0.0 for rate in rates):
-            raise ParameterError("load rates", list(rates), "0 with solver.method = 2: "
-                                 "this method holds each load over a step; method 1 takes "
-                                 "loads that change linearly over it")
+        refuse_load_rates(rates, 2)
         loads = tuple(float(load) for load in loads)
         if loads == self.modes.loads:
             return

@@ -29,9 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ParameterError
 from ..limits import drag_rate
-from ..physics.modes import Modes
+from ..physics.modes import Modes, refuse_load_rates
 from ..record import Record
 from ..scene import QUADRATIC_DRAG, Scene
 from .contact_rules import Phase
@@ -281,10 +280,7 @@ class ModalOdeSolver(OdeSolver):
     def set_loads(self, loads: Sequence[float], rates: Sequence[float] | None = None) -> None:
         """Hold the modes' generalized loads (N) from now on: the segment restarts at the
         current time on the modes under them (as at a new flow speed)."""
-        if rates is not None and any(rate != 0.0 for rate in rates):
-            raise ParameterError("load rates", list(rates), "0 with solver.method = 3: "
-                                 "this method holds each load over a step; method 1 takes "
-                                 "loads that change linearly over it")
+        refuse_load_rates(rates, 3)
         loads = tuple(float(load) for load in loads)
         if loads == self.modes.loads:
             return

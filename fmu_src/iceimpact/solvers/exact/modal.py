@@ -70,6 +70,16 @@ class ModalContext(SegmentContext):
         return self.modes.bounds(t, q, p)
 
 
+def _read_anchor(cls: Any, context: ModalContext,
+                 rec: Record) -> tuple[float, list[float], list[float], float]:
+    """A modal segment's record checked (its keys, ``cls._KEYS``): its start time, the modes' q
+    and q' there (one each per mode) and the time its search starts from."""
+    rec.expect_keys(cls._KEYS)
+    n = context.modes.count
+    return (rec.real("t0", low=0.0), rec.reals("q", n), rec.reals("p", n),
+            rec.real("start", low=0.0))
+
+
 class ModalFlightSearch(FlightSearch):
     """The root search of a modal flight's gap: :func:`~.flight_search.flight_root` on the
     modes' functions (:mod:`~iceimpact.solvers.search.modal_search`), compiled where numba is;
@@ -236,12 +246,8 @@ class ModalFlight:
 
     @classmethod
     def read(cls, context: ModalContext, rec: Record, u: float) -> Callable[[], Any]:
-        rec.expect_keys(cls._KEYS)
-        t0 = rec.real("t0", low=0.0)
-        n = context.modes.count
-        q, p = rec.reals("q", n), rec.reals("p", n)
+        t0, q, p, start = _read_anchor(cls, context, rec)
         z, w = rec.real("z"), rec.real("w")
-        start = rec.real("start", low=0.0)
         frontier = RootSearch.read_frontier(rec.record("search"), start)
 
         def make() -> ModalFlight:
@@ -392,11 +398,7 @@ class ModalRide:
 
     @classmethod
     def read(cls, context: ModalContext, rec: Record, u: float) -> Callable[[], Any]:
-        rec.expect_keys(cls._KEYS)
-        t0 = rec.real("t0", low=0.0)
-        n = context.modes.count
-        q, p = rec.reals("q", n), rec.reals("p", n)
-        start = rec.real("start", low=0.0)
+        t0, q, p, start = _read_anchor(cls, context, rec)
         return lambda: cls(context, t0, q, p, u, start)
 
 
