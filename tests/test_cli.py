@@ -4,7 +4,6 @@ by the sweep's test hook :data:`iceimpact.sweep.PAUSE_ENV`: no race with the clo
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 import selectors
@@ -16,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from cli_helpers import rows_of, usage_error
 from iceimpact import Scene, run
 from iceimpact.cli import main
 from iceimpact.studies.analysis import summarize
@@ -23,21 +23,6 @@ from iceimpact.sweep import PAUSE_ENV, meta_path, read_table, sweep
 
 SCRIPT = Path(sys.executable).with_name("iceimpact")
 FAST = ["--t-end", "4", "--dt", "0.01"]
-
-
-def rows_of(path: Path) -> list[list[str]]:
-    with open(path, newline="") as fh:
-        return list(csv.reader(fh))
-
-
-def usage_error(capsys, argv: list[str]) -> str:
-    """Run ``main(argv)``, expect an argparse error (exit 2) and return stderr."""
-    with pytest.raises(SystemExit) as exit_info:
-        main(argv)
-    assert exit_info.value.code == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    return err
 
 
 @pytest.fixture

@@ -5,12 +5,12 @@ naming it."""
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
 import pytest
 
+from cli_helpers import rows_of, usage_error
 from iceimpact import Scene, run
 from iceimpact.cli import main
 from iceimpact.scene import load_scene
@@ -38,21 +38,6 @@ M = 1200.0
 [flow]
 u = 0.3
 """
-
-
-def rows_of(path: Path) -> list[list[str]]:
-    with open(path, newline="") as fh:
-        return list(csv.reader(fh))
-
-
-def usage_error(capsys, argv: list[str]) -> str:
-    """Run ``main(argv)``, expect an error exit (2) and return stderr."""
-    with pytest.raises(SystemExit) as exit_info:
-        main(argv)
-    assert exit_info.value.code == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    return err
 
 
 @pytest.fixture

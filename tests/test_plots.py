@@ -15,6 +15,7 @@ import pytest
 pytest.importorskip("matplotlib")
 from PIL import Image  # noqa: E402  (matplotlib needs pillow: it is there with it)
 
+from cli_helpers import usage_error  # noqa: E402
 from iceimpact import Scene, run  # noqa: E402
 from iceimpact.cli import main  # noqa: E402
 from iceimpact.plots import (  # noqa: E402
@@ -40,15 +41,6 @@ def png_size(path: Path) -> tuple[int, int]:
 def expected_size(fig) -> tuple[int, int]:
     width, height = fig.get_size_inches()
     return round(width * DPI), round(height * DPI)
-
-
-def usage_error(capsys, argv: list[str]) -> str:
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-    assert info.value.code == 2
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    return err
 
 
 @pytest.fixture(scope="module")

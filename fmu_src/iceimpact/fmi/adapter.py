@@ -32,7 +32,9 @@ from ..contract import (
     OUTPUTS,
     PARAMETERS,
     SCENE_VARIABLES,
+    STRUCTURE_EXTERNAL,
     STRUCTURE_INPUTS,
+    STRUCTURE_MODAL,
 )
 from ..errors import ParameterError, SolverError
 from ..scene import Scene
@@ -56,6 +58,14 @@ _REPORT_ROW = itemgetter(*(o.field for o in OUTPUTS))
 IGNORED_WITH_EXTERNAL = ("structure.c", "structure.x0", "structure.v0")
 #: Parameters of the SDOF structure that the modal one (structure.model = 3) ignores.
 IGNORED_WITH_MODES = ("structure.m", "structure.c", "structure.k", "structure.x0", "structure.v0")
+#: What each other structure ignores, what it is, and where its state comes from instead (the
+#: warning of :meth:`FmuModel.build`).
+IGNORED = {
+    STRUCTURE_EXTERNAL: (IGNORED_WITH_EXTERNAL, "external structure", "the structure's state "
+                         "comes from the inputs structure.x_in, structure.v_in, structure.a_in"),
+    STRUCTURE_MODAL: (IGNORED_WITH_MODES, "modal structure",
+                      "the structure is structure.modes modes, structure.mode<k>.*"),
+}
 
 
 class FmuModel(FmuLifecycle):
@@ -124,20 +134,14 @@ class FmuModel(FmuLifecycle):
         self.loads_before = None
         self.publish(sim.report)
         self.penetration_logged = False
-        if scene.external:
-            ignored = [f"{name} = {self.values[name]!r}" for name in IGNORED_WITH_EXTERNAL
+        ignores = IGNORED.get(scene.structure_model)
+        if ignores is not None:
+            names, what, instead = ignores
+            ignored = [f"{name} = {self.values[name]!r}" for name in names
                        if self.values[name] != SCENE_VARIABLES[name].start]
             if ignored:
-                self._log(WARNING, f"structure.model = 2 (external structure): "
-                          f"{', '.join(ignored)} ignored; the structure's state comes from "
-                          "the inputs structure.x_in, structure.v_in, structure.a_in")
-        if scene.modal:
-            ignored = [f"{name} = {self.values[name]!r}" for name in IGNORED_WITH_MODES
-                       if self.values[name] != SCENE_VARIABLES[name].start]
-            if ignored:
-                self._log(WARNING, f"structure.model = 3 (modal structure): "
-                          f"{', '.join(ignored)} ignored; the structure is structure.modes "
-                          "modes, structure.mode<k>.*")
+                self._log(WARNING, f"structure.model = {scene.structure_model} ({what}): "
+                          f"{', '.join(ignored)} ignored; {instead}")
 
     def advance(self, current_time: float, step_size: float) -> bool:
         sim = self.sim

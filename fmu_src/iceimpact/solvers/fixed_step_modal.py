@@ -59,7 +59,10 @@ class ModalFixedStepSolver(FixedStepSolver):
         """The modes' (q, q') at time t >= the anchor."""
         if self.pinned:
             return self._pin_modes()
-        tau = t - self.t_a
+        return self._responses(t - self.t_a)
+
+    def _responses(self, tau: float) -> tuple[list[float], list[float]]:
+        """Each mode's (q, q') tau after the anchor, on its closed form."""
         q, p = [], []
         for osc, qk, pk in zip(self.modes.oscillators, self.q_a, self.p_a, strict=True):
             qt, pt = osc.response(qk, pk, tau)
@@ -72,13 +75,7 @@ class ModalFixedStepSolver(FixedStepSolver):
         return self._modal_at(self.state.t)
 
     def _structure_at(self, tau: float) -> tuple[float, float]:
-        x = v = 0.0
-        for phi, osc, qk, pk in zip(self.modes.phi, self.modes.oscillators, self.q_a, self.p_a,
-                                    strict=True):
-            qt, pt = osc.response(qk, pk, tau)
-            x += phi * qt
-            v += phi * pt
-        return x, v
+        return self.modes.contact(*self._responses(tau))
 
     def _structure_array(self, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = np.zeros_like(tau)
