@@ -2,13 +2,18 @@
 #   make demo   set up .venv, build dist/IceImpact.fmu, simulate the reference scene through FMPy
 #   make test   set up .venv and run the test suite
 #   make docs   the documentation site into site/ (mkdocs build --strict)
+#   make look   the site and the page inside IceImpact.fmu looked at in headless Chromium at
+#               1280 px: screenshots into out/look/shots/, exit status 1 on a table, code block
+#               or picture cut off or a variable name broken (installs Debian's chromium and
+#               playwright into .venv when missing; not part of make test)
 #   make verify the article's headline figures checked in seconds (exit status 3 on a difference)
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-all fmu standalone bench verify reproduce regime-map docs lint clean
+.PHONY: setup demo test test-all fmu standalone bench verify reproduce regime-map docs look lint \
+	clean
 
 setup: $(STAMP)
 
@@ -60,6 +65,17 @@ regime-map: $(STAMP)
 # the documentation site into site/ (any broken link, anchor or reference fails the build)
 docs: $(STAMP)
 	$(VENV)/bin/mkdocs build --strict --site-dir site
+
+# the pages a reader opens first, in a real browser (scripts/look_at_docs.py says what it measures);
+# Chromium is Debian's, Playwright only drives it: neither is a dependency of the package
+look: $(STAMP)
+	@command -v chromium >/dev/null || { SUDO=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
+	  $$SUDO apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium >/dev/null; }
+	@$(PY) -c "import playwright" 2>/dev/null || $(PY) -m pip install --quiet playwright
+	$(VENV)/bin/mkdocs build --strict --quiet --site-dir out/look/site
+	$(PY) build_fmu.py --fmu IceImpact --dest out/look
+	$(PY) scripts/look_at_docs.py out/look/site out/look/IceImpact.fmu --shots out/look/shots
 
 lint: $(STAMP)
 	$(PY) -m ruff check fmu_src tests tools benchmarks examples scripts build_fmu.py fmu_build
