@@ -5,7 +5,9 @@ Written at build time from the FMU's contract table (:mod:`iceimpact.contract`,
 what it is, every variable (name, causality, type, unit, start, allowed range, meaning), how to
 run it, its limits (from :mod:`fmu_build.compatibility`) and its licence. The page is
 self-contained (no scripts, no links out that it needs, its style inline): it is read from the
-unzipped FMU, often offline.
+unzipped FMU, often offline. Its variables table is laid out by the site's rules
+(``docs/stylesheets/variables.css``, copied into its style): names are never broken, the meaning
+column wraps, and a table wider than the window scrolls.
 
 :func:`fmu_build.fmi2.build_slave` adds it to the FMI 2.0 FMU; :func:`fmu_build.fmi3.fmi3_from_fmi2`
 and :func:`fmu_build.standalone.make_standalone` write it again for what they make, since the
@@ -20,7 +22,7 @@ import zipfile
 from pathlib import Path
 from types import ModuleType
 
-from .layout import MODAL_SLAVE_NAME, ROOT, SLAVE_NAME
+from .layout import MODAL_SLAVE_NAME, ROOT, SLAVE_NAME, VARIABLES_CSS
 
 #: Where the page sits in the FMU.
 PAGE = "documentation/index.html"
@@ -68,7 +70,8 @@ def variables_table(contract: ModuleType, fmi_version: str) -> str:
                     + "".join(_cell(x) for x in (v.causality, v.variability, kinds[v.kind],
                                                  v.unit or "–", start, v.allowed,
                                                  v.description)) + "</tr>")
-    return "<table>\n" + "\n".join(rows) + "\n</table>"
+    # the class carries the site's rules (VARIABLES_CSS): names unbroken, the meaning wrapped
+    return '<div class="variables">\n<table>\n' + "\n".join(rows) + "\n</table>\n</div>"
 
 
 def _number(value: float | int | bool) -> str:
@@ -134,6 +137,8 @@ body {{ font-family: sans-serif; max-width: 70em; margin: 1em auto; padding: 0 1
 table {{ border-collapse: collapse; font-size: 90%; }}
 th, td {{ border: 1px solid #bbb; padding: 0.2em 0.4em; text-align: left; vertical-align: top; }}
 pre {{ background: #f4f4f4; padding: 0.5em; overflow-x: auto; }}
+div.variables {{ overflow-x: auto; }}
+{VARIABLES_CSS.read_text().strip()}
 </style>
 </head>
 <body>

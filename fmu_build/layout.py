@@ -20,5 +20,7 @@ BOOT_MODULE = FMU_SRC / "iceimpact_fmu_boot.py"
 SLAVE_NAME = "IceImpact"
 #: ModalStructure.fmu, the linear structure given by its modes (docs/explanation/coupling.md).
 MODAL_SLAVE_NAME = "ModalStructure"
+#: The layout rules of the variables table, shared by the site and each FMU's own page.
+VARIABLES_CSS = ROOT / "docs" / "stylesheets" / "variables.css"
 #: The default output folder of the command line.
 DIST = ROOT / "dist"

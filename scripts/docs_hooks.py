@@ -58,6 +58,12 @@ def _fence(text: str) -> str:
 
 
 # --- FMU variables ---------------------------------------------------------------------------
+def _variables(table: str) -> str:
+    """A Markdown table of variables in ``<div class="variables">``, which
+    ``docs/stylesheets/variables.css`` lays out: names unbroken, the meaning column wrapped."""
+    return f'<div class="variables" markdown>\n\n{table}\n</div>\n'
+
+
 @page("reference/fmu-variables.md")
 def fmu_variables_page() -> str:
     """Every variable of IceImpact.fmu and ModalStructure.fmu, from their contract tables."""
@@ -65,7 +71,13 @@ def fmu_variables_page() -> str:
     from iceimpact.modal import contract as modal
 
     exp = contract.DEFAULT_EXPERIMENT
-    return f"""# FMU variables
+    # the table of contents is hidden: its two entries cost the seven columns a third of the page
+    return f"""---
+hide:
+  - toc
+---
+
+# FMU variables
 
 This page lists every variable of `IceImpact.fmu` and `ModalStructure.fmu`: name, causality,
 type, unit, start value, allowed range and meaning. It is generated from the contract tables
@@ -80,7 +92,7 @@ DefaultExperiment runs from {contract.number_text(exp.start_time)} to
 {contract.number_text(exp.stop_time)} s at steps of {exp.step_size:g} s.
 `python build_fmu.py --variables-table` prints the same table from a built FMU.
 
-{contract.markdown_table()}
+{_variables(contract.markdown_table())}
 The XML carries `min`/`max` where the range has a bound (FMI bounds are inclusive: "> 0" is
 written `min="0"`, the FMU itself refuses 0). Every Real has its unit in `UnitDefinitions`,
 every output its dependencies in `ModelStructure` ([IceImpact.fmu](fmu.md)).
@@ -95,7 +107,7 @@ structure (m = 1600 kg, c = 200 N·s/m, k = 1e6 N/m: `f = 3.9789 Hz`, `ζ = 0.00
 default to the same values with `phi = 0`, so switching one on without setting it does not move
 the contact point.
 
-{modal.markdown_table()}
+{_variables(modal.markdown_table())}
 Initial conditions are per mode (`q0`, `v0`): with several modes a displacement of the contact
 point alone does not fix the modal state.
 """

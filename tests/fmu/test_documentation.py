@@ -1,7 +1,8 @@
 """What a user reads is what the FMU has: documentation/index.html inside every FMU (FMI 2.0 and
 3.0, default and standalone, IceImpact and ModalStructure) lists every variable of its contract
-with its unit, says how to run it, its limits and its licence; FMPy's validator still finds
-nothing; and the compatibility box of README.md and docs/index.md is the one the build writes."""
+with its unit, says how to run it, its limits and its licence, laid out by the site's stylesheet
+of variables tables; FMPy's validator still finds nothing; and the compatibility box of README.md
+and docs/index.md is the one the build writes."""
 
 from __future__ import annotations
 
@@ -63,6 +64,9 @@ def _check_page(page: str, table, fmi_version: str, standalone: bool) -> None:
     assert "Python 3.11, 3.12 or 3.13" in text or standalone
     assert "MIT License" in text and f"Copyright (c) 2026 {contract.AUTHOR}" in text
     assert "<script" not in page and "http" not in page  # self-contained
+    # the site's layout rules, inline: names unbroken, the meaning wrapped (test_page_layout.py)
+    assert (ROOT / "docs" / "stylesheets" / "variables.css").read_text().strip() in page
+    assert '<div class="variables">\n<table>' in page
 
 
 def test_the_fmi2_fmu_documents_every_variable(fmu):
