@@ -6,7 +6,8 @@
   without the execute bit, and inside the venv, which a machine with no Python hides);
 - :data:`OMSIMULATOR`: the build of OpenModelica's OMSimulator beside the repository
   (``../shared/tools/omsimulator``), None where absent; :data:`FMUSIM`, likewise fmusim
-  (``../shared/tools/fmusim``, its runtime packages from scripts/system-deps.sh);
+  (``../shared/tools/fmusim``, its runtime packages from scripts/system-deps.sh), and
+  :data:`FMUCHECK`, the compliance checker (``../shared/tools/fmucheck``);
 - :func:`without_python` wraps a command so that it runs in a private mount namespace where
   every Python installation, venv and site-packages of this machine is hidden (root only: the
   tests skip with the reason elsewhere); :func:`without_numpy` hides only the site-packages, for
@@ -51,6 +52,11 @@ FMUSIM_STATEFIX: Path | None = (_FMUSIM / "fmusim-statefix"
                                 if (_FMUSIM / "fmusim-statefix").exists() else None)
 FMUSIM_ABSENT = ("fmusim is not beside the repository (../shared/tools/fmusim): the tests in "
                  "fmusim cannot run here")
+#: fmuCheck, the FMI standard's compliance checker (FMI 1.0 and 2.0), None where absent
+_FMUCHECK = ROOT.parent / "shared" / "tools" / "fmucheck" / "fmuCheck.linux64"
+FMUCHECK: Path | None = _FMUCHECK if _FMUCHECK.exists() else None
+FMUCHECK_ABSENT = ("fmuCheck is not beside the repository (../shared/tools/fmucheck/"
+                   "fmuCheck.linux64): the test in fmuCheck cannot run here")
 
 
 def run_empty_env(command: list[str], cwd: Path | None = None,
