@@ -329,6 +329,8 @@ def main(argv=None) -> int:
                              "has run before, as in a sweep), the best kept; 0: the first run")
     parser.add_argument("--out", type=Path, default=RESULTS / "core_speed.json")
     args = parser.parse_args(argv)
+    if not args.out.suffix:  # (a name without .json: the JSON beside its .md, as the others)
+        args.out = args.out.with_suffix(".json")
     if args.warm < 0:
         parser.error(f"--warm = {args.warm}: a number of runs >= 0")
     WARM["runs"] = args.warm

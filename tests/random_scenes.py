@@ -51,19 +51,21 @@ def stepped(scene: Scene, h: float, flow: str, signs: list[bool], compiled: bool
 
 
 def kernel_is_the_python_march(scene: Scene, start: float, kernel, advance: float,
-                               times) -> int:
+                               times, march=None) -> int:
     """From ``start`` (s), a Simulator whose march of bounces is ``kernel`` (``bounce_march`` or
-    a form of it, run as given) against one with the Python march alone: stepped ``advance``
-    (s), then 0.5 s with early return, then sampled at ``times``; asserts every impact and
-    sample equal to the bit and returns the impact count."""
+    a form of it, run as given) in a ``march`` (default ``BounceMarch``; ``ModalBounceMarch``
+    for the modes) against one with the Python march alone: stepped ``advance`` (s), then 0.5 s
+    with early return, then sampled at ``times``; asserts every impact and sample equal to the
+    bit and returns the impact count."""
     from iceimpact.solvers.exact.bounces import BounceMarch
+    march = BounceMarch if march is None else march
     first = Simulator(scene)
     first.advance(start)
     reference, marched = Simulator(scene), Simulator(scene)
     reference.restore(first.save())
     marched.restore(first.save())
     reference.solver.bounces = None
-    marched.solver.bounces = BounceMarch(marched.solver, kernel)
+    marched.solver.bounces = march(marched.solver, kernel)
     for sim in (reference, marched):
         sim.advance(advance)
         sim.advance(0.5, stop_at_event=True)

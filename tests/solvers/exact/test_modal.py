@@ -9,8 +9,11 @@ import math
 import numpy as np
 import pytest
 
+import random_scenes
 from iceimpact import Scene, run
 from iceimpact.simulator import Simulator
+from iceimpact.solvers.exact import bounces
+from iceimpact.solvers.exact.modal import ModalBounceMarch, ModalSolver
 from modal_reference import MODAL_SCENES, MODAL_T_END, simulate
 
 SDOF = Scene()
@@ -161,3 +164,110 @@ def test_loads_changing_linearly_match_the_reference(name):
                                [i.t for i in ref.impacts[:count]], rtol=0, atol=1e-8)
     np.testing.assert_allclose([i.impulse for i in impacts[:count]],
                                [i.impulse for i in ref.impacts[:count]], rtol=1e-8)
+
+
+# the compiled march of bounces on the modes ----------------------------------------------------
+#: Figure 2's scene with a second mode (bouncing faster and faster up to 54 s, then the ice
+#: rides), and a third, over-damped mode under the linear drag (bouncing from 5 to 10 s); each
+#: with a time where it bounces often
+MARCH_SCENES = {
+    "two modes": (dict(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                       structure_mode2_zeta=0.02, structure_mode2_phi=0.6), 48.0),
+    "over-damped third mode, linear drag": (dict(
+        structure_model=3, structure_modes=3, structure_mode2_f=4.0, structure_mode2_zeta=1.5,
+        structure_mode2_phi=0.5, structure_mode3_f=20.0, structure_mode3_zeta=0.01,
+        structure_mode3_phi=-0.3, drag_model=1, impact_e=0.7), 5.0),
+}
+compiled_only = pytest.mark.skipif(bounces.modal_kernel() is None,
+                                   reason="numba absent or ICEIMPACT_PURE set: no compiled march")
+
+
+@pytest.mark.parametrize("name", MARCH_SCENES)
+def test_the_march_of_bounces_on_the_modes_run_as_python_is_the_python_march(name):
+    """bounce_march on the modes' functions (MODAL_MARCH), run as Python: the numbers of
+    ModalFlight, the contact rules and the solver's modal state, to the bit, so what numba
+    compiles is that march, whether or not numba is installed."""
+    fields, start = MARCH_SCENES[name]
+    impacts = random_scenes.kernel_is_the_python_march(
+        Scene(**fields), start, bounces.MODAL_MARCH, 2.0,
+        np.linspace(start + 2.6, start + 4.0, 57), march=ModalBounceMarch)
+    assert impacts > 10
+
+
+@compiled_only
+@pytest.mark.parametrize("name", MARCH_SCENES)
+def test_the_compiled_march_on_the_modes_is_the_python_march(name):
+    """The compiled march (which the simulator takes where numba is) against the Python march
+    alone: the same impacts, samples and modal states, to the bit."""
+    fields, start = MARCH_SCENES[name]
+    scene = Scene(**fields)
+    impacts = random_scenes.kernel_is_the_python_march(
+        scene, start, bounces.modal_kernel(), 2.0, np.linspace(start + 2.6, start + 4.0, 57),
+        march=ModalBounceMarch)
+    assert impacts > 10
+    compiled, python = run(scene, 60.0), _python_march(lambda: run(scene, 60.0))
+    for key in ("x", "v", "z", "w", "impulse", "sticking"):
+        assert getattr(compiled, key).tobytes() == getattr(python, key).tobytes(), key
+    assert compiled.impacts.tobytes() == python.impacts.tobytes()
+
+
+def _python_march(call):
+    """``call()`` with the modal solver's compiled march off."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(ModalSolver, "_bounce_march", lambda self: None)
+        return call()
+
+
+@compiled_only
+def test_the_compiled_march_takes_loads_that_change_linearly():
+    """Loads with rates set at every step (the FMU's linear extrapolation), stepped with and
+    without early return: each step's state, impulse, impact count and modal state are the
+    Python march's, to the bit."""
+    scene = Scene(**MARCH_SCENES["two modes"][0])
+
+    def steps():
+        rows = []
+        sim = Simulator(scene)
+        for i in range(5500):
+            t = 0.01 * i
+            loads = [3000.0 * math.sin(0.3 * t), 400.0 * math.cos(2.0 * t)]
+            rates = [900.0 * math.cos(0.3 * t), -800.0 * math.sin(2.0 * t)]
+            report = sim.advance(0.01, loads=loads, load_rates=rates, stop_at_event=i % 4 == 0)
+            q, p = sim.solver.modal_state()
+            rows.append([float(value).hex() for value in (report.t, report.x, report.v,
+                                                          report.z, report.w, report.impulse,
+                                                          *q, *p)] + [report.impact_count])
+        return rows
+
+    compiled = steps()
+    assert compiled == _python_march(steps)
+    assert compiled[-1][-1] > 100
+
+
+def test_a_flight_from_an_impact_starts_at_zero_gap():
+    """After an impact the ice starts where the modes' sum puts the contact point, which may
+    lie a rounding away from the impact's x: the flight's gap starts at 0, not below it, so
+    its search finds no root at its start (a flight of zero length and an event for nothing,
+    after 1 impact in 6 of Figure 2's scene with a second mode before)."""
+    scene = Scene(**MARCH_SCENES["two modes"][0])
+    sim = Simulator(scene)
+    sim.advance(10.0)
+    solver = sim.solver
+    q, p = solver.modal_now(0.1)  # (the modal state the next flight starts from)
+    x = solver.context.modes.contact(q, p)[0]
+    off = math.nextafter(x, math.inf)  # (the impact's x, a rounding away)
+    seg = solver._new_flight(sim.t, off, 0.1, off, 0.2, scene.flow_u, 0.0)
+    assert seg.z0 == seg.x0 == x and seg.gap0 == 0.0
+    ends = []
+    original = ModalSolver.at_event
+
+    def at_event(self, tau):
+        if self.seg.phase.value == "flight":
+            ends.append(tau)
+        original(self, tau)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(ModalSolver, "at_event", at_event)
+        mp.setattr(ModalSolver, "_bounce_march", lambda self: None)
+        result = run(scene, 50.0)
+    assert len(result.impacts) > 2000 and len(ends) >= len(result.impacts)
+    assert min(ends) > 0.0

@@ -121,7 +121,7 @@ def test_a_failed_step_marks_the_steps_failed():
     seg = solver.seg
     assert type(seg) is DraggedFlight
     steps = dragged.new_steps(seg.taylor, solver.dragged_structure.omega2, capacity=2)
-    dragged._dragged_new_flight(steps, seg.x0, seg.v0)
+    dragged._dragged_new_flight(steps, seg.t0, seg.x0, seg.v0)
     assert dragged._dragged_structure(0.0, steps) == (0.0, seg.v0)
     dx, v = dragged._dragged_structure(0.5 * seg.period, steps)
     assert (seg.x0 + dx, v) == (seg.x0 + seg._structure(0.5 * seg.period)[0],
@@ -129,7 +129,7 @@ def test_a_failed_step_marks_the_steps_failed():
     assert not dragged._dragged_failed(steps)
     assert all(math.isnan(y) for y in dragged._dragged_structure(5.0 * seg.period, steps))
     assert dragged._dragged_failed(steps)
-    dragged._dragged_new_flight(steps, seg.x0, seg.v0)
+    dragged._dragged_new_flight(steps, seg.t0, seg.x0, seg.v0)
     assert not dragged._dragged_failed(steps)
 
 
@@ -199,7 +199,7 @@ def test_the_steps_are_taylors():
     solver = Simulator(scene).solver
     seg = solver.seg
     steps = dragged.new_steps(seg.taylor, solver.dragged_structure.omega2)
-    dragged._dragged_new_flight(steps, seg.x0, seg.v0)
+    dragged._dragged_new_flight(steps, seg.t0, seg.x0, seg.v0)
     dragged._dragged_structure(3.5 * seg.period, steps)
     seg._structure(3.5 * seg.period)
     count = int(steps[1][dragged.COUNTERS.COUNT])

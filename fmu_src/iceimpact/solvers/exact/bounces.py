@@ -46,7 +46,7 @@ from ...physics.contact import contact_force, impact, impact_impulse
 from ...physics.ice import linear_flight_constants, quadratic_flight_constants
 from ...physics.structure import response_constants, under_constants
 from ..contact_rules import bounce_closure, rounding_closing
-from ..search import dragged, flight_search, taylor
+from ..search import dragged, flight_search, modal_search, taylor
 from ..search.flight_search import GENERIC, ROOT, _ice_accel, _motion, flight_root
 from ..search.taylor import HandBack
 from .flight import DraggedFlight, Flight
@@ -126,14 +126,23 @@ def _flight_sample(tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, inte
     return x0 + dx, v, z0 + (0.0 + dz), w
 
 
-def _structure_accel(x, v, offset, mass, damping, stiffness, u, integrated):
-    """The structure's acceleration at (x, v): ``Oscillator.acceleration``."""
-    return -(damping * v + stiffness * (x - offset)) / mass
+def _flight_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0, integrated):
+    """The constants of the structure's free response from (x0, v0): ``response_constants``
+    (``Flight.kernel_constants``)."""
+    return response_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0)
 
 
-def _new_flight(integrated, x0, v0):
-    """A flight starts from (x0, v0): nothing to reset for a closed form (the dragged
-    structure's Taylor steps start again there)."""
+def _structure_accel(t, tau, x, v, v_plus, offset, mass, damping, stiffness, u, integrated):
+    """The structure's acceleration at the impact at time t (tau into the flight), at x with the
+    velocity v_plus after it (v before): ``Oscillator.acceleration``."""
+    return -(damping * v_plus + stiffness * (x - offset)) / mass
+
+
+def _new_flight(integrated, t, x, v):
+    """A flight starts at time t from the contact at (x, v): its anchor (x0, v0), where the ice
+    starts too; (x, v) for a closed form (the dragged structure's Taylor steps start again
+    there; the modes' anchor is their own state's sum)."""
+    return x, v
 
 
 def _failed(integrated):
@@ -155,6 +164,7 @@ def _failed(integrated):
 #: the functions: a miss in every process), so they are given by name.
 STRUCTURE_CALLEES = {
     "flight_root": "the flight's root search (the first contact, or the frontier reached)",
+    "_flight_constants": "the constants of the structure's closed form from the anchor",
     "_flight_sample": "the state at a sample time of the flight",
     "_structure_accel": "the structure's acceleration (the contact force after an impact)",
     "_new_flight": "a flight starts at the contact: the structure's motion made afresh there",
@@ -164,7 +174,12 @@ STRUCTURE_CALLEES = {
 #: :data:`STRUCTURE_CALLEES` under the quadratic Morison drag, as Python: the flight search on
 #: :mod:`.dragged`'s gap (:data:`~iceimpact.solvers.search.dragged.PYTHON_ROOT`), and its
 #: sample, acceleration and steps
-DRAGGED_CALLEES = {"flight_root": dragged.PYTHON_ROOT, **dragged.MARCH_CALLEES}
+DRAGGED_CALLEES = {"flight_root": dragged.PYTHON_ROOT, "_flight_constants": _flight_constants,
+                   **dragged.MARCH_CALLEES}
+#: :data:`STRUCTURE_CALLEES` for the modal structure, as Python: the flight search on the sum of
+#: the modes (:data:`~iceimpact.solvers.search.modal_search.PYTHON_ROOT`), and the modal state
+#: at an impact and at the samples
+MODAL_CALLEES = {"flight_root": modal_search.PYTHON_ROOT, **modal_search.MARCH_CALLEES}
 
 
 def _structure_callees(callees: dict[str, Any]) -> dict[str, Any]:
@@ -191,7 +206,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
 
     ``integrated`` is the structure's motion beyond its anchor, which the functions of
     :data:`STRUCTURE_CALLEES` take: 0 for the closed forms, the Taylor steps' arrays under the
-    quadratic Morison drag (:data:`DRAGGED_MARCH`, :func:`dragged_kernel`)."""
+    quadratic Morison drag (:data:`DRAGGED_MARCH`, :func:`dragged_kernel`), the modes' arrays
+    for the modal structure (:data:`MODAL_MARCH`, :func:`modal_kernel`)."""
     offset, mass, damping = P[PARAMS.OFFSET], P[PARAMS.MASS], P[PARAMS.DAMPING]
     stiffness, omega2 = P[PARAMS.STIFFNESS], P[PARAMS.OMEGA2]
     sigma, omega, u, coef = P[PARAMS.SIGMA], P[PARAMS.OMEGA], P[PARAMS.U], P[PARAMS.COEF]
@@ -211,7 +227,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
         z0, w0 = F[FLOATS.Z0], F[FLOATS.W0]
         horizon = (times[n_times - 1] if n_times > 0 else F[FLOATS.T_END]) - t0
         # the flight's constants (Flight.kernel_constants' order)
-        sk = response_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0)
+        sk = _flight_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0,
+                               integrated)
         if quadratic:
             rate, w0_c, r0 = quadratic_flight_constants(coef, w0, u)
         else:
@@ -259,7 +276,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
             N[INTS.STATUS] = EVENT
             return
         v_plus, w_plus = impact(v, w, structure_mass, ice_mass, e)
-        a_x = _structure_accel(x, v_plus, offset, mass, damping, stiffness, u, integrated)
+        a_x = _structure_accel(t, tau, x, v, v_plus, offset, mass, damping, stiffness, u,
+                               integrated)
         lam = contact_force(a_x, _ice_accel(w_plus, u, coef, quadratic)[0], structure_mass,
                             ice_mass)
         close, _ = bounce_closure(t, x, e, lam, v_plus - w_plus, reduced_mass, chatter,
@@ -300,9 +318,9 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
         else:
             F[FLOATS.IMPULSE] = (F[FLOATS.IMPULSE] + 0.0) + (0.0 + impulse)
         # the next flight, from the contact, its search from 0 (Flight, FlightSearch)
-        F[FLOATS.T0], F[FLOATS.X0], F[FLOATS.V0] = t, x, v_plus
-        F[FLOATS.Z0], F[FLOATS.W0], F[FLOATS.START] = x, w_plus, 0.0
-        _new_flight(integrated, x, v_plus)
+        x0, v0 = _new_flight(integrated, t, x, v_plus)
+        F[FLOATS.T0], F[FLOATS.X0], F[FLOATS.V0] = t, x0, v0
+        F[FLOATS.Z0], F[FLOATS.W0], F[FLOATS.START] = x0, w_plus, 0.0
         F[FLOATS.TIME_EPS] = _time_eps(t)
         F[FLOATS.A], F[FLOATS.ROOT_AT] = 0.0, math.nan
         F[FLOATS.PROBED_AT] = F[FLOATS.PF] = F[FLOATS.PDF] = math.nan
@@ -319,6 +337,9 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
 #: tests' reference for the compiled one): :data:`STRUCTURE_CALLEES` given
 #: :data:`DRAGGED_CALLEES`
 DRAGGED_MARCH = rebound(bounce_march, **_structure_callees(DRAGGED_CALLEES))
+#: :func:`bounce_march` for the modal structure, run as Python (the tests' reference):
+#: :data:`STRUCTURE_CALLEES` given :data:`MODAL_CALLEES`
+MODAL_MARCH = rebound(bounce_march, **_structure_callees(MODAL_CALLEES))
 
 _RULES: dict[str, Any] = {}
 
@@ -329,8 +350,6 @@ def _compiled_rules(numba: Any) -> dict[str, Any]:
     if not _RULES:
         f8, i8 = numba.float64, numba.int64
         _RULES.update({
-            "response_constants": jit(numba, (numba.int64,) + (f8,) * 8, response_constants,
-                                      under_constants=jit(numba, (f8,) * 6, under_constants)),
             "linear_flight_constants": jit(numba, (f8,) * 3, linear_flight_constants),
             "quadratic_flight_constants": jit(numba, (f8,) * 3, quadratic_flight_constants),
             "rounding_closing": jit(numba, (f8,) * 6, rounding_closing),
@@ -343,6 +362,22 @@ def _compiled_rules(numba: Any) -> dict[str, Any]:
             "_time_eps": jit(numba, (f8,), _time_eps),
         })
     return _RULES
+
+
+@functools.cache
+def _response_constants(numba: Any) -> Any:
+    """``response_constants`` compiled, once (the closed forms' flights and the modes' use it)."""
+    f8 = numba.float64
+    return jit(numba, (numba.int64,) + (f8,) * 8, response_constants,
+               under_constants=jit(numba, (f8,) * 6, under_constants))
+
+
+def _sdof_constants(numba: Any, integrated: Any = None) -> Any:
+    """:func:`_flight_constants` compiled, the structure's motion of type ``integrated`` (an
+    integer, unused, for the closed forms)."""
+    f8 = numba.float64
+    return jit(numba, (numba.int64,) + (f8,) * 8 + (integrated or numba.int64,),
+               _flight_constants, response_constants=_response_constants(numba))
 
 
 def _march_signature(numba: Any, integrated: Any) -> tuple:
@@ -364,8 +399,9 @@ def _compile(numba: Any) -> Any:
         "flight_root": search["flight_root"],
         "_flight_sample": jit(numba, (f8,) * 5 + (i8, k8, f8, f8, f8, i8, i8), _flight_sample,
                               _motion=search["_motion"]),
-        "_structure_accel": jit(numba, (f8,) * 7 + (i8,), _structure_accel),
-        "_new_flight": jit(numba, (i8, f8, f8), _new_flight),
+        "_flight_constants": _sdof_constants(numba),
+        "_structure_accel": jit(numba, (f8,) * 10 + (i8,), _structure_accel),
+        "_new_flight": jit(numba, (i8, f8, f8, f8), _new_flight),
         "_failed": jit(numba, (i8,), _failed),
     })
     kernel = jit(numba, _march_signature(numba, i8), bounce_march,
@@ -383,11 +419,33 @@ def _compile_dragged(numba: Any) -> Any:
     """:func:`bounce_march` compiled for the structure under the quadratic Morison drag:
     :data:`STRUCTURE_CALLEES` the compiled forms of :data:`DRAGGED_CALLEES`."""
     search = flight_search.compiled_callees(numba)
-    structure = _structure_callees(dragged.compiled_callees(numba, taylor.KERNELS.dispatchers,
-                                                            search))
+    structure = _structure_callees({
+        **dragged.compiled_callees(numba, taylor.KERNELS.dispatchers, search),
+        "_flight_constants": _sdof_constants(numba, dragged.steps_type(numba))})
     kernel = jit(numba, _march_signature(numba, dragged.steps_type(numba)), bounce_march,
                  _ice_accel=search["_ice_accel"], **structure, **_compiled_rules(numba))
     return entry_point(kernel)
+
+
+def _compile_modal(numba: Any) -> Any:
+    """:func:`bounce_march` compiled for the modal structure: :data:`STRUCTURE_CALLEES` the
+    compiled forms of :data:`MODAL_CALLEES`."""
+    search = flight_search.compiled_callees(numba)
+    rules = _compiled_rules(numba)
+    structure = _structure_callees(modal_search.march_callees(numba,
+                                                              _response_constants(numba)))
+    kernel = jit(numba, _march_signature(numba, modal_search.modes_type(numba)), bounce_march,
+                 _ice_accel=search["_ice_accel"], **structure, **rules)
+    return entry_point(kernel)
+
+
+@functools.cache
+def modal_kernel() -> Any:
+    """The compiled march for the modal structure, compiled at its first use, or None (not
+    compiled: its flights are Python's)."""
+    if COMPILED is None or modal_search.COMPILED is None:
+        return None
+    return compile_or_none("the march of bounces on the modes", _compile_modal)
 
 
 @functools.cache
@@ -448,25 +506,32 @@ class BounceMarch:
         return (type(seg) is DraggedFlight and self.dragged and self.kernel is not None
                 and not seg.handed_back and self.solver.zeno_end is None)
 
+    def _structure(self, seg: Any) -> tuple[Any, dict[str, float]]:
+        """What identifies the structure of ``seg``'s flight, and its fields of :data:`PARAMS`
+        (OFFSET to FORM): its oscillator's."""
+        osc = seg.osc
+        s_slow, s_fast = osc.exponents
+        return osc, {"OFFSET": osc.offset, "MASS": osc.mass, "DAMPING": osc.damping,
+                     "STIFFNESS": osc.stiffness, "OMEGA2": osc.omega2, "SIGMA": osc.sigma,
+                     "OMEGA": osc.omega, "S_SLOW": s_slow, "S_FAST": s_fast,
+                     "FORM": float(osc.form)}
+
     def _params(self, seg: Any) -> None:
         """The scene's constants into P, each by its field (:data:`PARAMS`), unless they are
         those already there."""
         context = self.context
         rules = context.rules
         e = self.solver.e
-        key = (seg.osc, seg.u, e, rules.follow_zeno, context.max_impacts)
+        structure, fields_of_structure = self._structure(seg)
+        key = (structure, seg.u, e, rules.follow_zeno, context.max_impacts)
         if key == self._params_for:
             return
         self._params_for = key
-        osc, drag = seg.osc, context.drag
+        drag = context.drag
         coef, quadratic = drag.law_constants
         gap_relative, gap_absolute = rules.gap_noise
-        s_slow, s_fast = osc.exponents
         self.P[:] = type(PARAMS)(
-            OFFSET=osc.offset, MASS=osc.mass, DAMPING=osc.damping, STIFFNESS=osc.stiffness,
-            OMEGA2=osc.omega2, SIGMA=osc.sigma, OMEGA=osc.omega, S_SLOW=s_slow, S_FAST=s_fast,
-            FORM=float(osc.form),
-            U=seg.u, COEF=coef, QUADRATIC=float(quadratic),
+            **fields_of_structure, U=seg.u, COEF=coef, QUADRATIC=float(quadratic),
             STRUCTURE_MASS=rules.m, ICE_MASS=rules.M, REDUCED_MASS=rules.mu,
             OMEGA_N=rules.omega_n, E=e, CHATTER=rules.chatter_time,
             FOLLOW_ZENO=float(rules.follow_zeno), BUDGET=rules.budget_bounce(e),
@@ -488,20 +553,25 @@ class BounceMarch:
             q[dragged.FLIGHT.X0], q[dragged.FLIGHT.V0] = seg.x0, seg.v0
             ints[dragged.COUNTERS.COUNT] = ints[dragged.COUNTERS.FAILED] = 0
 
+    def _root_state(self, seg: Any, root: float) -> tuple:
+        """(tau, x - x0, v, z - z0, w) at the root its search found."""
+        if self.dragged:
+            return (root, *seg._structure(root), *seg._z_motion(root))
+        last = seg._last
+        return last if last[0] == root else (root, *seg._motion(root)[1:])
+
+    def _integrated_of(self, seg: Any) -> None:
+        """The structure's motion beyond the anchor of ``seg`` into ``integrated``."""
+        if self.dragged:
+            self._steps(seg)
+
     def _load(self, seg: Any) -> None:
         """The flight ``seg`` and its search into F and N."""
         search = seg.search
         probed = search._probed or flight_search._UNPROBED
         root = search.root
-        if root is None:
-            root_state = (math.nan,) * 5
-        elif self.dragged:
-            root_state = (root, *seg._structure(root), *seg._z_motion(root))
-        else:
-            last = seg._last
-            root_state = last if last[0] == root else (root, *seg._motion(root)[1:])
-        if self.dragged:
-            self._steps(seg)
+        root_state = (math.nan,) * 5 if root is None else self._root_state(seg, root)
+        self._integrated_of(seg)
         self.F[:FLOATS.RW + 1] = (seg.t0, seg.x0, seg.v0, seg.z0, seg.w0, seg.start,
                                  search.time_eps, search.a, search._probed_at, *probed,
                                  *root_state)
@@ -514,14 +584,10 @@ class BounceMarch:
         was taken, else a new one; its search where the kernel left it."""
         solver = self.solver
         if N[INTS.EVENTS]:
-            seg = self.flight_type(self.context, *F[FLOATS.T0:FLOATS.W0 + 1], seg.u,
-                                   F[FLOATS.START])
+            seg = self._new_segment(F, seg.u)
             solver.seg = seg
             solver.tau = 0.0
-        if self.dragged:
-            self._steps_for = seg
-            if N[INTS.STATUS] == EVENT:  # (its search, or its steps, are Python's from here)
-                seg.handed_back = True
+        self._integrated_to(seg, N)
         search = seg.search
         search.a, search.iterations = F[FLOATS.A], N[INTS.ITERATIONS]
         search.creep = N[INTS.CREEP]
@@ -532,6 +598,18 @@ class BounceMarch:
             search.root = root
             seg.remember((root, F[FLOATS.RDX], F[FLOATS.RV], F[FLOATS.RDZ], F[FLOATS.RW]))
         return seg
+
+    def _new_segment(self, F: list[float], u: float) -> Any:
+        """The flight the kernel started last, as the solver's segment."""
+        return self.flight_type(self.context, *F[FLOATS.T0:FLOATS.W0 + 1], u, F[FLOATS.START])
+
+    def _integrated_to(self, seg: Any, N: list[int]) -> None:
+        """What the kernel made of the structure's motion, to ``seg``: a dragged flight's Taylor
+        steps are the arrays' (``seg``'s own where the kernel hands it back)."""
+        if self.dragged:
+            self._steps_for = seg
+            if N[INTS.STATUS] == EVENT:  # (its search, or its steps, are Python's from here)
+                seg.handed_back = True
 
     def _impacts(self, n: int) -> None:
         """The kernel's n impacts into the solver's count and list (as Solver._record)."""

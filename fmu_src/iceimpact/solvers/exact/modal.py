@@ -39,11 +39,13 @@ from ..base import GAP_ULPS, State
 from ..contact_rules import Phase, reanchor_on_flow_change
 from ..search import modal_search, modal_taylor
 from ..search.flight_search import FlightSearch
-from ..search.modal_search import STATE
+from ..search.modal_search import ANCHOR, STATE
 from ..search.modal_taylor import KERNELS
 from ..search.rootfind import RootSearch
+from . import bounces
+from .bounces import FLOATS, BounceMarch
 from .context import SegmentContext
-from .segment import MARCHED, _time_eps
+from .segment import MARCHED, STEPPED, _time_eps
 from .solver import EventSolver
 
 
@@ -109,15 +111,21 @@ class ModalFlight:
     phase = Phase.FLIGHT
     PUSHES = False
     FRONTIER_ONLY = True
-    SAMPLING = MARCHED
+    #: its samples are :meth:`states_at`'s and its impacts' impulses each the sampler's own
+    #: value, as the compiled march of bounces writes them (a march to each sample would sum
+    #: a sample interval's impacts in one value: other roundings)
+    SAMPLING = STEPPED
 
     def __init__(self, context: ModalContext, t0: float, q0: Sequence[float],
-                 p0: Sequence[float], z0: float, w0: float, u: float, start: float = 0.0):
+                 p0: Sequence[float], z0: float, w0: float, u: float, start: float = 0.0,
+                 touching: bool = False):
         self.modes = modes = context.modes
         self.drag = drag = context.drag
-        self.t0, self.z0, self.w0, self.u, self.start = t0, z0, w0, u, start
         self.q0, self.p0 = tuple(q0), tuple(p0)
         self.x0, self.v0 = modes.contact(self.q0, self.p0)
+        if touching:  # the ice at the contact point as the modes' sum places it: the gap starts
+            z0 = self.x0  # at 0, not at rounding's distance from it (a root at once)
+        self.t0, self.z0, self.w0, self.u, self.start = t0, z0, w0, u, start
         self.gap0 = self.x0 - z0
         #: each mode's particular solution and free response (y, y') at the anchor
         self.offsets = modes.offsets(t0)
@@ -181,6 +189,12 @@ class ModalFlight:
     def state(self, tau: float) -> tuple[float, float, float, float]:
         _, dx, v, dz, w = self._motion(tau)[:5]
         return self.x0 + dx, v, self.z0 + dz, w
+
+    def states_at(self, tau: np.ndarray) -> tuple[np.ndarray, ...]:
+        """:meth:`state` at each of the times tau (s from the anchor): x, v, z, w, the same
+        floats."""
+        states = [self.state(t) for t in tau.tolist()]
+        return tuple(np.array([state[k] for state in states], dtype=float) for k in range(4))
 
     def gap(self, tau: float) -> float:
         _, dx, _, dz, _ = self._motion(tau)[:5]
@@ -402,14 +416,67 @@ class ModalRide:
         return lambda: cls(context, t0, q, p, u, start)
 
 
+class ModalBounceMarch(BounceMarch):
+    """The compiled march of bounces on the modes (:data:`~.bounces.MODAL_CALLEES`): the same
+    march as the SDOF's, its structure the modes' arrays (:func:`~iceimpact.solvers.search.
+    modal_search.new_modes`), copied from a :class:`ModalFlight` as the march takes it, and to
+    the flight it ends on. ``kernel``: :func:`~.bounces.modal_kernel`'s (tests: :data:`~.bounces.
+    MODAL_MARCH`, the same march as Python)."""
+
+    def __init__(self, solver: ModalSolver, kernel: Any = None):
+        super().__init__(solver, kernel if kernel is not None else bounces.modal_kernel())
+        self.flight_type = ModalFlight
+        self.dragged = False
+        self._modes_for: Modes | None = None
+
+    def takes(self, seg: Any) -> bool:
+        """A modal flight, its search not handed to RootSearch, and no Zeno tail running."""
+        return (type(seg) is ModalFlight and not seg.search.handed_back
+                and self.solver.zeno_end is None)
+
+    def _structure(self, seg: ModalFlight) -> tuple[Any, dict[str, float]]:
+        # (the oscillator's fields of ModalFlight.kernel_constants: the modes' are integrated)
+        (offset, mass, damping, stiffness, omega2, sigma, s_slow, s_fast,
+         form) = seg.kernel_constants[3:12]
+        return self.context.modes, {"OFFSET": offset, "MASS": mass, "DAMPING": damping,
+                                    "STIFFNESS": stiffness, "OMEGA2": omega2, "SIGMA": sigma,
+                                    "OMEGA": 0.0, "S_SLOW": s_slow, "S_FAST": s_fast,
+                                    "FORM": float(form)}
+
+    def _root_state(self, seg: ModalFlight, root: float) -> tuple:
+        return seg._motion(root)[:5]
+
+    def _integrated_of(self, seg: ModalFlight) -> None:
+        """The flight's arrays copied into the march's own (a flight kept in a checkpoint keeps
+        its own); its search's last point the anchor if it starts there (ModalFlightSearch)."""
+        own = self.integrated
+        if isinstance(own, int) or own[0].shape != seg.integrated[0].shape:
+            own = self.integrated = tuple(np.empty_like(array) for array in seg.integrated)
+        for mine, theirs in zip(own, seg.integrated, strict=True):
+            mine[...] = theirs
+        if seg.search.a == 0.0:
+            state = own[1]
+            state[STATE.DY] = 0.0
+            state[STATE.YD] = state[STATE.YD0]
+            state[STATE.T, 0] = 0.0
+
+    def _new_segment(self, F: list[float], u: float) -> ModalFlight:
+        anchor = self.integrated[2]
+        return ModalFlight(self.context, F[FLOATS.T0], anchor[ANCHOR.Q0].tolist(),
+                           anchor[ANCHOR.P0].tolist(), F[FLOATS.Z0], F[FLOATS.W0], u,
+                           F[FLOATS.START])
+
+    def _integrated_to(self, seg: ModalFlight, N: list[int]) -> None:
+        """The march's state of the modes (its search's last point) to the flight's arrays."""
+        seg.integrated[1][...] = self.integrated[1]
+
+
 class ModalSolver(EventSolver):
     """The exact event-driven method with the modal structure (see the module docstring). The
     modes' loads of the next step are set by :meth:`set_loads` (the simulator does it)."""
 
     name = "exact"
     _context_class = ModalContext
-    #: its flights are sums of modes: the compiled march of bounces takes the SDOF's only
-    COMPILED_BOUNCES = False
 
     def __init__(self, scene: Any, record_impacts: bool = True):
         self._modes = Modes(scene.mode_table, scene.mode_loads)
@@ -422,6 +489,10 @@ class ModalSolver(EventSolver):
     def _structure(self) -> Oscillator:
         """Unused by the modal segments (the context's ``osc`` of the SDOF fields)."""
         return Oscillator(self.m, self.c, self.k)
+
+    def _bounce_march(self) -> ModalBounceMarch | None:
+        """The compiled march of bounces on the modes, or None (Python's march)."""
+        return ModalBounceMarch(self) if bounces.modal_kernel() is not None else None
 
     def _start(self) -> None:
         context = self.context
@@ -459,7 +530,7 @@ class ModalSolver(EventSolver):
     def _new_flight(self, t: float, x: float, v: float, z: float, w: float, u: float,
                     start: float) -> ModalFlight:
         q, p = self.modal_now(v)
-        return ModalFlight(self.context, t, q, p, z, w, u, start)
+        return ModalFlight(self.context, t, q, p, z, w, u, start, touching=z == x)
 
     def _stick(self, t: float, x: float, v: float, u: float, hold: float = 0.0) -> None:
         q, p = self.modal_now(v)

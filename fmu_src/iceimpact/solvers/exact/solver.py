@@ -76,8 +76,7 @@ class EventSolver(EventMarch):
         self.pending_impulse = 0.0
         self.seg = None
         self._start()
-        if self.COMPILED_BOUNCES and bounces.COMPILED is not None:
-            self.bounces = bounces.BounceMarch(self)
+        self.bounces = self._bounce_march()
 
     # what a subclass with a structure of its own changes ------------------------------------------
     #: the laws its segments read
@@ -87,6 +86,12 @@ class EventSolver(EventMarch):
                     start: float) -> Any:
         """A flight from time t and state (x, v, z, w), searched from ``start``."""
         return self._flight_cls(self.context, t, x, v, z, w, u, start)
+
+    def _bounce_march(self) -> Any:
+        """The compiled march of bounces of this solver's flights, or None (Python's march)."""
+        if self.COMPILED_BOUNCES and bounces.COMPILED is not None:
+            return bounces.BounceMarch(self)
+        return None
 
     def _segment_class(self, phase: str) -> Any:
         """The class of a saved segment of this phase (``Phase`` value)."""

@@ -157,20 +157,21 @@ def _dragged_sample(tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, int
     return x0 + dx, v, z0 + dz, w
 
 
-def _dragged_accel(x, v, offset, mass, damping, stiffness, u, integrated):
+def _dragged_accel(t, tau, x, v, v_plus, offset, mass, damping, stiffness, u, integrated):
     """``bounces._structure_accel`` under the quadratic Morison drag
-    (``DraggedStructure.acceleration``)."""
+    (``DraggedStructure.acceleration`` at x, v_plus)."""
     q = integrated[0]
-    return dragged_acceleration(x, v, u, q[FLIGHT.MASS], q[FLIGHT.DAMPING], q[FLIGHT.STIFFNESS],
-                                q[FLIGHT.B])
+    return dragged_acceleration(x, v_plus, u, q[FLIGHT.MASS], q[FLIGHT.DAMPING],
+                                q[FLIGHT.STIFFNESS], q[FLIGHT.B])
 
 
-def _dragged_new_flight(integrated, x0, v0):
-    """A new flight from (x0, v0): no steps yet."""
+def _dragged_new_flight(integrated, t, x0, v0):
+    """A new flight from (x0, v0) at time t: no steps yet; its anchor (x0, v0)."""
     q, ints = integrated[0], integrated[1]
     q[FLIGHT.X0], q[FLIGHT.V0] = x0, v0
     ints[COUNTERS.COUNT] = 0
     ints[COUNTERS.FAILED] = 0
+    return x0, v0
 
 
 def _dragged_failed(integrated):
