@@ -74,6 +74,8 @@ def kernel_is_the_python_march(scene: Scene, start: float, kernel, advance: floa
     a, b = reference.sample(times), marched.sample(times)
     for key in ("x", "v", "z", "w", "impulse"):
         assert _bits(getattr(a, key)) == _bits(getattr(b, key))
+    if a.modal is not None:  # (the modal structure's modal states at the samples)
+        assert _bits(a.modal.ravel()) == _bits(b.modal.ravel())
     assert [_bits(i) for i in marched.impacts] == [_bits(i) for i in reference.impacts]
     return count
 

@@ -69,6 +69,11 @@ def test_simulate_by_set_and_by_scene_file_is_the_run(capsys, modal_file, tmp_pa
     samples = rows_of(by_set)
     assert len(samples) == 1 + result.t.size
     assert [float(row[1]) for row in samples[1:]] == result.x.tolist()
+    # each mode's coordinate and velocity, by the FMU's names, after the common columns
+    assert samples[0][-4:] == ["structure.mode1.q", "structure.mode1.v", "structure.mode2.q",
+                               "structure.mode2.v"]
+    assert [float(row[-2]) for row in samples[1:]] == result.modes_q[:, 1].tolist()
+    assert [float(row[-1]) for row in samples[1:]] == result.modes_v[:, 1].tolist()
     # no single spring: the k x loads are nan, the contact force is there
     summary = summarize(result)
     assert math.isnan(summary["kx_max_N"]) and summary["contact_force_max_N"] > 0.0

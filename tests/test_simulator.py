@@ -300,3 +300,40 @@ def test_the_reported_gap_is_the_same_for_a_float_and_an_array():
     assert gap.tolist()[:6] == [0.3, 0.0, -0.0, 0.0, 0.0, 0.0]
     assert penetration.tolist()[:6] == [0.0, 0.0, 0.0, 0.0, GAP_ROUNDING, 2e-3]
     assert math.isnan(gap[-1]) and penetration[-1] == 0.0
+
+
+#: Figure 2's scene with a second mode (11 Hz, phi 0.6): bouncing to 54 s, then riding
+TWO_MODES = dict(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                 structure_mode2_zeta=0.02, structure_mode2_phi=0.6)
+
+
+@pytest.mark.parametrize("method", [1, 2, 3])
+def test_run_gives_the_modal_state_at_every_sample(method):
+    """run() of the modal structure carries each mode's q and q' (the FMU's
+    structure.mode<k>.q and .v): at every sample the simulator's modal state when stepped to
+    that time, to the bit, whose contact point is x and v; bouncing and riding both (to 55 s)."""
+    scene = Scene(solver_method=method, **TWO_MODES)
+    result = run(scene, 55.0)
+    sim = Simulator(scene)
+    rows = []
+    for t in result.t[1:].tolist():
+        sim.advance_to(t)
+        q, p = sim.solver.modal_state()
+        rows.append(q + p)
+    rows = np.array(rows)
+    assert result.modes_q.shape == result.modes_v.shape == (len(result.t), 2)
+    assert result.modes_q[0].tolist() == [0.0, 0.0] and result.modes_v[0].tolist() == [0.0, 0.0]
+    assert result.modes_q[1:].tobytes() == rows[:, :2].tobytes()
+    assert result.modes_v[1:].tobytes() == rows[:, 2:].tobytes()
+    phi = (1.0, 0.6)
+    x = result.modes_q[:, 0] * phi[0] + result.modes_q[:, 1] * phi[1]
+    v = result.modes_v[:, 0] * phi[0] + result.modes_v[:, 1] * phi[1]
+    np.testing.assert_allclose(x, result.x, rtol=0, atol=1e-12 * np.abs(result.x).max())
+    np.testing.assert_allclose(v, result.v, rtol=0, atol=1e-12 * np.abs(result.v).max())
+    if method == 1:
+        assert result.sticking.any() and len(result.impacts) > 5000
+
+
+def test_run_has_no_modal_columns_without_the_modal_structure():
+    result = run(Scene(), 1.0)
+    assert result.modes_q is None and result.modes_v is None

@@ -131,7 +131,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene_options(sim)
     sim.add_argument("--out", type=Path, default=None, metavar="FILE",
                      help="samples, one column per FMU output: "
-                          + ", ".join(name for name, _ in SAMPLE_COLUMNS) + " (SI units); "
+                          + ", ".join(name for name, _ in SAMPLE_COLUMNS) + ", and with the "
+                          "modal structure structure.mode<k>.q and .v of each mode (SI units); "
                           "with --format openfast (or a .out file) an OpenFAST text output "
                           "with Time and the outputs of iceimpact.studies.outfiles")
     sim.add_argument("--impacts", type=Path, default=None, metavar="CSV",
@@ -236,13 +237,24 @@ def _format_value(value: float) -> str:
     return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
+def _sample_columns(result: Result) -> list[tuple[str, Any]]:
+    """The columns of ``simulate --out``: :data:`SAMPLE_COLUMNS`, then with the modal structure
+    each mode's ``structure.mode<k>.q`` and ``.v`` (the FMU's names)."""
+    columns = [(name, getattr(result, field)) for name, field in SAMPLE_COLUMNS]
+    if result.modes_q is not None:
+        for k in range(result.modes_q.shape[1]):
+            columns += [(f"structure.mode{k + 1}.q", result.modes_q[:, k]),
+                        (f"structure.mode{k + 1}.v", result.modes_v[:, k])]
+    return columns
+
+
 def _write_samples(path: Path, result: Result) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w", encoding="utf-8", newline="") as fh:
         writer = csv.writer(fh, lineterminator="\n")
-        writer.writerow([name for name, _ in SAMPLE_COLUMNS])
-        columns = [getattr(result, field) for _, field in SAMPLE_COLUMNS]
-        columns = [c.astype(int) if c.dtype == bool else c for c in columns]
+        named = _sample_columns(result)
+        writer.writerow([name for name, _ in named])
+        columns = [c.astype(int) if c.dtype == bool else c for _, c in named]
         for row in zip(*(c.tolist() for c in columns), strict=True):
             writer.writerow(row)
 

@@ -145,6 +145,12 @@ def _read_report(rec: Record) -> StepReport:
 _NO_MODES = {f"mode{k}_{quantity}": 0.0 for k in range(1, MAX_MODES + 1) for quantity in "qv"}
 
 
+def _modal_row(report: StepReport, n: int) -> list[float]:
+    """A report's modal state (q_1..q_n, q_1'..q_n')."""
+    return ([getattr(report, f"mode{k}_q") for k in range(1, n + 1)]
+            + [getattr(report, f"mode{k}_v") for k in range(1, n + 1)])
+
+
 def _modal_outputs(solver: Any) -> dict[str, float]:
     """The modes' q_k and q_k' at the solver's time (modes not used: 0)."""
     q, p = solver.modal_state()
@@ -407,11 +413,14 @@ class Simulator:
         return samples
 
     def _sample_by_steps(self, times: np.ndarray, u: float) -> Samples:
-        out = Samples(len(times))
+        n = self.scene.structure_modes if self.modal else 0
+        out = Samples(len(times), n)
         for i, t in enumerate(times.tolist()):
             r = self.advance_to(t, u)
             out.x[i], out.v[i], out.z[i], out.w[i] = r.x, r.v, r.z, r.w
             out.impulse[i], out.sticking[i] = r.impulse, r.sticking
+            if n:
+                out.modal[i] = _modal_row(r, n)
         return out
 
     def save(self) -> dict[str, Any]:
@@ -503,6 +512,10 @@ class Result:
     sticking_since: float | None
     gap: np.ndarray            # x - z as the simulator reports it, m (>= 0, see StepReport)
     penetration: np.ndarray    # z - x when the ice is past the structure, else 0, m
+    #: the modal structure's (structure.model = 3) modal coordinates q_k (m) and velocities
+    #: q_k' (m/s), a column per mode (the FMU's structure.mode<k>.q and .v); else None
+    modes_q: np.ndarray | None = None
+    modes_v: np.ndarray | None = None
 
     @property
     def impact_times(self) -> np.ndarray:
@@ -631,7 +644,13 @@ def run(scene: Scene, t_end: float, dt: float = 1e-2,
 
     x, z = column("x"), column("z")
     gap, penetration = reported_gap(x - z)
+    modes_q = modes_v = None
+    if sim.modal:
+        n = scene.structure_modes
+        modal = np.vstack(([_modal_row(first, n)], samples.modal))
+        modes_q, modes_v = modal[:, :n].copy(), modal[:, n:].copy()
     return Result(scene=scene, t=np.concatenate(([first.t], times)), x=x, v=column("v"),
                   z=z, w=column("w"), impulse=column("impulse"),
                   sticking=column("sticking", bool), impacts=impacts_array(sim.impacts),
-                  sticking_since=sim.sticking_since, gap=gap, penetration=penetration)
+                  sticking_since=sim.sticking_since, gap=gap, penetration=penetration,
+                  modes_q=modes_q, modes_v=modes_v)

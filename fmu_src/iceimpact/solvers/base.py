@@ -60,14 +60,17 @@ class State:
 class Samples:
     """States (m, m/s), contact impulses (N.s, each over the interval that ends at its sample) and
     sticking flags at a run's sample times: what :meth:`Simulator.sample` returns, from a
-    solver's vectorised sampler or from one step per sample."""
+    solver's vectorised sampler or from one step per sample. With ``modes`` (the modal
+    structure's N), ``modal`` holds each sample's modal state, a row (q_1..q_N, q_1'..q_N')
+    (m, m/s); else None."""
 
-    __slots__ = ("x", "v", "z", "w", "impulse", "sticking")
+    __slots__ = ("x", "v", "z", "w", "impulse", "sticking", "modal")
 
-    def __init__(self, n: int):
+    def __init__(self, n: int, modes: int = 0):
         self.x, self.v, self.z, self.w = (np.empty(n) for _ in range(4))
         self.impulse = np.zeros(n)
         self.sticking = np.zeros(n, dtype=bool)
+        self.modal = np.empty((n, 2 * modes)) if modes else None
 
     def set(self, i: int, state: State, sticking: bool) -> None:
         self.x[i], self.v[i], self.z[i], self.w[i] = state.x, state.v, state.z, state.w

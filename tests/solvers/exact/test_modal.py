@@ -206,7 +206,7 @@ def test_the_compiled_march_on_the_modes_is_the_python_march(name):
         march=ModalBounceMarch)
     assert impacts > 10
     compiled, python = run(scene, 60.0), _python_march(lambda: run(scene, 60.0))
-    for key in ("x", "v", "z", "w", "impulse", "sticking"):
+    for key in ("x", "v", "z", "w", "impulse", "sticking", "modes_q", "modes_v"):
         assert getattr(compiled, key).tobytes() == getattr(python, key).tobytes(), key
     assert compiled.impacts.tobytes() == python.impacts.tobytes()
 

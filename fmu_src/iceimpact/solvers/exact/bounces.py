@@ -118,8 +118,8 @@ NO_LIMIT = 2 ** 62
 CAPACITY = 1024
 
 
-def _flight_sample(tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, integrated):
-    """A flight's state (x, v, z, w) at the sample tau (s from its anchor): the flight
+def _flight_sample(sample, tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, integrated):
+    """A flight's state (x, v, z, w) at ``sample``, tau (s) from its anchor: the flight
     search's closed forms, the floats of ``Flight.state_array`` (its ice increment is
     0.0 + dz, the same float as dz but for the sign of a zero)."""
     dx, v, dz, w = _motion(tau, form, k, rate, w0_c, r0, quadratic, integrated)
@@ -306,8 +306,8 @@ def bounce_march(F, N, P, times, xs, vs, zs, ws, targets, values, impacts, integ
         N[INTS.COUNT] += 1
         if n_times > 0:
             for k in range(N[INTS.SAMPLE], j):  # the flight's samples
-                xs[k], vs[k], zs[k], ws[k] = _flight_sample(times[k] - t0, x0, v0, z0, w0, form,
-                                                            sk, rate, w0_c, r0, quadratic,
+                xs[k], vs[k], zs[k], ws[k] = _flight_sample(k, times[k] - t0, x0, v0, z0, w0,
+                                                            form, sk, rate, w0_c, r0, quadratic,
                                                             integrated)
             k = N[INTS.N_TARGETS]
             targets[k], values[k] = j, 0.0 + impulse
@@ -397,7 +397,8 @@ def _compile(numba: Any) -> Any:
     k8 = numba.types.UniTuple(f8, 8)
     structure = _structure_callees({
         "flight_root": search["flight_root"],
-        "_flight_sample": jit(numba, (f8,) * 5 + (i8, k8, f8, f8, f8, i8, i8), _flight_sample,
+        "_flight_sample": jit(numba, (i8,) + (f8,) * 5 + (i8, k8, f8, f8, f8, i8, i8),
+                              _flight_sample,
                               _motion=search["_motion"]),
         "_flight_constants": _sdof_constants(numba),
         "_structure_accel": jit(numba, (f8,) * 10 + (i8,), _structure_accel),

@@ -35,7 +35,7 @@ from ...physics.ice import downstream_speed_bound
 from ...physics.modes import Modes
 from ...physics.structure import FORM_UNDER, Oscillator
 from ...record import Record
-from ..base import GAP_ULPS, State
+from ..base import GAP_ULPS, Samples, State
 from ..contact_rules import Phase, reanchor_on_flow_change
 from ..search import modal_search, modal_taylor
 from ..search.flight_search import FlightSearch
@@ -195,6 +195,10 @@ class ModalFlight:
         floats."""
         states = [self.state(t) for t in tau.tolist()]
         return tuple(np.array([state[k] for state in states], dtype=float) for k in range(4))
+
+    def modal_states_at(self, tau: np.ndarray) -> np.ndarray:
+        """:meth:`modal_state` at each of the times tau: rows (q_1..q_N, q_1'..q_N')."""
+        return np.array([q + p for q, p in map(self.modal_state, tau.tolist())], dtype=float)
 
     def gap(self, tau: float) -> float:
         _, dx, _, dz, _ = self._motion(tau)[:5]
@@ -427,7 +431,9 @@ class ModalBounceMarch(BounceMarch):
         super().__init__(solver, kernel if kernel is not None else bounces.modal_kernel())
         self.flight_type = ModalFlight
         self.dragged = False
-        self._modes_for: Modes | None = None
+        #: where the kernel writes the samples' modal states: the Samples' in a sampled march
+        n = solver.context.modes.count
+        self._no_samples = self._samples = np.empty((0, 2 * n))
 
     def takes(self, seg: Any) -> bool:
         """A modal flight, its search not handed to RootSearch, and no Zeno tail running."""
@@ -451,9 +457,10 @@ class ModalBounceMarch(BounceMarch):
         its own); its search's last point the anchor if it starts there (ModalFlightSearch)."""
         own = self.integrated
         if isinstance(own, int) or own[0].shape != seg.integrated[0].shape:
-            own = self.integrated = tuple(np.empty_like(array) for array in seg.integrated)
-        for mine, theirs in zip(own, seg.integrated, strict=True):
+            own = tuple(np.empty_like(array) for array in seg.integrated[:3])
+        for mine, theirs in zip(own[:3], seg.integrated[:3], strict=True):
             mine[...] = theirs
+        self.integrated = (*own[:3], self._samples)
         if seg.search.a == 0.0:
             state = own[1]
             state[STATE.DY] = 0.0
@@ -469,6 +476,15 @@ class ModalBounceMarch(BounceMarch):
     def _integrated_to(self, seg: ModalFlight, N: list[int]) -> None:
         """The march's state of the modes (its search's last point) to the flight's arrays."""
         seg.integrated[1][...] = self.integrated[1]
+
+    def sample(self, times: np.ndarray, i: int, interval: int, out: Samples, targets: Any,
+               values: Any) -> tuple[int, int]:
+        """:meth:`BounceMarch.sample`, the modal state at each sample to ``out.modal``."""
+        self._samples = out.modal
+        try:
+            return super().sample(times, i, interval, out, targets, values)
+        finally:
+            self._samples = self._no_samples
 
 
 class ModalSolver(EventSolver):
@@ -525,6 +541,13 @@ class ModalSolver(EventSolver):
     def modal_state(self) -> tuple[list[float], list[float]]:
         """The modes' (q, q') at the solver's time."""
         return self.seg.modal_state(self.tau)
+
+    def _new_samples(self, n: int) -> Samples:
+        return Samples(n, self.context.modes.count)
+
+    def _sampled(self, out: Samples, i: int) -> None:
+        q, p = self.modal_state()
+        out.modal[i] = q + p
 
     # segments -----------------------------------------------------------------------------------
     def _new_flight(self, t: float, x: float, v: float, z: float, w: float, u: float,

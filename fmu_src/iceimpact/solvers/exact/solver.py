@@ -87,6 +87,13 @@ class EventSolver(EventMarch):
         """A flight from time t and state (x, v, z, w), searched from ``start``."""
         return self._flight_cls(self.context, t, x, v, z, w, u, start)
 
+    def _new_samples(self, n: int) -> Samples:
+        """The records of n samples (:meth:`sample`)."""
+        return Samples(n)
+
+    def _sampled(self, out: Samples, i: int) -> None:
+        """What else sample i records of a segment marched to it (a structure's own state)."""
+
     def _bounce_march(self) -> Any:
         """The compiled march of bounces of this solver's flights, or None (Python's march)."""
         if self.COMPILED_BOUNCES and bounces.COMPILED is not None:
@@ -294,7 +301,7 @@ class EventSolver(EventMarch):
         # the compiled march it meets few events, and reads the array itself (no copy)
         t_list = times.tolist() if self.bounces is None else times
         n = len(t_list)
-        out = Samples(n)
+        out = self._new_samples(n)
         # impulse contributions in the order the scalar march adds them: (sample, value); the
         # values of force-carrying pieces are filled in by the vectorised pass (machine numbers,
         # copied as the march goes: see _SampleGroup)
@@ -336,6 +343,7 @@ class EventSolver(EventMarch):
                 add_target(i)
                 add_value(self.march(float(t_list[i])))
                 out.set(i, self.state, self.sticking)
+                self._sampled(out, i)
                 i += 1
                 continue
             t0 = seg.t0
@@ -388,10 +396,13 @@ class EventSolver(EventMarch):
         pieces gives it, written to ``out.impulse`` at once; sample i's and j's go to
         ``targets`` and ``values`` (their intervals have other pieces too)."""
         tau = times[i:j] - seg.t0
-        if seg.phase is Phase.FLIGHT:  # a flight in Taylor steps (DraggedFlight): no contact
-            # force, so each interval's impulse is 0.0 but for its events' (the loop adds them)
+        if seg.phase is Phase.FLIGHT:  # a flight in Taylor steps (DraggedFlight) or of modes: no
+            # contact force, so each interval's impulse is 0.0 but for its events' (the loop
+            # adds them)
             if j > i:
                 out.x[i:j], out.v[i:j], out.z[i:j], out.w[i:j] = seg.states_at(tau)
+                if out.modal is not None:
+                    out.modal[i:j] = seg.modal_states_at(tau)
             return
         ends = tau if tau_event is None else np.append(tau, tau_event)
         tau_all = np.concatenate(([self.tau], ends))

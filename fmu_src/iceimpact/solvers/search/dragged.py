@@ -149,7 +149,8 @@ def _no_clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u, co
     return 0.0
 
 
-def _dragged_sample(tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, integrated):
+def _dragged_sample(sample, tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic,
+                    integrated):
     """``bounces._flight_sample`` for the structure in Taylor steps: the floats of
     ``DraggedFlight.states_at``."""
     dx, v = _dragged_structure(tau, integrated) if tau > 0.0 else (0.0, v0)

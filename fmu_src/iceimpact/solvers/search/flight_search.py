@@ -330,7 +330,7 @@ def argument_types(numba: Any, integrated: Any) -> dict[str, Any]:
     structure's steps of type ``integrated`` (an integer, unused, for the closed forms)."""
     f8, i8 = numba.float64, numba.int64
     k, motion = numba.types.UniTuple(f8, 8), numba.types.UniTuple(f8, 4)
-    return {"iterations": i8, "creep": i8, "form": i8, "over": i8, "quadratic": i8,
+    return {"iterations": i8, "creep": i8, "form": i8, "over": i8, "quadratic": i8, "sample": i8,
             "checked": numba.boolean, "k": k, "motion": motion, "integrated": integrated,
             "point": numba.types.Tuple((f8, f8, motion)),
             "context": numba.types.Tuple((f8, i8, k, f8, f8, f8, i8, integrated))}

@@ -4,12 +4,13 @@ modes' closed forms, the contact point's bounds as the sums of the modes' bounds
 
 :func:`~.flight_search.flight_root` takes the structure's motion through the functions it calls
 by name (``_gap_point``, ``_structure_probe``, ``_clearance``) and the ``integrated`` argument
-they read. Here ``integrated`` is three arrays (:func:`new_modes`): the modes' constants, one
+they read. Here ``integrated`` is four arrays (:func:`new_modes`): the modes' constants, one
 row per mode (:data:`MODE`: phi, the form and the eight constants of its free response y = q -
 q_p from the flight's anchor, its oscillator's, the speed rho of its particular solution q_p and
 q_p at the anchor; :mod:`iceimpact.physics.modes`), the modal state (:data:`STATE`: the anchor's
-free responses, and the point evaluated last), and the anchor with the loads (:data:`ANCHOR`:
-the modal state (q, q') at the anchor, the loads, a column per mode). :func:`_modal_gap_point`
+free responses, and the point evaluated last), the anchor with the loads (:data:`ANCHOR`: the
+modal state (q, q') at the anchor, the loads, a column per mode) and the samples' modal states
+(the march of bounces writes them). :func:`_modal_gap_point`
 evaluates each mode's closed form (``under_increment`` or ``aperiodic_increment``, as
 ``Oscillator.deviation_increment``) and keeps the modal state there; the probe and the clearance
 that follow at the same point read it: flight_root probes the last point it evaluated (its
@@ -73,10 +74,11 @@ ANCHOR = fields("ModalAnchor", "Q0", "P0", "QN", "PN", "LOAD", "RATE", "SINCE", 
 
 
 def new_modes(modes: Any, t0: float, q0: Any,
-              p0: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              p0: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The arrays of a flight of ``modes`` (:class:`~iceimpact.physics.modes.Modes`) from the
-    modal state (q0, q0') at time t0: the constants, the state (its last point the anchor) and
-    the anchor with the loads."""
+    modal state (q0, q0') at time t0: the constants, the state (its last point the anchor), the
+    anchor with the loads, and the samples' modal states (none: the march of bounces gives its
+    own, a row (q, q') per sample)."""
     n = modes.count
     constants = np.empty((n, len(MODE)))
     state = np.zeros((len(STATE), n))
@@ -102,7 +104,7 @@ def new_modes(modes: Any, t0: float, q0: Any,
         column[ANCHOR.LOAD], column[ANCHOR.RATE] = modes.loads[k], modes.rates[k]
         column[ANCHOR.SINCE], column[ANCHOR.HELD] = modes.since, 1.0 if modes.held else 0.0
         column[ANCHOR.OFFSET], column[ANCHOR.SHARE] = osc.offset, modes.share[k]
-    return constants, state, anchor
+    return constants, state, anchor, np.empty((0, 2 * n))
 
 
 def _modal_gap_point(context, t):
@@ -207,18 +209,25 @@ def _modal_flight_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, 
     return (0.0, 0.0, 0.0, 0.0, 0.0, v0, 0.0, 0.0)
 
 
-def _modal_sample(tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, integrated):
+def _modal_sample(sample, tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadratic, integrated):
     """``bounces._flight_sample`` for the modes: the floats of ``ModalFlight.state`` (each
-    mode's increment plus rho tau, summed times phi in mode order); the state rows untouched."""
-    constants = integrated[0]
+    mode's increment plus rho tau, summed times phi in mode order), and the modal state of
+    ``ModalFlight.modal_state`` to row ``sample`` of the samples' array; the state rows
+    untouched."""
+    constants, anchor, samples = integrated[0], integrated[2], integrated[3]
+    n = constants.shape[0]
     dx = 0.0
     v = 0.0
-    for j in range(constants.shape[0]):
+    for j in range(n):
         c = constants[j]
         dy, yd = _mode_increment(c, tau)
         rho = c[MODE.RHO]
-        dx += c[MODE.PHI] * (dy + rho * tau)
-        v += c[MODE.PHI] * (yd + rho)
+        dq = dy + rho * tau
+        p = yd + rho
+        samples[sample, j] = anchor[ANCHOR.Q0, j] + dq
+        samples[sample, n + j] = p
+        dx += c[MODE.PHI] * dq
+        v += c[MODE.PHI] * p
     dz, w = _ice_motion(tau, rate, w0_c, r0, quadratic)
     return x0 + dx, v, z0 + dz, w
 
@@ -322,7 +331,7 @@ MARCH_CALLEES = {"_flight_constants": _modal_flight_constants, "_flight_sample":
 def modes_type(numba: Any) -> Any:
     """numba's type of the arrays of :func:`new_modes`."""
     a2 = numba.float64[:, ::1]
-    return numba.types.Tuple((a2, a2, a2))
+    return numba.types.Tuple((a2, a2, a2, a2))
 
 
 _DISPATCHERS: dict[str, Any] = {}
