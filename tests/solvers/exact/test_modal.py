@@ -271,3 +271,32 @@ def test_a_flight_from_an_impact_starts_at_zero_gap():
         result = run(scene, 50.0)
     assert len(result.impacts) > 2000 and len(ends) >= len(result.impacts)
     assert min(ends) > 0.0
+
+
+@compiled_only
+def test_a_root_found_from_the_anchor_a_step_before_keeps_its_modal_state():
+    """A flight whose root the search found in its first stretch (its frontier still at the
+    anchor) during an earlier step, then a plastic impact there: the march takes the modal state
+    at the root, not the anchor's (the search's state rows stay at the root), so the riding that
+    follows is the Python march's to the bit. (A plausible-scene draw, seed 2024.)"""
+    scene = Scene(ice_M=528.8046370450331, ice_A=3.3614626491550945, ice_Cd=0.7544288745605725,
+                  flow_u=1.9692674667599208, impact_e=0.0, drag_model=1,
+                  ice_v0=2.4293179404524725, ice_z0=-0.052692839874187825, structure_model=3,
+                  structure_modes=2, structure_mode1_f=0.8879309113095919,
+                  structure_mode1_zeta=0.08094927919360916, structure_mode1_m=4395.108529820917,
+                  structure_mode2_f=9.180695071071415, structure_mode2_zeta=0.08094570165289221,
+                  structure_mode2_m=24851.78559950968, structure_mode2_phi=0.19364473340823718)
+    loads = (-6.776691344258618, -1444.2351424240474)
+
+    def steps():
+        sim, rows = Simulator(scene), []
+        for i in range(50):
+            report = sim.advance(0.01, loads=loads)
+            rows.append([float(value).hex() for value in (
+                report.x, report.v, report.impulse, report.mode1_q, report.mode1_v,
+                report.mode2_q, report.mode2_v)] + [report.sticking])
+        return rows
+
+    compiled = steps()
+    assert compiled == _python_march(steps)
+    assert compiled[5][-1]  # (riding after the plastic impact at 0.0217 s)

@@ -90,7 +90,8 @@ class ModalFlightSearch(FlightSearch):
     kernel = staticmethod(modal_search.KERNEL)
 
     def next_root_of(self, horizon: float, signal: Any) -> float | None:
-        if self.a == 0.0 and not self.handed_back:  # the search probes the anchor itself
+        if self.a == 0.0 and self.root is None and not self.handed_back:  # the search probes
+            # the anchor itself (a root found from there leaves a at 0, the state at the root)
             state = signal.integrated[1]
             state[STATE.DY] = 0.0
             state[STATE.YD] = state[STATE.YD0]
@@ -146,9 +147,12 @@ class ModalFlight:
 
     def remember(self, state: tuple[float, float, float, float, float]) -> None:
         """Keep ``(tau, x - x0, v, z - z0, w)`` of a root the search found, with the modal
-        state there (the last point it evaluated)."""
+        state there (the last point it evaluated; where that is another point, nothing is kept
+        and :meth:`_motion` evaluates the root)."""
         tau, dx, v, dz, w = state
         modal = self.integrated[1]
+        if modal[STATE.T, 0] != tau:  # (the state rows hold another point: _motion evaluates
+            return  # the root when asked)
         dy, yd = modal[STATE.DY].tolist(), modal[STATE.YD].tolist()
         drift = self.modes.drift
         self._last = (tau, dx, v, dz, w,
@@ -315,6 +319,9 @@ class ModalRide:
         self._ends: list[np.ndarray] = []
         self._end: float | None = None  # the separation, once found
         self._checked = 0  # the steps before this one are proven free of a separation
+        #: the time and rows _at evaluated last (a sample's state, modal state and impulse read
+        #: the same rows, and the next sample's impulse starts there)
+        self._last: tuple[float, np.ndarray] = (math.nan, self._out)
 
     # the Taylor steps --------------------------------------------------------------------------
     def _extend(self) -> None:
@@ -356,14 +363,20 @@ class ModalRide:
         self._ends.append(end)
 
     def _at(self, tau: float) -> np.ndarray:
-        """The rows (q, q', P, lam) at tau, in the last step starting at or before it."""
+        """The rows (q, q', P, lam) at tau, in the last step starting at or before it (not to
+        be changed: the last one is kept)."""
+        last = self._last
+        if last[0] == tau:
+            return last[1]
         while self._end is None and (not self._his or self._his[-1] < tau):
             self._extend()
         i = max(bisect_right(self._los, tau) - 1, 0)
         if tau >= self._his[i]:
-            return self._ends[i]
-        out = np.empty(self._rows)
-        KERNELS["horner_rows"](self._tables[i], (tau - self._los[i]) / self._hs[i], out)
+            out = self._ends[i]
+        else:
+            out = np.empty(self._rows)
+            KERNELS["horner_rows"](self._tables[i], (tau - self._los[i]) / self._hs[i], out)
+        self._last = (tau, out)
         return out
 
     # the segment's interface -----------------------------------------------------------------
@@ -386,6 +399,7 @@ class ModalRide:
                     self._end = tau = lo + theta * h
                     del self._los[i:], self._hs[i:], self._his[i:], self._tables[i:]
                     del self._ends[i:]
+                    self._last = (math.nan, self._out)  # (it may lie in a step dropped)
                     return tau if tau <= tau_end else None
             self._checked = i
             if hi > tau_end:
@@ -454,14 +468,16 @@ class ModalBounceMarch(BounceMarch):
 
     def _integrated_of(self, seg: ModalFlight) -> None:
         """The flight's arrays copied into the march's own (a flight kept in a checkpoint keeps
-        its own); its search's last point the anchor if it starts there (ModalFlightSearch)."""
+        its own); its search's last point the anchor if the search starts there
+        (ModalFlightSearch)."""
         own = self.integrated
         if isinstance(own, int) or own[0].shape != seg.integrated[0].shape:
             own = tuple(np.empty_like(array) for array in seg.integrated[:3])
         for mine, theirs in zip(own[:3], seg.integrated[:3], strict=True):
             mine[...] = theirs
         self.integrated = (*own[:3], self._samples)
-        if seg.search.a == 0.0:
+        if seg.search.a == 0.0 and seg.search.root is None:  # (as ModalFlightSearch: a root
+            # found from the anchor leaves a at 0, the state at the root)
             state = own[1]
             state[STATE.DY] = 0.0
             state[STATE.YD] = state[STATE.YD0]
