@@ -290,7 +290,7 @@ def test_a_root_found_from_the_anchor_a_step_before_keeps_its_modal_state():
 
     def steps():
         sim, rows = Simulator(scene), []
-        for i in range(50):
+        for _ in range(50):
             report = sim.advance(0.01, loads=loads)
             rows.append([float(value).hex() for value in (
                 report.x, report.v, report.impulse, report.mode1_q, report.mode1_v,
