@@ -309,6 +309,10 @@ class ModalRide:
         self._rate = modes.rates_bound() + drag_rate
         self._table = modes.ride_table()
         n = modes.count
+        #: the loads given, their rates, the modes' shares of a velocity change, the loads at a
+        #: step's start (ride_extend's)
+        self._loads = (np.array(modes.loads, dtype=float), np.array(modes.rates, dtype=float),
+                       np.array(modes.share, dtype=float), np.empty(n))
         self._rows = 2 * n + 2
         self._rs = np.empty(modal_taylor.ORDER + 1)
         self._out = np.empty(self._rows)
@@ -337,22 +341,14 @@ class ModalRide:
         else:
             q, p = np.array(self.q0, dtype=float), np.array(self.p0, dtype=float)
             impulse, lo = 0.0, 0.0
-        loads = np.array(self.modes.loads_at(self.t0 + lo), dtype=float)
-        for sign in ((0.0, 1.0, -1.0) if self._quadratic else (0.0,)):
-            table = np.empty((self._rows, modal_taylor.ORDER + 1))
-            h, theta_end = KERNELS["ride_step"](q, p, impulse, loads, self._table, self.u,
-                                                self._alpha, self._beta, self._coef,
-                                                self._quadratic, self._rate, table, self._rs,
-                                                sign)
-            hi = lo + h * theta_end
-            if hi > lo:
-                break
+        table = np.empty((self._rows, modal_taylor.ORDER + 1))
         end = np.empty(self._rows)
-        KERNELS["horner_rows"](table, theta_end, end)
-        if theta_end < 1.0:  # a sign change of u - v: from u - v = 0 exactly
-            v = self.modes.contact(end[:n].tolist(), end[n:2 * n].tolist())[1]
-            end[n:2 * n] = self.modes.velocity_change(end[n:2 * n].tolist(), self.u - v)
-        if not (hi > lo and np.isfinite(end).all()):
+        modes = self.modes
+        h, theta_end, hi, advanced = KERNELS["ride_extend"](
+            q, p, impulse, lo, self.t0, self._loads[0], self._loads[1], modes.since, self._table,
+            self._loads[2], self.u, self._alpha, self._beta, self._coef, self._quadratic,
+            self._rate, table, self._rs, end, self._loads[3])
+        if not advanced:
             raise SolverError(
                 f"the riding phase's Taylor steps stalled at t = {self.t0 + lo!r} s (modal "
                 f"state q = {q.tolist()} m, q' = {p.tolist()} m/s)")
@@ -419,7 +415,8 @@ class ModalRide:
         if tau_b <= tau_a:
             return 0.0
         n = self.modes.count
-        return float(self._at(tau_b)[2 * n]) - float(self._at(tau_a)[2 * n])
+        start = float(self._at(tau_a)[2 * n])  # (first: the rows _at kept, the last sample's)
+        return float(self._at(tau_b)[2 * n]) - start
 
     _KEYS = ("phase", "t0", "q", "p", "start")
 

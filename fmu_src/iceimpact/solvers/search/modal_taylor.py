@@ -271,6 +271,45 @@ def ride_step(q, p, impulse0, loads, modes, u, alpha, beta, coef, quadratic, rat
     return h, theta_end
 
 
+def ride_extend(q, p, impulse0, lo, t0, loads0, load_rates, since, modes, share, u, alpha,
+                beta, coef, quadratic, rate, table, rs, end, loads):
+    """The riding phase's next step, from the modal state (q, q') and the impulse so far at lo
+    (s from the phase's start t0): the loads there (``Modes.loads_at``: loads0 given at
+    ``since``, changing at load_rates) into ``loads``, :func:`ride_step` into ``table`` (under
+    the quadratic drag, a step that would end at once, its drag sign rounding's, taken with the
+    other sign), the state at its end into ``end``, and where the relative flow changes sign
+    there, the modes' velocities moved to u - v = 0 exactly (``Modes.velocity_change`` by
+    ``share``, as an impulse would move them). Returns (h, theta_end, the step's end, whether it
+    advanced to finite values)."""
+    n = q.size
+    t = t0 + lo
+    for k in range(n):
+        loads[k] = loads0[k] + load_rates[k] * (t - since)
+    h = 0.0
+    theta_end = 1.0
+    hi = lo
+    for attempt in range(3 if quadratic else 1):
+        sign = 0.0 if attempt == 0 else (1.0 if attempt == 1 else -1.0)
+        h, theta_end = ride_step(q, p, impulse0, loads, modes, u, alpha, beta, coef, quadratic,
+                                 rate, table, rs, sign)
+        hi = lo + h * theta_end
+        if hi > lo:
+            break
+    horner_rows(table, theta_end, end)
+    if theta_end < 1.0:  # (Modes.contact's v, then Modes.velocity_change)
+        v = 0.0
+        for k in range(n):
+            v += modes[0, k] * end[n + k]
+        dv = u - v
+        for k in range(n):
+            end[n + k] = end[n + k] + share[k] * dv
+    advanced = hi > lo
+    for j in range(end.size):
+        if not end[j] - end[j] == 0.0:  # (inf or NaN)
+            advanced = False
+    return h, theta_end, hi, advanced
+
+
 KERNELS: dict[str, Any] = {}
 
 
@@ -287,8 +326,10 @@ def _build(numba: Any) -> dict[str, Any]:
     length = jit(numba, (a2, a1, a2, f8, f8), step_length)
     step = jit(numba, (a1, a1, f8, a1, a2, f8, f8, f8, f8, i8, f8, a2, a1, f8), ride_step,
                ride_series=series, step_length=length, first_negative=negative)
+    extend = jit(numba, (a1, a1, f8, f8, f8, a1, a1, f8, a2, a1, f8, f8, f8, f8, i8, f8, a2,
+                         a1, a1, a1), ride_extend, ride_step=step, horner_rows=rows)
     return {"horner_rows": entry_point(rows), "first_negative": entry_point(negative),
-            "ride_step": entry_point(step)}
+            "ride_step": entry_point(step), "ride_extend": entry_point(extend)}
 
 
 #: The compiled kernels where numba is (``fast`` extra), else None: the pure functions run
@@ -296,4 +337,5 @@ COMPILED = compile_or_none("the modal riding steps", _build)
 if COMPILED is not None:
     KERNELS.update(COMPILED)
 else:
-    KERNELS.update(horner_rows=horner_rows, first_negative=first_negative, ride_step=ride_step)
+    KERNELS.update(horner_rows=horner_rows, first_negative=first_negative, ride_step=ride_step,
+                   ride_extend=ride_extend)
