@@ -410,6 +410,8 @@ class EventSolver(EventMarch):
         x, v = y[1:j - i + 1, 0], y[1:j - i + 1, 1]
         out.x[i:j], out.v[i:j], out.z[i:j], out.w[i:j] = x, v, x, v
         out.sticking[i:j] = seg.phase is Phase.STICK
+        if out.modal is not None:  # (the modal riding phase's rows: x, v, then q, q')
+            out.modal[i:j] = y[1:j - i + 1, 2:2 + out.modal.shape[1]]
         pieces = seg.impulses_between(tau_all, y)
         if j > i:
             targets.append(i)
