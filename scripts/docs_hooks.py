@@ -527,7 +527,10 @@ def table_columns_page() -> str:
         "Undefined measures are `nan` (fewer than two impacts, a structure at rest, too few "
         "samples for a spectrum, no sticking phase); an error row has none. What the design "
         "loads mean and where they stop being meaningful: [Design loads]"
-        "(../explanation/design-loads.md).", "",
+        "(../explanation/design-loads.md). With the modal structure (`structure.model = 3`) "
+        "the `k x` columns are those of `k_c x`, k_c the static stiffness of the contact "
+        "point: a quasi-static equivalent load at the ice action point ([The modal structure]"
+        "(../explanation/modes.md#the-structural-load-k_c-x)).", "",
         "## A run's summary and a sweep row", "",
         f"A sweep row is `{RUN_COLUMN}` (the run's index in the grid), one column per varied "
         f"parameter (its FMI name and unit), `{STATUS_COLUMN}` (`ok` or the run's error), "

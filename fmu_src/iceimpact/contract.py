@@ -363,10 +363,16 @@ OUTPUTS: tuple[Variable, ...] = (
          minimum=0.0, initial_depends_on=("structure.model", "ice.z0")),
     _out("structure.force", "spring_force", float, "N",
          "spring force k x of the structure: the base shear of the SDOF idealisation, the load "
-         "a design check takes (docs/explanation/design-loads.md); 0 with an external structure "
-         "(structure.model = 2), whose internal forces live in the other FMU, and with the "
-         "modal structure (3), whose internal forces follow from structure.mode<k>.q",
-         initial_depends_on=("structure.model", "structure.x0", "structure.k")),
+         "a design check takes (docs/explanation/design-loads.md). With the modal structure "
+         "(structure.model = 3) k_c x, k_c = 1 / sum(phi_k^2 / (m_k (2 pi f_k)^2)) the static "
+         "stiffness at the contact point: the quasi-static equivalent load there (one mode with "
+         "phi = 1: the SDOF's k x), without the modes' own dynamic amplification of member "
+         "forces, which follow from structure.mode<k>.q and the modal stresses of the FE model "
+         "(docs/explanation/modes.md). 0 with an external structure (2), whose internal forces "
+         "live in the other FMU",
+         # k_c x0: the modal structure's stiffness at the contact point takes each f and m too
+         initial_depends_on=_X0 + ("structure.k",) + tuple(
+             f"structure.mode{k}.{f}" for k in range(1, MAX_MODES + 1) for f in ("f", "m"))),
     _out("coupling.force", "coupling_force", float, "N",
          "external structure (structure.model = 2): the force for the master to hold on the "
          "structure over its next step. contact.force, except with a Jacobi master "

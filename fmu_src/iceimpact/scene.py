@@ -198,6 +198,20 @@ class Scene:
         return 1.0 / _modal_flexibility(self)
 
     @property
+    def contact_stiffness(self) -> float:
+        """The structure's static stiffness at the ice contact point, N/m: the force that,
+        applied there statically, holds the contact point at a unit displacement. The SDOF's
+        ``structure.k`` (given for the external structure too, whose ``structure.force`` is 0);
+        with the modal structure ``1 / sum(phi_k^2 / k_k)``, ``k_k = m_k (2 pi f_k)^2``, over the
+        modes used (one mode with phi = 1: m omega^2, the SDOF's k). Its product with x is the
+        structural load ``structure.force`` and the design loads' k x: with the modes a
+        quasi-static equivalent load at the contact point, without their own dynamic
+        amplification of member forces (docs/explanation/modes.md)."""
+        if self.structure_model == STRUCTURE_MODAL:
+            return 1.0 / _modal_compliance(self)
+        return self.structure_k
+
+    @property
     def modal_start(self) -> tuple[float, float]:
         """The modal structure's contact point at the start, ``(sum phi q0, sum phi v0)``."""
         x = v = 0.0
@@ -283,6 +297,16 @@ def _modal_flexibility(scene: Scene) -> float:
     return total
 
 
+def _modal_compliance(scene: Scene) -> float:
+    """``sum phi_k^2 / k_k``, ``k_k = m_k (2 pi f_k)^2`` (the modes' stiffnesses as the modal
+    solvers form them), over the modes used, m/N, summed in mode order."""
+    total = 0.0
+    for f, _, m, phi, _, _ in scene.mode_table:
+        omega = 2.0 * math.pi * f
+        total += phi * phi / (m * omega * omega)
+    return total
+
+
 def _check_modes(scene: Scene) -> None:
     """The modal structure (structure.model = 3): a contact point that some mode moves, an
     effective mass and modal rates that are finite numbers, Morison terms off (not modelled on
@@ -332,6 +356,13 @@ def _check_modes(scene: Scene) -> None:
         for name, value, allowed in checks:
             if not math.isfinite(value) or ("> 0" in allowed and value <= 0.0):
                 raise ParameterError(name, value, f"{allowed}: {OVERFLOW}")
+    compliance = _modal_compliance(s)  # (each mode's stiffness is finite and > 0 by now)
+    stiffness = 1.0 / compliance if compliance > 0.0 else math.inf
+    if not (math.isfinite(stiffness) and stiffness > 0.0):
+        raise ParameterError("1 / sum(structure.mode<k>.phi^2 / (structure.mode<k>.m "
+                             "(2 pi structure.mode<k>.f)^2))", stiffness,
+                             f"the static stiffness at the contact point (N/m), the factor of "
+                             f"structure.force, finite and > 0: {OVERFLOW}")
     x0, _ = s.modal_start
     if s.ice_z0 > x0:
         raise ParameterError("ice.z0", s.ice_z0, f"<= sum phi q0 = {x0!r}, the contact point at "

@@ -94,8 +94,9 @@ class StepReport:
     impact_count: int    # impacts since the start
     t_last: float        # time of the latest impact, s (-1 before the first)
     sticking: bool       # bodies stick together at the end of the step
-    spring_force: float  # k x, the structure's spring force (base shear of the SDOF), N; 0 with
-    #                      an external structure (its forces live in the other FMU)
+    spring_force: float  # k x, the structure's spring force (base shear of the SDOF), N; k_c x
+    #                      with the modal structure (Scene.contact_stiffness); 0 with an
+    #                      external structure (its forces live in the other FMU)
     coupling_force: float  # the force for the master to hold on an external structure over its
     #                        next step, N (= force, but with a Jacobi master while riding)
     mode1_q: float = 0.0  # modal structure (structure.model = 3): mode 1's q_k, m (0: none)
@@ -171,6 +172,7 @@ class Simulator:
         self.scene = scene
         self.external = scene.external  # structure.model = 2: the structure is in another FMU
         self.modal = scene.modal  # structure.model = 3: the built-in modal structure
+        self._stiffness = scene.contact_stiffness  # structure.force's k (summed once: modal)
         self.record_impacts = record_impacts
         self.solver = make_solver(scene, record_impacts)
         self._n_reported = 0  # impacts already reported (an impact at t = 0 goes to step 1)
@@ -344,10 +346,8 @@ class Simulator:
             "force": force, "impacts": count - self._n_reported,
             "impact_count": count, "t_last": -1.0 if t_last is None else t_last,
             "sticking": solver.sticking,
-            # no single spring: the external structure's forces live in the other FMU, the
-            # modal structure's follow from its modes' q
-            "spring_force": (0.0 if self.external or self.modal
-                             else self.scene.structure_k * s.x),
+            # the external structure's forces live in the other FMU
+            "spring_force": 0.0 if self.external else self._stiffness * s.x,
             "coupling_force": solver.coupling_force if self.external else force,
             **(_modal_outputs(solver) if self.modal else _NO_MODES)})
 
@@ -386,7 +386,7 @@ class Simulator:
         try:
             samples = solver.sample(times, u)
             starts = np.concatenate(([t_start], times[:-1]))
-            k = 0.0 if self.modal else self.scene.structure_k  # as the report's spring force
+            k = self._stiffness  # as the report's spring force
             if not _surely_finite(samples, k, times - starts):
                 gap, penetration = reported_gap(samples.x - samples.z)
                 check_finite({"x": samples.x, "v": samples.v, "z": samples.z, "w": samples.w,
@@ -468,6 +468,7 @@ class Simulator:
         apply()
         self.scene, self.solver = scene, solver
         self.external, self.modal = scene.external, scene.modal  # the state's structure
+        self._stiffness = scene.contact_stiffness
         self.report, self._n_reported, self.failed = report, reported, failed
 
     @classmethod

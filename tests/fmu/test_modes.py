@@ -1,10 +1,11 @@
 """The modal structure (structure.model = 3) through IceImpact.fmu and IceImpact3.fmu in FMPy.
 
 A two-mode scene gives the core's numbers to the bit (iceimpact.run's x and impact count, the
-modal q and v of Simulator stepped like the master), in FMI 2.0 and FMI 3.0, with early return
-too; the load inputs drive the modes (a constant load settles mode 1 at its static offset L / k);
-a bad mode value is refused with a message naming it and the instance survives; an FMI 3.0 state
-taken while the ice rides continues identically, set back or deserialized.
+modal q and v of Simulator stepped like the master, structure.force = k_c x), in FMI 2.0 and
+FMI 3.0, with early return too; the load inputs drive the modes (a constant load settles mode 1
+at its static offset L / k); a bad mode value is refused with a message naming it and the
+instance survives; an FMI 3.0 state taken while the ice rides continues identically, set back or
+deserialized.
 """
 
 from __future__ import annotations
@@ -69,7 +70,13 @@ def test_two_modes_give_the_core_numbers_to_the_bit(which, fmu, fmu3, grid):
     # the contact point is the modes' sum phi q, to rounding
     x = result["structure.mode1.q"] + 0.6 * result["structure.mode2.q"]
     np.testing.assert_allclose(result["structure.x"], x, rtol=0.0, atol=1e-15)
-    assert not result["structure.force"].any()  # the modes' forces are theirs to give
+    # structure.force is k_c x: the static stiffness at the contact point, here worked out from
+    # the modes (mode 1 Figure 2's SDOF, k = 1e6 N/m; mode 2 1600 kg at 11 Hz, seen at 0.6)
+    k_c = 1.0 / (1.0 / 1.0e6 + 0.36 / (1600.0 * (22.0 * math.pi) ** 2))
+    assert np.ptp(result["structure.force"]) > 0.0
+    np.testing.assert_allclose(result["structure.force"], k_c * result["structure.x"],
+                               rtol=1e-14, atol=0.0)
+    assert np.array_equal(result["structure.force"], [r.spring_force for r in reports])
 
 
 def test_fmi3_early_return_gives_the_same_numbers_on_the_grid(fmu3, grid):

@@ -1,5 +1,6 @@
 """The modal structure's physics (physics/modes.py) and its parameters' validation: the effective
-mass, the velocity jump of an impulse, the bounds over a flight, the refusals."""
+mass, the static stiffness at the contact point, the velocity jump of an impulse, the bounds over
+a flight, the refusals."""
 
 from __future__ import annotations
 
@@ -19,6 +20,38 @@ TWO_MODES = ((4.0, 0.01, 1600.0, 1.0), (11.0, 0.02, 1600.0, 0.6))
 def test_the_effective_mass_is_the_inverse_of_the_summed_flexibilities():
     modes = Modes(TWO_MODES)
     assert modes.effective_mass == pytest.approx(1.0 / (1.0 / 1600.0 + 0.36 / 1600.0), rel=1e-15)
+
+
+def test_the_contact_stiffness_of_one_mode_with_phi_1_is_the_sdofs_k():
+    """k_c = m omega^2 for one mode seen with phi = 1: Figure 2's k = 1e6 N/m (the default mode
+    is the SDOF's), and m (2 pi f)^2 for another; the SDOF's is structure.k itself."""
+    sdof = Scene()
+    assert sdof.contact_stiffness == sdof.structure_k == 1.0e6
+    assert Scene(structure_model=3).contact_stiffness == pytest.approx(1.0e6, rel=1e-15)
+    one = Scene(structure_model=3, structure_mode1_f=2.5, structure_mode1_m=800.0)
+    assert one.contact_stiffness == pytest.approx(800.0 * (5.0 * math.pi) ** 2, rel=1e-15)
+
+
+def test_the_contact_stiffness_of_two_modes_is_their_static_flexibilities_summed():
+    """k_c = k1 k2 / (phi1^2 k2 + phi2^2 k1) for two modes, k_i = m_i (2 pi f_i)^2: the force
+    that holds the contact point at x statically is k_c x (phi's sign and the modes beyond
+    structure.modes do not enter, a mode with phi = 0 adds nothing)."""
+    two = dict(structure_model=3, structure_modes=2, structure_mode1_f=4.0,
+               structure_mode2_f=11.0, structure_mode2_m=900.0, structure_mode2_phi=0.6)
+    k1, k2 = 1600.0 * (8.0 * math.pi) ** 2, 900.0 * (22.0 * math.pi) ** 2
+    k_c = k1 * k2 / (k2 + 0.36 * k1)
+    assert Scene(**two).contact_stiffness == pytest.approx(k_c, rel=1e-14)
+    assert Scene(**two | dict(structure_mode2_phi=-0.6)).contact_stiffness == \
+        Scene(**two).contact_stiffness
+    # mode 3 unseen (phi = 0), mode 4 not used
+    assert Scene(**two | dict(structure_modes=3, structure_mode3_f=30.0, structure_mode3_phi=0.0,
+                             structure_mode4_phi=5.0)).contact_stiffness == \
+        Scene(**two).contact_stiffness
+    # the force k_c x at the contact point deflects each mode statically by phi_k k_c x / k_k
+    # (its generalized force over its stiffness), which put back at the contact point make x
+    x, found = 0.01, Scene(**two).contact_stiffness
+    q = [phi * found * x / k for phi, k in ((1.0, k1), (0.6, k2))]
+    assert q[0] + 0.6 * q[1] == pytest.approx(x, rel=1e-14)
 
 
 def test_an_impulse_moves_each_mode_by_phi_j_over_m_and_the_contact_point_by_j_over_m_eff():
@@ -96,6 +129,11 @@ def _modal(**kw) -> dict:
     (dict(structure_modes=6), "structure.modes", "1 <= modes <= 5"),
     (dict(structure_modes=0), "structure.modes", "1 <= modes <= 5"),
     (dict(structure_mode1_m=1e-320), "1 / sum(structure.mode<k>.phi^2", "effective mass"),
+    # k_c = 1 / sum(phi^2 / k_k) overflows (a stiff mode barely seen) or underflows to 0
+    (dict(structure_mode1_phi=1e-150, structure_mode1_m=1.0, structure_mode1_f=3000.0),
+     "1 / sum(structure.mode<k>.phi^2 / (structure.mode<k>.m", "static stiffness"),
+    (dict(structure_mode1_m=1e-300, structure_mode1_f=1e-5),
+     "1 / sum(structure.mode<k>.phi^2 / (structure.mode<k>.m", "static stiffness"),
     (dict(structure_Ca=1.0, structure_V=1.0), "structure.Ca", "not modelled"),
     (dict(ice_z0=0.01), "ice.z0", "sum phi q0"),
     (dict(structure_mode1_f=5e3), "2 pi structure.mode1.f", "<= 20000 1/s"),

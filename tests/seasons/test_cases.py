@@ -8,6 +8,7 @@ import math
 import pytest
 
 from iceimpact import Scene
+from iceimpact.runspec import apply
 from iceimpact.seasons import (
     PERTURBATION_M,
     SeasonError,
@@ -119,28 +120,29 @@ def test_bad_csv_tables_are_refused_naming_the_line(tmp_path, text, message):
         load_cases(path, t_end=6.0)
 
 
-_MODAL_REFUSED = (r"structure.model = 3: expected 1 \(the built-in SDOF structure\); a season's "
-                  "loads are the damage-equivalent loads of k x")
-
-
-@pytest.mark.parametrize("text, message", [
-    ("t_end = 6.0\n[[case]]\nname = 'a'\nhours = 1.0\n[[case]]\nname = 'two modes'\n"
-     "hours = 1.0\n[case.structure]\nmodel = 3\nmodes = 2\n[case.structure.mode2]\nf = 11.0\n"
-     "phi = 0.6\n",
-     r"case 2 \('two modes'\): " + _MODAL_REFUSED),
-    ("t_end = 6.0\n[defaults]\n'structure.model' = 3\n[[case]]\nname = 'a'\nhours = 1.0\n",
-     r"case 1 \('a'\): " + _MODAL_REFUSED),
+@pytest.mark.parametrize("text", [
+    "t_end = 6.0\n[[case]]\nname = 'a'\nhours = 1.0\n[[case]]\nname = 'two modes'\n"
+    "hours = 1.0\n[case.structure]\nmodel = 3\nmodes = 2\n[case.structure.mode2]\nf = 11.0\n"
+    "phi = 0.6\n",
+    "t_end = 6.0\n[defaults]\n'structure.model' = 3\n'structure.modes' = 2\n"
+    "'structure.mode2.f' = 11.0\n'structure.mode2.phi' = 0.6\n[[case]]\nname = 'a'\n"
+    "hours = 1.0\n[[case]]\nname = 'two modes'\nhours = 1.0\n",
 ])
-def test_the_modal_structure_is_refused_before_anything_runs(tmp_path, text, message):
-    """A season's loads are k x of the SDOF structure: a case of the modal structure (its mode
-    tables read like any others) would give nan loads, and is refused naming the case."""
-    path = write(tmp_path, text)
-    with pytest.raises(SeasonError, match=message) as info:
-        load_cases(path)
-    assert str(path) in str(info.value)
+def test_a_case_of_the_modal_structure_is_a_case_like_any_other(tmp_path, text):
+    """A season's loads are the DELs of k x, k_c x with the modal structure
+    (Scene.contact_stiffness): its cases, from nested tables, defaults or CSV columns, load and
+    run with their modes."""
+    table = load_cases(write(tmp_path, text))
+    assert table.n_runs == 2
+    scene = apply(table.base, table.cases[-1].params)
+    assert scene.modal and scene.structure_modes == 2 and scene.structure_mode2_phi == 0.6
     csv = write(tmp_path, "name,hours,structure.model,structure.mode1.f\na,1,3,2.0\n", "c.csv")
-    with pytest.raises(SeasonError, match=r"line 2, case 1 \('a'\): " + _MODAL_REFUSED):
-        load_cases(csv, t_end=6.0)
+    (case,) = load_cases(csv, t_end=6.0).cases
+    assert case.params == {"structure.model": 3, "structure.mode1.f": 2.0}
+    # a bad mode is still refused before anything runs, naming the case
+    bad = write(tmp_path, "name,hours,structure.model,structure.mode1.m\na,1,3,0\n", "d.csv")
+    with pytest.raises(SeasonError, match=r"line 2, case 1 \('a'\): structure.mode1.m"):
+        load_cases(bad, t_end=6.0)
 
 
 def test_unreadable_files_are_refused(tmp_path):

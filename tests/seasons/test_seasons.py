@@ -4,18 +4,21 @@ and the layering of the packages."""
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+from iceimpact import Scene, run
 from iceimpact.seasons import (
     SeasonError,
     load_cases,
     perturbed_z0,
     run_season,
 )
+from iceimpact.studies.loads import WOHLER_EXPONENTS
 from iceimpact.sweep import read_table
 from season_tables import TOML, write
 
@@ -55,6 +58,74 @@ def test_season_runs_resume_and_match_serial(tmp_path):
     table3 = load_cases(write(tmp_path, TOML.replace("repetitions = 3", "repetitions = 4")))
     with pytest.raises(SeasonError.__mro__[1], match="different sweep"):
         run_season(table3, 25.0, out=out, workers=1, progress=False)
+
+
+#: The two-mode structure of Figure 2 (an 11 Hz second mode seen at 0.6) in a season: two
+#: repetitions of one case and a second, faster case.
+MODAL_TOML = """\
+t_end = 6.0
+transient = 1.0
+dt = 0.01
+repetitions = 2
+[defaults]
+"structure.model" = 3
+"structure.modes" = 2
+"structure.mode2.f" = 11.0
+"structure.mode2.zeta" = 0.02
+"structure.mode2.phi" = 0.6
+[[case]]
+name = "slow"
+hours = 300.0
+[[case]]
+name = "fast"
+hours = 100.0
+repetitions = 1
+"flow.u" = 0.5
+"impact.e" = 0.8
+"""
+
+
+def test_a_season_of_the_modal_structure_gives_the_dels_of_k_c_x_by_hand(tmp_path):
+    """The modal structure's season loads are the DELs of k_c x, k_c = 1 / sum(phi_k^2 /
+    (m_k omega_k^2)): here from run()'s x of each repetition, times k_c worked out from the
+    modes, cycles counted by the rainflow package, pooled and combined by hand."""
+    rainflow = pytest.importorskip("rainflow")
+    table = load_cases(write(tmp_path, MODAL_TOML))
+    rows, summary = run_season(table, 25.0, workers=1, progress=False)
+    assert [r["status"] for r in rows] == ["ok"] * 3
+    modes = dict(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                 structure_mode2_zeta=0.02, structure_mode2_phi=0.6)
+    # mode 1 is Figure 2's SDOF by default (1600 kg at 25 rad/s: k = 1e6 N/m)
+    k_c = 1.0 / (1.0 / (1600.0 * 25.0 ** 2) + 0.36 / (1600.0 * (22.0 * math.pi) ** 2))
+    cases = ((dict(), 2), (dict(flow_u=0.5, impact_e=0.8), 1))
+    hours, life_dels = (300.0, 100.0), {m: [] for m in WOHLER_EXPONENTS}
+    for i, (changes, reps) in enumerate(cases):
+        sums = {m: 0.0 for m in WOHLER_EXPONENTS}
+        window = 0.0
+        for k in range(reps):
+            result = run(Scene(**modes, **changes, ice_z0=perturbed_z0(-0.01, k)), 6.0, dt=0.01)
+            late = result.t >= 1.0
+            load = k_c * result.x[late]
+            cycles = rainflow.count_cycles(load.tolist())
+            for m in WOHLER_EXPONENTS:
+                sums[m] += math.fsum(n * s ** m for s, n in cycles)
+            window += result.t[-1] - 1.0
+            row = rows[2 * i + k]
+            assert row["kx_max_N"] == pytest.approx(load.max(), rel=1e-12)
+            assert row["kx_min_N"] == pytest.approx(load.min(), rel=1e-12)
+        case = summary["cases"][i]
+        assert case["window_s"] == pytest.approx(window, rel=1e-15)
+        for m in WOHLER_EXPONENTS:
+            del_1hz = (sums[m] / window) ** (1.0 / m)
+            assert del_1hz > 0.0
+            assert case["del_1Hz_N"][f"{m}"] == pytest.approx(del_1hz, rel=1e-10), (i, m)
+            assert case["del_1e7_N"][f"{m}"] == pytest.approx((sums[m] / 1e7) ** (1.0 / m),
+                                                              rel=1e-10), (i, m)
+            life_dels[m].append(del_1hz)
+    for m in WOHLER_EXPONENTS:
+        p = [h / sum(hours) for h in hours]
+        life = sum(pi * d ** m for pi, d in zip(p, life_dels[m], strict=True)) ** (1.0 / m)
+        assert summary["lifetime"]["del_1Hz_N"][f"{m}"] == pytest.approx(life, rel=1e-10), m
 
 
 def test_a_table_begun_under_the_measures_earlier_name_resumes(tmp_path):

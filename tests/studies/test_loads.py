@@ -253,6 +253,29 @@ def test_summary_has_the_load_columns_with_units(figure2_run):
     assert s == {**s, **load_columns(run_loads(figure2_run, 5.0))}
 
 
+def test_the_modal_structures_design_loads_are_those_of_k_c_x():
+    """With the modal structure the k x columns are k_c x, k_c = 1 / sum(phi_k^2 / (m_k
+    omega_k^2)) worked out from the modes (not structure.k, which it ignores): extremes and the
+    1 Hz DELs of the rainflow package's cycles."""
+    scene = Scene(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                  structure_mode2_zeta=0.02, structure_mode2_phi=0.6, structure_k=5.0e5)
+    k_c = 1.0 / sum(phi * phi / (m * (2.0 * math.pi * f) ** 2)
+                    for f, _, m, phi, _, _ in scene.mode_table)
+    result = run(scene, 12.0, dt=1e-2)
+    transient = 2.0
+    s = summarize(result, transient=transient)
+    late = result.t >= transient
+    load = k_c * result.x[late]
+    assert s["kx_max_N"] == pytest.approx(load.max(), rel=1e-14)
+    assert s["kx_min_N"] == pytest.approx(load.min(), rel=1e-14)
+    assert s["kx_mean_N"] == pytest.approx(load.mean(), rel=1e-12)
+    cycles = rainflow.count_cycles(load.tolist())
+    for m in WOHLER_EXPONENTS:
+        del_1hz = (math.fsum(n * r ** m for r, n in cycles) / (result.t[-1] - transient)) ** (1 / m)
+        assert s[f"del_m{m}_1Hz_N"] == pytest.approx(del_1hz, rel=1e-10), m
+    assert s == {**s, **load_columns(run_loads(result, transient))}
+
+
 def test_summarize_arrays_without_stiffness_keeps_working():
     t = np.arange(0.0, 5.0001, 1e-2)
     s = summarize_arrays(t, 1e-3 * np.sin(25 * t), np.zeros(0, dtype=[("t", float),

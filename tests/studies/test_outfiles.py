@@ -206,18 +206,27 @@ def test_the_loads_command_writes_each_runs_out_file(tmp_path: Path) -> None:
         "case01_fast-floe-thick_rep0.out"]
 
 
-def test_the_modal_structure_has_no_spring_force_channel_value(tmp_path: Path) -> None:
-    """structure.force is 0 with the modal structure, as the FMU reports it (its structure.k is
-    ignored), and the loads of a run of it have no k x (nan)."""
+def test_the_modal_structures_force_channel_is_k_c_x(tmp_path: Path) -> None:
+    """structure.force of the modal structure is k_c x, k_c = 1 / sum(phi_k^2 / (m_k omega_k^2))
+    (worked out here from the modes), as the FMU reports it (its structure.k is ignored): in the
+    channels, in the written file to its printed precision and in the loads of the run."""
     from iceimpact.studies.loads import run_loads
 
     scene = Scene(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
                   structure_mode2_phi=0.6, structure_k=5.0e5)
+    k_c = 1.0 / sum(phi * phi / (m * (2.0 * np.pi * f) ** 2)
+                    for f, _, m, phi, _, _ in scene.mode_table)
     result = run(scene, T_END, dt=DT)
     channels = run_channels(result)
-    assert result.x.any() and not channels["structure.force"].any()
+    assert result.x.any()
+    np.testing.assert_allclose(channels["structure.force"], k_c * result.x, rtol=1e-14,
+                               atol=0.0)
     np.testing.assert_array_equal(channels["structure.x"], result.x)
     write_openfast(tmp_path / "modal.out", result)
-    assert not read_out(tmp_path / "modal.out")[0]["structure.force"].any()
+    written = read_out(tmp_path / "modal.out")[0]["structure.force"]
+    want = channels["structure.force"]
+    assert np.all(np.abs(written - want) <= RTOL * np.abs(want))
     loads = run_loads(result)
-    assert np.isnan(loads.kx.max) and loads.contact.max > 0.0
+    assert loads.kx.max == pytest.approx(k_c * result.x.max(), rel=1e-14)
+    assert loads.kx.min == pytest.approx(k_c * result.x.min(), rel=1e-14)
+    assert loads.contact.max > 0.0

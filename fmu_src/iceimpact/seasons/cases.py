@@ -231,15 +231,9 @@ def _build(path: str, raw_cases: Sequence[tuple[int | None, Mapping[str, Any]]],
         params = {key: _parameter(where, key, value) for key, value in raw.items()
                   if key not in _CASE_KEYS}
         try:
-            scene = apply(scene_base, params)
+            apply(scene_base, params)  # the case's scene, checked before anything runs
         except ParameterError as exc:
             raise SeasonError(f"{where}{exc}") from None
-        if scene.modal:
-            # refused before anything runs: its k x columns would all be nan
-            raise SeasonError(f"{where}structure.model = 3: expected 1 (the built-in SDOF "
-                              "structure); a season's loads are the damage-equivalent loads of "
-                              "k x, the SDOF structure's base shear, and the modal structure "
-                              "has no single spring")
         cases.append(Case(name=name, hours=hours, repetitions=reps, params=params))
     total = sum(c.hours for c in cases)
     if not total > 0.0:

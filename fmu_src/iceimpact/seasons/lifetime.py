@@ -4,9 +4,10 @@ Each run of a load-case table (:mod:`iceimpact.seasons.cases`) becomes one row
 (:func:`run_columns`: its design loads and the Miner sums that pool). The rows are then combined
 (SI units throughout; docs/explanation/design-loads.md, "Design over an ice season"):
 
-- per case ``i``, over the cycles of its repetitions pooled (rainflow cycles of ``k x`` counted
-  per run by :mod:`iceimpact.studies.loads`; pooling adds their Miner sums ``D = sum n S^m``,
-  N^m, and their windows ``T``, s): ``DEL_i = (sum_r D_r / (f_eq sum_r T_r))^(1/m)`` at
+- per case ``i``, over the cycles of its repetitions pooled (rainflow cycles of ``k x``, with
+  the modal structure ``k_c x`` (:func:`iceimpact.studies.loads.spring_stiffness`), counted per
+  run by :mod:`iceimpact.studies.loads`; pooling adds their Miner sums ``D = sum n S^m``, N^m,
+  and their windows ``T``, s): ``DEL_i = (sum_r D_r / (f_eq sum_r T_r))^(1/m)`` at
   ``f_eq = 1 Hz`` and ``(sum_r D_r / 1e7)^(1/m)`` for 1e7 cycles; extremes with their times;
   impulse statistics; the spread of the runs' DELs over the repetitions;
 - over the life: ``DEL_life = (sum_i p_i DEL_i^m)^(1/m)`` at 1 Hz, ``p_i = h_i / sum_j h_j`` the
@@ -255,7 +256,8 @@ def summarize_season(table: CaseTable, rows: Sequence[Mapping[str, Any]],
             "dt_s": table.dt, "f_eq_hz": F_EQ, "n_eq": N_EQ, "exponents": list(ms),
             "perturbation": f"repetition k starts the ice at ice.z0 - k * max({PERTURBATION_M:g}"
                             f" m, {PERTURBATION_ULPS} ulp(ice.z0))",
-            "signal": "k x, the base shear of the SDOF structure (N)",
+            "signal": "k x, the base shear of the SDOF structure (N); with the modal "
+                      "structure k_c x, the quasi-static equivalent load at the contact point",
         },
         "units": SUMMARY_UNITS,
         "lifetime": lifetime,

@@ -356,8 +356,9 @@ def summarize(result: Any, transient: float = 0.0,
     structure at rest, too few samples for a spectrum, no sticking phase), and the design
     loads of :mod:`iceimpact.studies.loads` (extremes and damage-equivalent loads of k x, contact
     force, impulse percentile). ``result`` needs ``t``, ``x``, ``impacts`` and
-    ``scene.omega_n``; ``sticking``, ``sticking_since``, ``impulse`` and ``scene.structure_k``
-    are used when present.
+    ``scene.omega_n``; ``sticking``, ``sticking_since``, ``impulse`` and the scene's stiffness
+    of k x (:func:`~iceimpact.studies.loads.spring_stiffness`: ``structure.k``, the static
+    stiffness at the contact point with the modal structure) are used when present.
     """
     return summarize_arrays(result.t, result.x, result.impacts, result.scene.omega_n,
                             transient=transient, sticking=getattr(result, "sticking", None),

@@ -4,11 +4,13 @@ What a structural designer takes from one load case (ISO 19906 and IEC 61400-3 a
 extreme load and the fatigue damage for ice), computed from the samples of a run after an
 optional transient, SI units throughout (docs/explanation/design-loads.md explains every number):
 
-- the **spring force** ``k x`` (N), the base shear of the single-degree-of-freedom idealisation:
-  its maximum and minimum with their times (:func:`extremes`), and its rainflow cycles
-  (:func:`rainflow_cycles`, ASTM E1049-85 by the ``rainflow`` package) turned into
-  **damage-equivalent loads** (:func:`damage_equivalent_load`) for the Wöhler exponents
-  :data:`WOHLER_EXPONENTS`, with the two references of NREL's MLife:
+- the **spring force** ``k x`` (N), the base shear of the single-degree-of-freedom idealisation
+  (with the modal structure ``k_c x``, k_c the static stiffness at the contact point: the
+  quasi-static equivalent load there, :func:`spring_stiffness`): its maximum and minimum with
+  their times (:func:`extremes`), and its rainflow cycles (:func:`rainflow_cycles`, ASTM
+  E1049-85 by the ``rainflow`` package) turned into **damage-equivalent loads**
+  (:func:`damage_equivalent_load`) for the Wöhler exponents :data:`WOHLER_EXPONENTS`, with the
+  two references of NREL's MLife:
 
   * short-term, at ``f_eq = 1 Hz``: ``DEL = (sum_i n_i S_i^m / (f_eq T))^(1/m)``, T the length of
     the analysed window (s), from the transient or the first sample, whichever is later, to the
@@ -402,17 +404,17 @@ def design_loads(t: np.ndarray, x: np.ndarray, k: float | None, impacts: np.ndar
 
 
 def spring_stiffness(scene: Any) -> float | None:
-    """The stiffness of a scene's k x (N/m): ``structure.k``, or None with the modal structure
-    (structure.model = 3), which has no single spring (its ``structure.k`` is ignored; the k x
-    columns are then nan rather than a product with an unused number)."""
-    if getattr(scene, "modal", False):
-        return None
-    return getattr(scene, "structure_k", None)
+    """The stiffness k of a scene's structural load k x (N/m): its static stiffness at the
+    contact point, :attr:`iceimpact.Scene.contact_stiffness` (``structure.k`` for the SDOF; for
+    the modal structure ``1 / sum(phi_k^2 / k_k)``, a quasi-static equivalent load that carries
+    none of the modes' own amplification of member forces). None for an object without one
+    (the k x columns are then nan)."""
+    return getattr(scene, "contact_stiffness", None)
 
 
 def spring_force(scene: Any, x: Any) -> np.ndarray:
-    """``structure.force`` of samples ``x`` (m) as the FMU reports it: k x, or 0 with the modal
-    structure (N)."""
+    """``structure.force`` of samples ``x`` (m) as the FMU reports it: k x with the stiffness
+    :func:`spring_stiffness` (N)."""
     k = spring_stiffness(scene)
     x = np.asarray(x, dtype=float)
     return np.zeros_like(x) if k is None else k * x

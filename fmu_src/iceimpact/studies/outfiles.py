@@ -46,8 +46,10 @@ from .loads import contact_force, spring_force
 TIME_CHANNEL = "Time"
 
 #: The channels of :func:`write_openfast` after ``Time``: FMU output names (units from the
-#: contract). ``structure.force`` is the spring force k x (the base shear), ``contact.force`` the
-#: mean contact force over the sample interval, ``contact.count`` the impacts up to the sample.
+#: contract). ``structure.force`` is the spring force k x (the base shear; k_c x, the
+#: quasi-static equivalent load at the contact point, with the modal structure),
+#: ``contact.force`` the mean contact force over the sample interval, ``contact.count`` the
+#: impacts up to the sample.
 OUT_CHANNELS: tuple[str, ...] = (
     "structure.x", "structure.v", "ice.z", "ice.v", "contact.gap", "contact.penetration",
     "structure.force", "contact.force", "contact.impulse", "contact.count", "contact.active")
