@@ -14,6 +14,7 @@ import types
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from iceimpact import compiled
@@ -251,13 +252,56 @@ def test_every_kernel_compiles_where_numba_is():
         pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
     from iceimpact.physics import elementwise
     from iceimpact.solvers.exact import bounces
-    from iceimpact.solvers.search import flight_search, taylor
+    from iceimpact.solvers.search import flight_search, modal_search, modal_taylor, taylor
     from iceimpact.studies import loads
     compiled = {"bounces": bounces.COMPILED, "flight_search": flight_search.COMPILED,
                 "taylor": taylor.KERNELS, "elementwise": elementwise._COMPILED,
                 "loads": loads._COUNT, "bounces under the quadratic Morison drag":
-                bounces.dragged_kernel()}
+                bounces.dragged_kernel(), "modal_search": modal_search.COMPILED,
+                "bounces on the modes": bounces.modal_kernel(),
+                "modal_taylor": modal_taylor.COMPILED}
     assert [name for name, kernel in compiled.items() if kernel is None] == []
+
+
+def _row_sum(arrays, j):
+    """A kernel that unpacks a tuple of arrays and views a row: each takes a reference where
+    numba's runtime counts them."""
+    first, second = arrays[0], arrays[1]
+    row = first[j]
+    return row[0] + second[j, 1]
+
+
+def _makes_an_array(n):
+    return np.zeros(n)[0]
+
+
+def test_a_borrowing_kernel_counts_no_references_and_may_make_no_array():
+    """``borrows``: compiled without numba's runtime, the same result as the counting kernel,
+    cached under another key; a function that makes an array is refused, so a borrowing kernel
+    never owns one. The modal structure's search and march borrow (their tuple of arrays would
+    otherwise cost atomic counts at every point of the search)."""
+    from iceimpact.compiled import numba_or_none
+    numba = numba_or_none()
+    if numba is None:
+        pytest.skip("numba is not installed (or ICEIMPACT_PURE is set): nothing compiled")
+    a2 = numba.float64[:, ::1]
+    signature = (numba.types.Tuple((a2, a2)), numba.int64)
+    arrays = (np.arange(6.0).reshape(3, 2), np.arange(6.0, 12.0).reshape(3, 2))
+    borrowing = compiled.jit(numba, signature, _row_sum, borrows=True)
+    counting = compiled.jit(numba, signature, _row_sum)
+    assert borrowing(arrays, 2) == counting(arrays, 2) == _row_sum(arrays, 2) == 4.0 + 11.0
+    assert borrowing.targetoptions["_nrt"] is False
+    assert counting.targetoptions.get("_nrt", True) is not False
+    assert (compiled.cache_key(numba, _row_sum, signature, {**compiled._OPTIONS, "_nrt": False})
+            != compiled.cache_key(numba, _row_sum, signature))
+    with pytest.raises(numba.core.errors.TypingError, match="zeros"):
+        compiled.jit(numba, (numba.int64,), _makes_an_array, borrows=True)
+    from iceimpact.solvers.exact import bounces
+    from iceimpact.solvers.search import modal_search
+    if bounces.modal_kernel() is None:
+        pytest.skip("the modal march is not compiled")
+    for name in ("flight_root", "_mode_increment"):
+        assert modal_search._DISPATCHERS[name].targetoptions["_nrt"] is False, name
 
 
 # -- one source run on other functions: the names given, and the state's fields ---------------

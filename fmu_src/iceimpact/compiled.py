@@ -100,14 +100,21 @@ def fields(typename: str, *names: str) -> Any:
     return collections.namedtuple(typename, names)(*range(len(names)))
 
 
-def jit(numba: Any, signature: Any, function: Callable, **callees: Any) -> Any:
+def jit(numba: Any, signature: Any, function: Callable, *, borrows: bool = False,
+        **callees: Any) -> Any:
     """``function`` compiled for its one signature (at once, its machine code cached in
     :func:`cache_root` for later imports), the functions it calls by the names in ``callees``
-    replaced by their compiled forms (the module's names keep the pure ones)."""
+    replaced by their compiled forms (the module's names keep the pure ones).
+
+    ``borrows``: compiled without numba's runtime (its reference counts): the function makes no
+    array and only reads and writes the arrays it is handed, which its caller keeps alive. Each
+    array a call, a tuple or a view takes otherwise costs two atomic operations; in a kernel
+    that hands a tuple of arrays to its functions at every point, they are most of its time."""
     copy = rebound(function, **callees)
-    key = cache_key(numba, copy, signature)
+    options = {**_OPTIONS, "_nrt": False} if borrows else _OPTIONS
+    key = cache_key(numba, copy, signature, options)
     setattr(copy, _KEY, key)
-    dispatcher = numba.njit(**_OPTIONS)(copy)
+    dispatcher = numba.njit(**options)(copy)
     if key is not None:
         _cache_in_folder(numba, dispatcher, copy)
     from numba.core import typeinfer
@@ -193,15 +200,18 @@ def private_folder(path: str) -> bool:
     return status.st_uid == os.geteuid() and not status.st_mode & 0o022
 
 
-def cache_key(numba: Any, function: Callable, signature: Any) -> str | None:
+def cache_key(numba: Any, function: Callable, signature: Any,
+              options: dict[str, Any] | None = None) -> str | None:
     """The digest that names ``function``'s cache entry (the module docstring says of what), or
     None where one of its parts cannot be read (its source file, a global with no stable
-    description): that kernel is then not cached."""
+    description): that kernel is then not cached. ``options``: its compile options (default
+    every kernel's, ``_OPTIONS``)."""
     try:
         with open(function.__code__.co_filename, "rb") as fh:
             source = hashlib.sha256(fh.read()).hexdigest()
         parts = [f"numba {numba.__version__}", f"python {sys.version}", sys.platform,
-                 f"module {function.__module__}", f"source {source}", f"options {_OPTIONS}",
+                 f"module {function.__module__}", f"source {source}",
+                 f"options {options or _OPTIONS}",
                  f"signature {signature}", f"qualname {function.__qualname__}"]
         for name in sorted(_names_read(function.__code__)):
             if name in function.__globals__:

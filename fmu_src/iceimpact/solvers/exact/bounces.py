@@ -436,7 +436,7 @@ def _compile_modal(numba: Any) -> Any:
     structure = _structure_callees(modal_search.march_callees(numba,
                                                               _response_constants(numba)))
     kernel = jit(numba, _march_signature(numba, modal_search.modes_type(numba)), bounce_march,
-                 _ice_accel=search["_ice_accel"], **structure, **rules)
+                 borrows=True, _ice_accel=search["_ice_accel"], **structure, **rules)
     return entry_point(kernel)
 
 

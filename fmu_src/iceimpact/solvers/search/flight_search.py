@@ -375,19 +375,21 @@ def compiled_callees(numba: Any) -> dict[str, Any]:
     return _DISPATCHERS
 
 
-def compile_root(numba: Any, integrated: Any, callees: dict[str, Any]) -> Any:
+def compile_root(numba: Any, integrated: Any, callees: dict[str, Any],
+                 borrows: bool = False) -> Any:
     """:func:`flight_root` compiled on ``callees`` (the compiled functions it calls by name:
     ``_gap_point``, ``_structure_probe``, ``_clearance``, ``_ice_accel``, ``plan``), the
     structure's steps of type ``integrated``: this module's closed forms, or another
     structure's motion (:mod:`.dragged`). The descent and the bracket are :mod:`.step`'s,
-    compiled evaluating the gap by the same ``_gap_point``."""
+    compiled evaluating the gap by the same ``_gap_point``; ``borrows`` as
+    :func:`~iceimpact.compiled.jit` takes it."""
     gap_point = callees["_gap_point"]
     bracket = jit(numba, signature(numba, bracketed, integrated), bracketed,
-                  evaluate=gap_point)
+                  evaluate=gap_point, borrows=borrows)
     descent = jit(numba, signature(numba, descend, integrated), descend, evaluate=gap_point,
-                  bracketed=bracket)
+                  bracketed=bracket, borrows=borrows)
     return jit(numba, signature(numba, flight_root, integrated), flight_root, _descend=descent,
-               **callees)
+               borrows=borrows, **callees)
 
 
 def _compiled():

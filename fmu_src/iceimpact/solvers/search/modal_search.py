@@ -116,19 +116,13 @@ def _modal_gap_point(context, t):
     dx = 0.0
     v = 0.0
     for j in range(constants.shape[0]):
-        c = constants[j]
-        if int(c[MODE.FORM]) == FORM_UNDER:  # the free response's y - y0, y'
-            dy, yd = under_increment(t, c[MODE.C0], c[MODE.C1], c[MODE.C2], c[MODE.C3],
-                                    c[MODE.C4], c[MODE.C5])
-        else:
-            dy, yd = aperiodic_increment(t, int(c[MODE.FORM]), c[MODE.C0], c[MODE.C1],
-                                        c[MODE.C2], c[MODE.C3], c[MODE.C4], c[MODE.C5],
-                                        c[MODE.C6], c[MODE.C7])
+        dy, yd = _mode_increment(constants, j, t)
         state[STATE.DY, j] = dy
         state[STATE.YD, j] = yd
-        rho = c[MODE.RHO]
-        dx += c[MODE.PHI] * (dy + rho * t)
-        v += c[MODE.PHI] * (yd + rho)
+        rho = constants[j, MODE.RHO]
+        phi = constants[j, MODE.PHI]
+        dx += phi * (dy + rho * t)
+        v += phi * (yd + rho)
     state[STATE.T, 0] = t
     dz, w = _ice_motion(t, rate, w0, r0, quadratic)
     return gap0 + (dx - dz), v - w, (dx, v, dz, w)
@@ -145,14 +139,14 @@ def _modal_probe(x, v, offset, mass, damping, stiffness, omega2, over, s_slow, s
     a_max = 0.0
     j_max = 0.0
     for j in range(constants.shape[0]):
-        c = constants[j]
-        phi = c[MODE.PHI]
+        phi = constants[j, MODE.PHI]
         if phi == 0.0:
             continue
         ak, ak_max, jk_max = _structure_probe(
             state[STATE.Y0, j] + state[STATE.DY, j], state[STATE.YD, j], 0.0,
-            c[MODE.MASS], c[MODE.DAMPING], c[MODE.STIFFNESS], c[MODE.OMEGA2], int(c[MODE.OVER]),
-            c[MODE.S_SLOW], c[MODE.S_FAST], u, 0)
+            constants[j, MODE.MASS], constants[j, MODE.DAMPING], constants[j, MODE.STIFFNESS],
+            constants[j, MODE.OMEGA2], int(constants[j, MODE.OVER]),
+            constants[j, MODE.S_SLOW], constants[j, MODE.S_FAST], u, 0)
         size = phi if phi > 0.0 else -phi
         a += phi * ak
         a_max += size * ak_max
@@ -172,17 +166,17 @@ def _modal_clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u,
     reach = 0.0
     drift = 0.0
     for j in range(constants.shape[0]):
-        c = constants[j]
-        phi = c[MODE.PHI]
+        phi = constants[j, MODE.PHI]
         if phi == 0.0:
             continue
         radius = _amplitude(state[STATE.Y0, j] + state[STATE.DY, j], state[STATE.YD, j],
-                            c[MODE.OMEGA2], int(c[MODE.OVER]), c[MODE.S_SLOW], c[MODE.S_FAST])
+                            constants[j, MODE.OMEGA2], int(constants[j, MODE.OVER]),
+                            constants[j, MODE.S_SLOW], constants[j, MODE.S_FAST])
         if radius != radius:
             return math.nan
-        centre += phi * (c[MODE.OFF0] + c[MODE.RHO] * t)
+        centre += phi * (constants[j, MODE.OFF0] + constants[j, MODE.RHO] * t)
         reach += (phi if phi > 0.0 else -phi) * radius
-        drift += phi * c[MODE.RHO]
+        drift += phi * constants[j, MODE.RHO]
     margin = (centre - reach - z) - GAP_ULPS * (abs(x) + abs(z) + reach + abs(centre))
     if not margin > 0.0:
         return 0.0
@@ -191,14 +185,19 @@ def _modal_clearance(x, v, z, w, offset, omega2, sigma, over, s_slow, s_fast, u,
     return math.inf if speed == 0.0 else margin / speed
 
 
-def _mode_increment(c, t):
-    """Mode ``c``'s (a row of :data:`MODE`) free response from its anchor at t: (y - y0, y'),
-    ``Oscillator.deviation_increment``'s closed form."""
-    if int(c[MODE.FORM]) == FORM_UNDER:
-        return under_increment(t, c[MODE.C0], c[MODE.C1], c[MODE.C2], c[MODE.C3], c[MODE.C4],
-                               c[MODE.C5])
-    return aperiodic_increment(t, int(c[MODE.FORM]), c[MODE.C0], c[MODE.C1], c[MODE.C2],
-                               c[MODE.C3], c[MODE.C4], c[MODE.C5], c[MODE.C6], c[MODE.C7])
+def _mode_increment(constants, j, t):
+    """Mode j's (row j of ``constants``, :data:`MODE`) free response from its anchor at t:
+    (y - y0, y'), ``Oscillator.deviation_increment``'s closed form. (The row is read in place:
+    a view of it would cost the compiled code two atomic reference counts per call.)"""
+    form = int(constants[j, MODE.FORM])
+    if form == FORM_UNDER:
+        return under_increment(t, constants[j, MODE.C0], constants[j, MODE.C1],
+                               constants[j, MODE.C2], constants[j, MODE.C3],
+                               constants[j, MODE.C4], constants[j, MODE.C5])
+    return aperiodic_increment(t, form, constants[j, MODE.C0], constants[j, MODE.C1],
+                               constants[j, MODE.C2], constants[j, MODE.C3],
+                               constants[j, MODE.C4], constants[j, MODE.C5],
+                               constants[j, MODE.C6], constants[j, MODE.C7])
 
 
 def _modal_flight_constants(form, offset, sigma, omega, omega2, s_slow, s_fast, x0, v0,
@@ -219,15 +218,14 @@ def _modal_sample(sample, tau, x0, v0, z0, w0, form, k, rate, w0_c, r0, quadrati
     dx = 0.0
     v = 0.0
     for j in range(n):
-        c = constants[j]
-        dy, yd = _mode_increment(c, tau)
-        rho = c[MODE.RHO]
+        dy, yd = _mode_increment(constants, j, tau)
+        rho = constants[j, MODE.RHO]
         dq = dy + rho * tau
         p = yd + rho
         samples[sample, j] = anchor[ANCHOR.Q0, j] + dq
         samples[sample, n + j] = p
-        dx += c[MODE.PHI] * dq
-        v += c[MODE.PHI] * p
+        dx += constants[j, MODE.PHI] * dq
+        v += constants[j, MODE.PHI] * p
     dz, w = _ice_motion(tau, rate, w0_c, r0, quadratic)
     return x0 + dx, v, z0 + dz, w
 
@@ -244,31 +242,30 @@ def _modal_accel(t, tau, x, v, v_plus, offset, mass, damping, stiffness, u, inte
     evaluated = state[STATE.T, 0] == tau  # (the search's last point: the root, most often)
     v_ref = 0.0  # (ModalSolver._take_now: the contact point's speed of that state)
     for j in range(n):
-        c = constants[j]
         if evaluated:
             dy, yd = state[STATE.DY, j], state[STATE.YD, j]
         else:
-            dy, yd = _mode_increment(c, tau)
+            dy, yd = _mode_increment(constants, j, tau)
             state[STATE.DY, j] = dy
             state[STATE.YD, j] = yd
-        rho = c[MODE.RHO]
+        rho = constants[j, MODE.RHO]
         q = anchor[ANCHOR.Q0, j] + (dy + rho * tau)
         p = yd + rho
         anchor[ANCHOR.QN, j] = q
         anchor[ANCHOR.PN, j] = p
-        v_ref += c[MODE.PHI] * p
+        v_ref += constants[j, MODE.PHI] * p
     state[STATE.T, 0] = tau
     dv = v_plus - v_ref
     a = 0.0
     for j in range(n):
-        c = constants[j]
         p = anchor[ANCHOR.PN, j]
         if v_plus != v_ref:
             p = p + anchor[ANCHOR.SHARE, j] * dv
             anchor[ANCHOR.PN, j] = p
         load = anchor[ANCHOR.LOAD, j] + anchor[ANCHOR.RATE, j] * (t - anchor[ANCHOR.SINCE, j])
-        a += c[MODE.PHI] * ((load - c[MODE.DAMPING] * p - c[MODE.STIFFNESS]
-                             * anchor[ANCHOR.QN, j]) / c[MODE.MASS])
+        a += constants[j, MODE.PHI] * ((load - constants[j, MODE.DAMPING] * p
+                                        - constants[j, MODE.STIFFNESS] * anchor[ANCHOR.QN, j])
+                                       / constants[j, MODE.MASS])
     return a
 
 
@@ -281,26 +278,26 @@ def _modal_new_flight(integrated, t, x, v):
     x0 = 0.0
     v0 = 0.0
     for j in range(constants.shape[0]):
-        c = constants[j]
         q = anchor[ANCHOR.QN, j]
         p = anchor[ANCHOR.PN, j]
         anchor[ANCHOR.Q0, j] = q
         anchor[ANCHOR.P0, j] = p
-        x0 += c[MODE.PHI] * q
-        v0 += c[MODE.PHI] * p
-        rho = c[MODE.RHO]
+        x0 += constants[j, MODE.PHI] * q
+        v0 += constants[j, MODE.PHI] * p
+        rho = constants[j, MODE.RHO]
         if anchor[ANCHOR.HELD, j] != 0.0:
             off = anchor[ANCHOR.OFFSET, j]
         else:
             load = anchor[ANCHOR.LOAD, j] + anchor[ANCHOR.RATE, j] * (t - anchor[ANCHOR.SINCE, j])
-            off = (load - c[MODE.DAMPING] * rho) / c[MODE.STIFFNESS]
+            off = (load - constants[j, MODE.DAMPING] * rho) / constants[j, MODE.STIFFNESS]
         y0 = q - off
         yd0 = p - rho
-        k = response_constants(int(c[MODE.FORM]), 0.0, c[MODE.SIGMA], c[MODE.OMEGA],
-                               c[MODE.OMEGA2], c[MODE.S_SLOW], c[MODE.S_FAST], y0, yd0)
-        c[MODE.C0], c[MODE.C1], c[MODE.C2], c[MODE.C3] = k[0], k[1], k[2], k[3]
-        c[MODE.C4], c[MODE.C5], c[MODE.C6], c[MODE.C7] = k[4], k[5], k[6], k[7]
-        c[MODE.OFF0] = off
+        k = response_constants(int(constants[j, MODE.FORM]), 0.0, constants[j, MODE.SIGMA],
+                               constants[j, MODE.OMEGA], constants[j, MODE.OMEGA2],
+                               constants[j, MODE.S_SLOW], constants[j, MODE.S_FAST], y0, yd0)
+        for i in range(8):
+            constants[j, MODE.C0 + i] = k[i]
+        constants[j, MODE.OFF0] = off
         state[STATE.Y0, j] = y0
         state[STATE.YD0, j] = yd0
         state[STATE.DY, j] = 0.0
@@ -345,20 +342,21 @@ def _search_callees(numba: Any) -> dict[str, Any]:
         modes = modes_type(numba)
 
         def compiled(function: Any, **callees: Any) -> Any:
-            return jit(numba, signature(numba, function, modes), function, **callees)
+            return jit(numba, signature(numba, function, modes), function, borrows=True,
+                       **callees)
 
+        increment = jit(numba, (numba.float64[:, ::1], numba.int64, numba.float64),
+                        _mode_increment, borrows=True,
+                        under_increment=search["under_increment"],
+                        aperiodic_increment=search["aperiodic_increment"])
         callees = {"_gap_point": compiled(_modal_gap_point, _ice_motion=search["_ice_motion"],
-                                          under_increment=search["under_increment"],
-                                          aperiodic_increment=search["aperiodic_increment"]),
+                                          _mode_increment=increment),
                    "_structure_probe": compiled(_modal_probe,
                                                 _structure_probe=search["_structure_probe"]),
                    "_clearance": compiled(_modal_clearance, _amplitude=search["_amplitude"]),
                    "_ice_accel": search["_ice_accel"], "plan": search["plan"]}
-        _DISPATCHERS.update(
-            flight_root=compile_root(numba, modes, callees),
-            _mode_increment=jit(numba, (numba.float64[::1], numba.float64), _mode_increment,
-                                under_increment=search["under_increment"],
-                                aperiodic_increment=search["aperiodic_increment"]))
+        _DISPATCHERS.update(flight_root=compile_root(numba, modes, callees, borrows=True),
+                            _mode_increment=increment)
     return _DISPATCHERS
 
 
@@ -370,7 +368,8 @@ def march_callees(numba: Any, response_constants: Any) -> dict[str, Any]:
     modes = modes_type(numba)
 
     def compiled(function: Any, **callees: Any) -> Any:
-        return jit(numba, signature(numba, function, modes), function, **callees)
+        return jit(numba, signature(numba, function, modes), function, borrows=True,
+                   **callees)
 
     increment = own["_mode_increment"]
     return {"flight_root": own["flight_root"],
