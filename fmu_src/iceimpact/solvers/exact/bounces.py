@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -105,6 +106,17 @@ PARAMS = fields(
     # the impacts allowed per step; the root search's longest step
     "MAX_IMPACTS", "MAX_STEP",
 )
+
+def oscillator_fields(search_constants: Sequence[float], omega: float) -> dict[str, float]:
+    """:data:`PARAMS`' fields of the structure's oscillator (OFFSET to FORM), from the nine
+    constants of its flight search (``Oscillator.search_constants``' order: offset, mass,
+    damping, stiffness, omega^2, sigma, the over-damped exponents, the form) and its damped
+    frequency omega."""
+    offset, mass, damping, stiffness, omega2, sigma, s_slow, s_fast, form = search_constants
+    return {"OFFSET": offset, "MASS": mass, "DAMPING": damping, "STIFFNESS": stiffness,
+            "OMEGA2": omega2, "SIGMA": sigma, "OMEGA": omega, "S_SLOW": s_slow,
+            "S_FAST": s_fast, "FORM": float(form)}
+
 
 #: The outcomes: the flight reaches the end with no event before it; its next event is
 #: Python's to take; an impact ended the march (stop_at_event); the records are full (the
@@ -511,11 +523,7 @@ class BounceMarch:
         """What identifies the structure of ``seg``'s flight, and its fields of :data:`PARAMS`
         (OFFSET to FORM): its oscillator's."""
         osc = seg.osc
-        s_slow, s_fast = osc.exponents
-        return osc, {"OFFSET": osc.offset, "MASS": osc.mass, "DAMPING": osc.damping,
-                     "STIFFNESS": osc.stiffness, "OMEGA2": osc.omega2, "SIGMA": osc.sigma,
-                     "OMEGA": osc.omega, "S_SLOW": s_slow, "S_FAST": s_fast,
-                     "FORM": float(osc.form)}
+        return osc, oscillator_fields(osc.search_constants, osc.omega)
 
     def _params(self, seg: Any) -> None:
         """The scene's constants into P, each by its field (:data:`PARAMS`), unless they are

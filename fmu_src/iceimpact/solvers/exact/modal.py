@@ -90,12 +90,8 @@ class ModalFlightSearch(FlightSearch):
     kernel = staticmethod(modal_search.KERNEL)
 
     def next_root_of(self, horizon: float, signal: Any) -> float | None:
-        if self.a == 0.0 and self.root is None and not self.handed_back:  # the search probes
-            # the anchor itself (a root found from there leaves a at 0, the state at the root)
-            state = signal.integrated[1]
-            state[STATE.DY] = 0.0
-            state[STATE.YD] = state[STATE.YD0]
-            state[STATE.T, 0] = 0.0
+        if not self.handed_back:
+            signal.search_from_anchor(signal.integrated[1])
         return super().next_root_of(horizon, signal)
 
 
@@ -144,6 +140,16 @@ class ModalFlight:
                                  0.0, *drag.flight_constants(w0, u), u, *drag.law_constants,
                                  math.inf, self.integrated)
         self.search = ModalFlightSearch(start, _time_eps(t0))
+
+    def search_from_anchor(self, state: np.ndarray) -> None:
+        """The modal state rows ``state`` (:data:`~iceimpact.solvers.search.modal_search.
+        STATE`: this flight's, or the march's copy) back to the anchor where the search starts
+        there: it probes the anchor first. A root found from the anchor leaves the frontier at
+        0 with the state at the root in the rows, which stay."""
+        if self.search.a == 0.0 and self.search.root is None:
+            state[STATE.DY] = 0.0
+            state[STATE.YD] = state[STATE.YD0]
+            state[STATE.T, 0] = 0.0
 
     def remember(self, state: tuple[float, float, float, float, float]) -> None:
         """Keep ``(tau, x - x0, v, z - z0, w)`` of a root the search found, with the modal
@@ -475,12 +481,7 @@ class ModalBounceMarch(BounceMarch):
 
     def _structure(self, seg: ModalFlight) -> tuple[Any, dict[str, float]]:
         # (the oscillator's fields of ModalFlight.kernel_constants: the modes' are integrated)
-        (offset, mass, damping, stiffness, omega2, sigma, s_slow, s_fast,
-         form) = seg.kernel_constants[3:12]
-        return self.context.modes, {"OFFSET": offset, "MASS": mass, "DAMPING": damping,
-                                    "STIFFNESS": stiffness, "OMEGA2": omega2, "SIGMA": sigma,
-                                    "OMEGA": 0.0, "S_SLOW": s_slow, "S_FAST": s_fast,
-                                    "FORM": float(form)}
+        return self.context.modes, bounces.oscillator_fields(seg.kernel_constants[3:12], 0.0)
 
     def _root_state(self, seg: ModalFlight, root: float) -> tuple:
         return seg._motion(root)[:5]
@@ -495,12 +496,7 @@ class ModalBounceMarch(BounceMarch):
         for mine, theirs in zip(own[:3], seg.integrated[:3], strict=True):
             mine[...] = theirs
         self.integrated = (*own[:3], self._samples)
-        if seg.search.a == 0.0 and seg.search.root is None:  # (as ModalFlightSearch: a root
-            # found from the anchor leaves a at 0, the state at the root)
-            state = own[1]
-            state[STATE.DY] = 0.0
-            state[STATE.YD] = state[STATE.YD0]
-            state[STATE.T, 0] = 0.0
+        seg.search_from_anchor(own[1])
 
     def _new_segment(self, F: list[float], u: float) -> ModalFlight:
         anchor = self.integrated[2]
