@@ -24,7 +24,6 @@ impulse there, which changes mode k's velocity by ``phi_k J / m_k`` (:meth:`Mode
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -324,64 +323,76 @@ class ModalRide:
         self._rows = 2 * n + 2
         self._rs = np.empty(modal_taylor.ORDER + 1)
         self._out = np.empty(self._rows)
-        self._los: list[float] = []
-        self._hs: list[float] = []
-        self._his: list[float] = []
-        self._tables: list[np.ndarray] = []
-        self._ends: list[np.ndarray] = []
+        self._q0, self._p0 = np.array(self.q0, dtype=float), np.array(self.p0, dtype=float)
+        self._scratch = (np.empty(n), np.empty(n))
+        #: the Taylor steps (modal_taylor.ride_steps'): their (lo, h, hi), tables and ends, the
+        #: counts of those made and of those proven free of a separation; grown as needed
+        self._steps = np.empty((0, 3))
+        self._tables = np.empty((0, self._rows, modal_taylor.ORDER + 1))
+        self._ends = np.empty((0, self._rows))
+        self._counts = np.zeros(2, dtype=np.int64)
         self._end: float | None = None  # the separation, once found
-        self._checked = 0  # the steps before this one are proven free of a separation
         #: the time and rows _at evaluated last (a sample's state, modal state and impulse read
         #: the same rows, and the next sample's impulse starts there)
         self._last: tuple[float, np.ndarray] = (math.nan, self._out)
 
     # the Taylor steps --------------------------------------------------------------------------
-    def _extend(self) -> None:
-        """The next step, from the end of the last one (the first from the anchor). Under the
+    def _run_steps(self, target: float, check: int) -> tuple[int, int, float]:
+        """:func:`~iceimpact.solvers.search.modal_taylor.ride_steps` to ``target`` (``check``
+        1: searching the steps for the separation), the arrays grown while they are full.
+        Each step starts from the end of the last (the first from the anchor); under the
         quadratic drag a step ends where u - v changes sign, and its end is set to u - v = 0
-        exactly (the modes' velocities moved by the rounding, as an impulse would move them);
-        a step from there whose drag sign is rounding's, so that it would end at once, is taken
-        with the other sign."""
-        n = self.modes.count
-        if self._ends:
-            end = self._ends[-1]
-            q, p, impulse, lo = end[:n].copy(), end[n:2 * n].copy(), end[2 * n], self._his[-1]
-        else:
-            q, p = np.array(self.q0, dtype=float), np.array(self.p0, dtype=float)
-            impulse, lo = 0.0, 0.0
-        table = np.empty((self._rows, modal_taylor.ORDER + 1))
-        end = np.empty(self._rows)
+        exactly (the modes' velocities moved by the rounding, as an impulse would move them); a
+        step from there whose drag sign is rounding's, so that it would end at once, is taken
+        with the other sign (``ride_extend``)."""
         modes = self.modes
-        h, theta_end, hi, advanced = KERNELS["ride_extend"](
-            q, p, impulse, lo, self.t0, self._loads[0], self._loads[1], modes.since, self._table,
-            self._loads[2], self.u, self._alpha, self._beta, self._coef, self._quadratic,
-            self._rate, table, self._rs, end, self._loads[3])
-        if not advanced:
-            raise SolverError(
-                f"the riding phase's Taylor steps stalled at t = {self.t0 + lo!r} s (modal "
-                f"state q = {q.tolist()} m, q' = {p.tolist()} m/s)")
-        self._los.append(lo)
-        self._hs.append(h)
-        self._his.append(hi)
-        self._tables.append(table)
-        self._ends.append(end)
+        while True:
+            outcome, step, theta = KERNELS["ride_steps"](
+                self._q0, self._p0, self.t0, self._loads[0], self._loads[1], modes.since,
+                self._table, self._loads[2], self.u, self._alpha, self._beta, self._coef,
+                self._quadratic, self._rate, self._rs, self._loads[3], *self._scratch,
+                self._steps, self._tables, self._ends, self._counts, target, self.start, check)
+            if outcome == modal_taylor.STALLED:
+                q, p = self._scratch
+                lo = self._steps[step - 1, modal_taylor.HI] if step else 0.0
+                raise SolverError(
+                    f"the riding phase's Taylor steps stalled at t = {self.t0 + lo!r} s (modal "
+                    f"state q = {q.tolist()} m, q' = {p.tolist()} m/s)")
+            if outcome != modal_taylor.FULL:
+                return outcome, step, theta
+            self._grow()
+
+    def _grow(self) -> None:
+        """Room for twice the steps (at least 16), the steps made kept."""
+        count = int(self._counts[modal_taylor.COUNT])
+        capacity = max(16, 2 * len(self._steps))
+        steps = np.empty((capacity, 3))
+        tables = np.empty((capacity, *self._tables.shape[1:]))
+        ends = np.empty((capacity, self._rows))
+        steps[:count] = self._steps[:count]
+        tables[:count] = self._tables[:count]
+        ends[:count] = self._ends[:count]
+        self._steps, self._tables, self._ends = steps, tables, ends
 
     def _at(self, tau: float) -> np.ndarray:
-        """The rows (q, q', P, lam) at tau, in the last step starting at or before it (not to
-        be changed: the last one is kept)."""
+        """The rows (q, q', P, lam) at tau (:meth:`_rows_at`; not to be changed: the last one
+        is kept)."""
         last = self._last
         if last[0] == tau:
             return last[1]
-        while self._end is None and (not self._his or self._his[-1] < tau):
-            self._extend()
-        i = max(bisect_right(self._los, tau) - 1, 0)
-        if tau >= self._his[i]:
-            out = self._ends[i]
-        else:
-            out = np.empty(self._rows)
-            KERNELS["horner_rows"](self._tables[i], (tau - self._los[i]) / self._hs[i], out)
-        self._last = (tau, out)
-        return out
+        out = np.empty((1, self._rows))
+        self._rows_at(np.array([tau], dtype=float), out)
+        self._last = (tau, out[0])
+        return out[0]
+
+    def _rows_at(self, tau: np.ndarray, out: np.ndarray) -> None:
+        """The rows at the times tau into those of ``out``, each in the last step starting at
+        or before it (``ride_rows_at``), the steps made to the last time (none beyond the
+        separation, once found)."""
+        if self._end is None and len(tau):
+            self._run_steps(float(tau.max()), 0)
+        KERNELS["ride_rows_at"](self._steps, self._tables, self._ends,
+                                int(self._counts[modal_taylor.COUNT]), tau, out)
 
     # the segment's interface -----------------------------------------------------------------
     def next_event(self, tau_end: float) -> float | None:
@@ -389,25 +400,13 @@ class ModalRide:
         or before tau_end."""
         if self._end is not None:
             return self._end if self._end <= tau_end else None
-        i = self._checked
-        negative = KERNELS["first_negative"]
-        while True:
-            if i == len(self._los):
-                self._extend()
-            lo, h, hi = self._los[i], self._hs[i], self._his[i]
-            i += 1
-            if hi >= self.start:
-                theta = negative(self._tables[i - 1][-1], max(0.0, (self.start - lo) / h),
-                                 (hi - lo) / h)
-                if theta >= 0.0:
-                    self._end = tau = lo + theta * h
-                    del self._los[i:], self._hs[i:], self._his[i:], self._tables[i:]
-                    del self._ends[i:]
-                    self._last = (math.nan, self._out)  # (it may lie in a step dropped)
-                    return tau if tau <= tau_end else None
-            self._checked = i
-            if hi > tau_end:
-                return None
+        outcome, step, theta = self._run_steps(tau_end, 1)
+        if outcome != modal_taylor.SEPARATES:
+            return None
+        lo, h = self._steps[step, modal_taylor.LO], self._steps[step, modal_taylor.H]
+        self._end = tau = float(lo + theta * h)
+        self._last = (math.nan, self._out)  # (it may lie in a step dropped)
+        return tau if tau <= tau_end else None
 
     def modal_state(self, tau: float) -> tuple[list[float], list[float]]:
         n = self.modes.count
@@ -419,8 +418,10 @@ class ModalRide:
         steps :meth:`next_event` reached): each step's rows as :meth:`_at` evaluates them, the
         contact point's as :meth:`state` sums them (``Modes.contact``, in mode order)."""
         n = self.modes.count
-        rows = np.array([self._at(t)[:2 * n + 1] for t in tau.tolist()], dtype=float)
-        rows = rows.reshape(-1, 2 * n + 1)
+        tau = np.ascontiguousarray(tau, dtype=float)
+        out = np.empty((len(tau), self._rows))
+        self._rows_at(tau, out)
+        rows = out[:, :2 * n + 1]
         x = np.zeros(len(rows))
         v = np.zeros(len(rows))
         for k, phi in enumerate(self.modes.phi):

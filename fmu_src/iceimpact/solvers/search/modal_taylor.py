@@ -310,6 +310,100 @@ def ride_extend(q, p, impulse0, lo, t0, loads0, load_rates, since, modes, share,
     return h, theta_end, hi, advanced
 
 
+#: The columns of a riding phase's steps (:func:`ride_steps`): each step's start lo and length h
+#: (s from the phase's start; theta = (tau - lo) / h on it) and its end hi (lo + h theta_end)
+LO, H, HI = range(3)
+#: The counters of :func:`ride_steps`: the steps made, and those proven free of a separation
+COUNT, CHECKED = range(2)
+#: What :func:`ride_steps` returns with: the target reached (no separation before it); a
+#: separation found (the steps after its own dropped); the arrays full (the caller grows them and
+#: calls again); a step that could not advance to finite values (the caller raises)
+REACHED, SEPARATES, FULL, STALLED = range(4)
+
+
+def ride_steps(q0, p0, t0, loads0, load_rates, since, modes, share, u, alpha, beta, coef,
+               quadratic, rate, rs, loads, q, p, steps, tables, ends, counts, target, start,
+               check):
+    """The riding phase's steps (from its anchor (q0, q0') at t0), made by :func:`ride_extend`
+    each from the end of the last, into ``steps`` (:data:`LO`, :data:`H`, :data:`HI`),
+    ``tables`` and ``ends`` (the rows at each step's end), ``counts`` (:data:`COUNT`,
+    :data:`CHECKED`); ``q``, ``p`` scratch for a step's start.
+
+    ``check`` 0: made until the last one ends at or after ``target``. ``check`` 1: each step
+    from the last checked on (made when needed) searched for the separation, the first root of
+    the contact force at or after ``start`` (:func:`first_negative` on its row), until a step
+    ends after ``target``.
+
+    Returns (outcome, step, theta): :data:`REACHED`; :data:`SEPARATES` (the step of the root and
+    theta on it, the steps after it dropped from ``counts``); :data:`FULL`; :data:`STALLED`."""
+    n = q0.size
+    capacity = steps.shape[0]
+    force = tables.shape[1] - 1
+    i = counts[CHECKED] if check else 0
+    while True:
+        count = counts[COUNT]
+        if check:
+            made = i < count
+        else:
+            made = count > 0 and steps[count - 1, HI] >= target
+            if made:
+                return REACHED, 0, 0.0
+        if not made:
+            if count == capacity:
+                return FULL, 0, 0.0
+            if count == 0:
+                for k in range(n):
+                    q[k] = q0[k]
+                    p[k] = p0[k]
+                impulse, lo = 0.0, 0.0
+            else:
+                for k in range(n):
+                    q[k] = ends[count - 1, k]
+                    p[k] = ends[count - 1, n + k]
+                impulse, lo = ends[count - 1, 2 * n], steps[count - 1, HI]
+            h, theta_end, hi, advanced = ride_extend(
+                q, p, impulse, lo, t0, loads0, load_rates, since, modes, share, u, alpha, beta,
+                coef, quadratic, rate, tables[count], rs, ends[count], loads)
+            if not advanced:
+                return STALLED, count, 0.0
+            steps[count, LO], steps[count, H], steps[count, HI] = lo, h, hi
+            counts[COUNT] = count + 1
+            continue
+        lo, h, hi = steps[i, LO], steps[i, H], steps[i, HI]
+        i += 1
+        if hi >= start:
+            theta = first_negative(tables[i - 1, force], max(0.0, (start - lo) / h),
+                                   (hi - lo) / h)
+            if theta >= 0.0:
+                counts[COUNT] = i
+                return SEPARATES, i - 1, theta
+        counts[CHECKED] = i
+        if hi > target:
+            return REACHED, 0, 0.0
+
+
+def ride_rows_at(steps, tables, ends, count, taus, out):
+    """The rows (q, q', P, lam) at each time of ``taus`` (s from the phase's start, within the
+    first ``count`` steps) into the rows of ``out``: in the last step starting at or before it
+    (the first, before them all), :func:`horner_rows` at theta = (tau - lo) / h, or the step's
+    end from its end on."""
+    for r in range(taus.size):
+        tau = taus[r]
+        a, b = 0, count  # (bisect_right over the steps' starts)
+        while a < b:
+            mid = (a + b) // 2
+            if tau < steps[mid, LO]:
+                b = mid
+            else:
+                a = mid + 1
+        i = max(a - 1, 0)
+        if tau >= steps[i, HI]:
+            for j in range(out.shape[1]):
+                out[r, j] = ends[i, j]
+        else:
+            horner_rows(tables[i], (tau - steps[i, LO]) / steps[i, H], out[r])
+
+
 KERNELS: dict[str, Any] = {}
 
 
@@ -328,8 +422,14 @@ def _build(numba: Any) -> dict[str, Any]:
                ride_series=series, step_length=length, first_negative=negative)
     extend = jit(numba, (a1, a1, f8, f8, f8, a1, a1, f8, a2, a1, f8, f8, f8, f8, i8, f8, a2,
                          a1, a1, a1), ride_extend, ride_step=step, horner_rows=rows)
+    a3 = f8[:, :, ::1]
+    steps = jit(numba, (a1, a1, f8, a1, a1, f8, a2, a1, f8, f8, f8, f8, i8, f8, a1, a1, a1, a1,
+                        a2, a3, a2, i8[::1], f8, f8, i8), ride_steps, ride_extend=extend,
+                first_negative=negative)
+    rows_at = jit(numba, (a2, a3, a2, i8, a1, a2), ride_rows_at, horner_rows=rows)
     return {"horner_rows": entry_point(rows), "first_negative": entry_point(negative),
-            "ride_step": entry_point(step), "ride_extend": entry_point(extend)}
+            "ride_step": entry_point(step), "ride_extend": entry_point(extend),
+            "ride_steps": entry_point(steps), "ride_rows_at": entry_point(rows_at)}
 
 
 #: The compiled kernels where numba is (``fast`` extra), else None: the pure functions run
@@ -338,4 +438,4 @@ if COMPILED is not None:
     KERNELS.update(COMPILED)
 else:
     KERNELS.update(horner_rows=horner_rows, first_negative=first_negative, ride_step=ride_step,
-                   ride_extend=ride_extend)
+                   ride_extend=ride_extend, ride_steps=ride_steps, ride_rows_at=ride_rows_at)
