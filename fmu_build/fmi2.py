@@ -42,6 +42,24 @@ def requirements() -> str:
     return "".join(f"{dep}\n" for dep in wanted)
 
 
+def check_builder() -> None:
+    """Refuse to build with a PythonFMU that has no FMI binaries to put in the FMU: the slim copy
+    inside an FMU's resources/ (no builder's binaries), which PythonFMU puts first on
+    ``sys.path`` of a Python host that ran the FMU in its own process (FMPy). The FMU built would
+    lack ``binaries/``; the message says where the copy lies and what to do."""
+    import pythonfmu
+
+    folder = Path(pythonfmu.__file__).resolve().parent
+    binaries = folder / "resources" / "binaries"
+    if not binaries.is_dir() or not any(f.suffix in (".so", ".dll", ".dylib")
+                                        for f in binaries.rglob("*")):
+        raise RuntimeError(
+            f"pythonfmu was imported from {folder}, which has no FMI binaries ({binaries}): an "
+            "FMU's resources/ folder is first on sys.path (an FMU run in this process puts it "
+            "there). Build the FMU in a fresh process, or import pythonfmu.builder before "
+            "running an FMU.")
+
+
 def build(dest: str | Path = DIST, source_dir: str | Path = FMU_SRC) -> Path:
     """Build ``<dest>/IceImpact.fmu`` from ``<source_dir>/IceImpact.py`` and its package."""
     return build_slave(SLAVE_NAME, "iceimpact.contract", dest, source_dir)
@@ -65,6 +83,7 @@ def build_slave(slave_name: str, contract_module: str, dest: str | Path = DIST,
     # or not
     if str(source_dir) not in sys.path:
         sys.path.insert(0, str(source_dir))
+    check_builder()
     from pythonfmu import FmuBuilder
 
     contract = importlib.import_module(contract_module)

@@ -10,6 +10,13 @@ from pathlib import Path
 
 import pytest
 
+# An FMU run in this process (FMPy) puts its resources/, with a slim pythonfmu, first on sys.path:
+# the installed builder is bound before any test runs one.
+try:
+    import pythonfmu.builder  # noqa: F401
+except ImportError:  # (the FMU extra not installed: the FMU tests skip)
+    pass
+
 
 def _build_module():
     """build_fmu.py as a module (tests/fmu_host.py)."""
