@@ -13,7 +13,7 @@ import random_scenes
 from iceimpact import Scene, run
 from iceimpact.simulator import Simulator
 from iceimpact.solvers.exact import bounces
-from iceimpact.solvers.exact.modal import ModalBounceMarch, ModalSolver
+from iceimpact.solvers.exact.modal import ModalBounceMarch, ModalRide, ModalSolver
 from modal_reference import MODAL_SCENES, MODAL_T_END, simulate
 
 SDOF = Scene()
@@ -300,3 +300,49 @@ def test_a_root_found_from_the_anchor_a_step_before_keeps_its_modal_state():
     compiled = steps()
     assert compiled == _python_march(steps)
     assert compiled[5][-1]  # (riding after the plastic impact at 0.0217 s)
+
+
+FIGURE2_TWO_MODES = dict(structure_model=3, structure_modes=2, structure_mode2_f=11.0,
+                         structure_mode2_zeta=0.02, structure_mode2_phi=0.6)
+
+
+def test_a_long_riding_phase_keeps_a_few_steps_and_the_same_floats():
+    """Figure 2 with an 11 Hz second mode rides from about 54 s on. Stepped 1 s at a time to
+    400 s (as the FMU steps), the phase drops the steps wholly before the times asked: it holds
+    a few dozen of its thousands, and its states are those of a twin that keeps them all, to
+    the bit; an earlier time asked makes them again from the anchor, the same floats."""
+    sim = Simulator(Scene(**FIGURE2_TWO_MODES))
+    for _ in range(400):
+        sim.advance(1.0)
+    ride = sim.solver.seg
+    assert isinstance(ride, ModalRide)
+    made = ride._dropped + int(ride._counts[0])
+    assert made > 5000 and len(ride._steps) <= 64
+    tau = sim.solver.tau
+    twin = ModalRide(sim.solver.context, ride.t0, ride.q0, ride.p0, ride.u, ride.start)
+    assert twin.state(tau) == ride.state(tau)
+    assert len(twin._steps) >= made  # (the twin asked once: it kept every step)
+    early = 0.25 * tau
+    assert ride.state(early) == twin.state(early)  # (made again from the anchor)
+    assert ride._dropped == 0 and ride.state(tau) == twin.state(tau)
+
+
+def test_run_keeps_the_steps_of_a_chunk_of_samples_not_of_the_whole_riding_phase():
+    """run() samples a segment of steps SAMPLE_CHUNK samples at a time, so a riding phase holds
+    the steps of a chunk or two: the arrays are as large for 800 s as for 400 s (riding from
+    54 s on, one step per 57 ms: 6,100 and 13,100 steps)."""
+    largest = {}
+    grow = ModalRide._grow
+    for t_end in (400.0, 800.0):
+        sizes = [0]
+
+        def recorded(self, sizes=sizes):
+            grow(self)
+            sizes.append(len(self._steps))
+
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(ModalRide, "_grow", recorded)
+            result = run(Scene(**FIGURE2_TWO_MODES), t_end)
+        assert result.sticking.sum() > 0.8 * t_end / 0.01
+        largest[t_end] = max(sizes)
+    assert largest[800.0] == largest[400.0] <= 2048

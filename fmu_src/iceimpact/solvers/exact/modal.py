@@ -331,6 +331,10 @@ class ModalRide:
         self._tables = np.empty((0, self._rows, modal_taylor.ORDER + 1))
         self._ends = np.empty((0, self._rows))
         self._counts = np.zeros(2, dtype=np.int64)
+        #: the steps dropped before the arrays' first (wholly before the times asked), and the
+        #: earliest time the last call asked (s from the anchor)
+        self._dropped = 0
+        self._floor = 0.0
         self._end: float | None = None  # the separation, once found
         #: the time and rows _at evaluated last (a sample's state, modal state and impulse read
         #: the same rows, and the next sample's impulse starts there)
@@ -363,16 +367,27 @@ class ModalRide:
             self._grow()
 
     def _grow(self) -> None:
-        """Room for twice the steps (at least 16), the steps made kept."""
+        """Room for more steps: the steps that end before the earliest time the last call asked
+        and that were searched for the separation are dropped (a phase riding for hours keeps
+        a few hundred steps, not all); the arrays are doubled (at least 16) where that frees
+        less than half of them. An earlier time asked later makes them again
+        (:meth:`_rows_at`)."""
         count = int(self._counts[modal_taylor.COUNT])
-        capacity = max(16, 2 * len(self._steps))
-        steps = np.empty((capacity, 3))
-        tables = np.empty((capacity, *self._tables.shape[1:]))
-        ends = np.empty((capacity, self._rows))
-        steps[:count] = self._steps[:count]
-        tables[:count] = self._tables[:count]
-        ends[:count] = self._ends[:count]
-        self._steps, self._tables, self._ends = steps, tables, ends
+        checked = int(self._counts[modal_taylor.CHECKED])
+        drop = min(int(np.searchsorted(self._steps[:checked, modal_taylor.HI], self._floor)),
+                   count - 1) if count else 0
+        keep = count - drop
+        if 0 < keep <= len(self._steps) // 2:  # (in place: the kept steps to the front)
+            for a in (self._steps, self._tables, self._ends):
+                a[:keep] = a[drop:count]
+        else:
+            capacity = max(16, 2 * len(self._steps))
+            self._steps, self._tables, self._ends = (
+                np.concatenate((a[drop:count], np.empty((capacity - keep, *a.shape[1:]))))
+                for a in (self._steps, self._tables, self._ends))
+        self._counts[modal_taylor.COUNT] = keep
+        self._counts[modal_taylor.CHECKED] = checked - drop
+        self._dropped += drop
 
     def _at(self, tau: float) -> np.ndarray:
         """The rows (q, q', P, lam) at tau (:meth:`_rows_at`; not to be changed: the last one
@@ -389,7 +404,17 @@ class ModalRide:
         """The rows at the times tau into those of ``out``, each in the last step starting at
         or before it (``ride_rows_at``), the steps made to the last time (none beyond the
         separation, once found)."""
-        if self._end is None and len(tau):
+        if not len(tau):
+            return
+        self._floor = float(tau.min())
+        if self._dropped and self._floor < self._steps[0, modal_taylor.LO]:
+            # an earlier time than the steps kept: the steps made again from the anchor (the
+            # same floats), to the separation where it was found
+            self._counts[:] = 0
+            self._dropped = 0
+            if self._end is not None:
+                self._run_steps(self._end, 1)
+        if self._end is None:
             self._run_steps(float(tau.max()), 0)
         KERNELS["ride_rows_at"](self._steps, self._tables, self._ends,
                                 int(self._counts[modal_taylor.COUNT]), tau, out)

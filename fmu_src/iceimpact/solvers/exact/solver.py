@@ -38,6 +38,11 @@ _FLIGHT, _STICK = Phase.FLIGHT, Phase.STICK
 _IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
 
 
+#: The samples of a segment of steps (a modal riding phase, a dragged flight, a quadratic
+#: sticking phase) taken at once: it keeps the steps of that many, not those of a whole run
+SAMPLE_CHUNK = 2048
+
+
 class EventSolver(EventMarch):
     """Exact event-driven solver (method 1)."""
 
@@ -347,10 +352,18 @@ class EventSolver(EventMarch):
                 i += 1
                 continue
             t0 = seg.t0
+            # a segment of steps is sampled SAMPLE_CHUNK samples at a time, so that it keeps
+            # the steps of a chunk or two, not of the whole run (ModalRide drops the others)
+            chunk = n if grouped or n - i <= SAMPLE_CHUNK else i + SAMPLE_CHUNK
             if grouped:  # a _SearchedSegment: its next_event, without that call
                 tau_event = seg.search.next_root_of(horizon - t0, seg)
             else:
-                tau_event = seg.next_event(horizon - t0)
+                tau_event = seg.next_event(float(t_list[chunk - 1]) - t0)
+            if tau_event is None and chunk < n:
+                self._sample_steps(seg, times, i, chunk, None, out, targets, values)
+                self.tau = float(t_list[chunk - 1]) - t0
+                i = chunk
+                continue
             if tau_event is None:
                 j = n
             elif t_list[i] - t0 >= tau_event:  # (several events before one sample: no call)
