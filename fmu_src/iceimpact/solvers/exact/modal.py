@@ -297,6 +297,9 @@ class ModalRide:
     #: its samples and impulse pieces are :meth:`states_at`'s and :meth:`impulses_between`'s,
     #: taken at once from the steps (a march to each sample costs some µs of Python)
     SAMPLING = STEPPED
+    #: it drops its steps before the earliest time last asked (:meth:`_grow`), so a long run
+    #: samples it a chunk at a time (``solver.SAMPLE_CHUNK``)
+    CHUNKED = True
 
     def __init__(self, context: ModalContext, t0: float, q0: Sequence[float],
                  p0: Sequence[float], u: float, start: float = 0.0):

@@ -38,8 +38,8 @@ _FLIGHT, _STICK = Phase.FLIGHT, Phase.STICK
 _IMPACT, _STICK_OUTCOME = Outcome.IMPACT, Outcome.STICK
 
 
-#: The samples of a segment of steps (a modal riding phase, a dragged flight, a quadratic
-#: sticking phase) taken at once: it keeps the steps of that many, not those of a whole run
+#: The samples of a segment that drops its steps before the times asked (its CHUNKED: a modal
+#: riding phase) taken at once: it keeps the steps of that many, not those of a whole run
 SAMPLE_CHUNK = 2048
 
 
@@ -352,9 +352,10 @@ class EventSolver(EventMarch):
                 i += 1
                 continue
             t0 = seg.t0
-            # a segment of steps is sampled SAMPLE_CHUNK samples at a time, so that it keeps
-            # the steps of a chunk or two, not of the whole run (ModalRide drops the others)
-            chunk = n if grouped or n - i <= SAMPLE_CHUNK else i + SAMPLE_CHUNK
+            # a segment that drops its steps before the times asked (CHUNKED) is sampled
+            # SAMPLE_CHUNK samples at a time: it keeps those of a chunk or two, not the run's
+            chunk = (i + SAMPLE_CHUNK if n - i > SAMPLE_CHUNK and getattr(seg, "CHUNKED", False)
+                     else n)
             if grouped:  # a _SearchedSegment: its next_event, without that call
                 tau_event = seg.search.next_root_of(horizon - t0, seg)
             else:
