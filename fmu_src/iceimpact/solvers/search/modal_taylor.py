@@ -427,9 +427,7 @@ def _build(numba: Any) -> dict[str, Any]:
                         a2, a3, a2, i8[::1], f8, f8, i8), ride_steps, ride_extend=extend,
                 first_negative=negative)
     rows_at = jit(numba, (a2, a3, a2, i8, a1, a2), ride_rows_at, horner_rows=rows)
-    return {"horner_rows": entry_point(rows), "first_negative": entry_point(negative),
-            "ride_step": entry_point(step), "ride_extend": entry_point(extend),
-            "ride_steps": entry_point(steps), "ride_rows_at": entry_point(rows_at)}
+    return {"ride_steps": entry_point(steps), "ride_rows_at": entry_point(rows_at)}
 
 
 #: The compiled kernels where numba is (``fast`` extra), else None: the pure functions run
@@ -437,5 +435,4 @@ COMPILED = compile_or_none("the modal riding steps", _build)
 if COMPILED is not None:
     KERNELS.update(COMPILED)
 else:
-    KERNELS.update(horner_rows=horner_rows, first_negative=first_negative, ride_step=ride_step,
-                   ride_extend=ride_extend, ride_steps=ride_steps, ride_rows_at=ride_rows_at)
+    KERNELS.update(ride_steps=ride_steps, ride_rows_at=ride_rows_at)
